@@ -1,0 +1,319 @@
+//! Small dense linear algebra on fixed-size arrays: what the estimators,
+//! filter bank and modal recovery need, nothing more.
+//!
+//! Everything works on `[T; N]` vectors and `[[T; N]; N]` row-major matrices,
+//! never allocates and never panics (sizes are compile-time constants; a
+//! failed factorization is reported through [`LinalgError`]).
+//!
+//! # Design
+//! * [`expm`] (matrix exponential) is only used at start-up to discretize the
+//!   filter bank and the plant, so it runs in `f64` on a runtime-sized block
+//!   of a fixed maximum size ([`EXPM_MAX`]).
+//! * [`cholesky_solve`] is the per-sample solver of the implicit parameter
+//!   step (see `estimator::adaptive`). It factors in place and rejects a
+//!   non-positive pivot instead of producing NaN.
+//! * [`symmetric_eigenvalues`] (cyclic Jacobi) backs the excitation monitor of
+//!   Lemma 1 (λmin(P)); it is run at the telemetry rate, not per sample.
+
+use crate::scalar::Real;
+
+/// Failure of a factorization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinalgError {
+    /// A pivot was not strictly positive (matrix not positive definite in
+    /// working precision) or not finite.
+    NotPositiveDefinite,
+}
+
+/// y = A·x.
+#[inline(always)]
+pub fn mat_vec<T: Real, const R: usize, const C: usize>(a: &[[T; C]; R], x: &[T; C]) -> [T; R] {
+    let mut y = [T::ZERO; R];
+    for (yi, row) in y.iter_mut().zip(a.iter()) {
+        *yi = dot(row, x);
+    }
+    y
+}
+
+/// xᵀy.
+#[inline(always)]
+pub fn dot<T: Real, const N: usize>(x: &[T; N], y: &[T; N]) -> T {
+    let mut s = T::ZERO;
+    for i in 0..N {
+        s += x[i] * y[i];
+    }
+    s
+}
+
+/// A ← decay·A + scale·x·xᵀ, keeping A exactly symmetric (the upper triangle
+/// is computed and mirrored).
+#[inline(always)]
+pub fn decay_add_outer<T: Real, const N: usize>(a: &mut [[T; N]; N], decay: T, scale: T, x: &[T; N]) {
+    for i in 0..N {
+        let sx = scale * x[i];
+        for j in i..N {
+            let v = decay * a[i][j] + sx * x[j];
+            a[i][j] = v;
+            a[j][i] = v;
+        }
+    }
+}
+
+/// True if every element is finite.
+pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// Solve S·x = b for symmetric positive-definite S, factoring S in place
+/// (its lower triangle becomes the Cholesky factor L, S = L·Lᵀ). On error the
+/// contents of `s` are unspecified and `b` is untouched.
+pub fn cholesky_solve<T: Real, const N: usize>(
+    s: &mut [[T; N]; N],
+    b: &[T; N],
+) -> Result<[T; N], LinalgError> {
+    cholesky_in_place(s)?;
+    // Forward substitution L·z = b.
+    let mut z = *b;
+    for i in 0..N {
+        let mut acc = z[i];
+        for k in 0..i {
+            acc -= s[i][k] * z[k];
+        }
+        z[i] = acc / s[i][i];
+    }
+    // Back substitution Lᵀ·x = z.
+    for i in (0..N).rev() {
+        let mut acc = z[i];
+        for k in i + 1..N {
+            acc -= s[k][i] * z[k];
+        }
+        z[i] = acc / s[i][i];
+    }
+    Ok(z)
+}
+
+/// In-place Cholesky factorization (lower triangle of `s` becomes L).
+pub fn cholesky_in_place<T: Real, const N: usize>(s: &mut [[T; N]; N]) -> Result<(), LinalgError> {
+    for j in 0..N {
+        let mut d = s[j][j];
+        for k in 0..j {
+            d -= s[j][k] * s[j][k];
+        }
+        // `!(d > 0)` also catches NaN.
+        if !(d > T::ZERO) || !d.is_finite() {
+            return Err(LinalgError::NotPositiveDefinite);
+        }
+        let l = d.sqrt();
+        s[j][j] = l;
+        let inv = T::ONE / l;
+        for i in j + 1..N {
+            let mut acc = s[i][j];
+            for k in 0..j {
+                acc -= s[i][k] * s[j][k];
+            }
+            s[i][j] = acc * inv;
+        }
+    }
+    Ok(())
+}
+
+/// Eigenvalues of a symmetric matrix by cyclic Jacobi rotations, ascending.
+/// Robust for any finite symmetric input; the cost (~10³ flops for 7×7 per
+/// sweep, a handful of sweeps) suits a telemetry-rate monitor.
+pub fn symmetric_eigenvalues<T: Real, const N: usize>(m: &[[T; N]; N]) -> [T; N] {
+    let mut a = *m;
+    for _sweep in 0..50 {
+        let mut off = T::ZERO;
+        let mut diag = T::ZERO;
+        for i in 0..N {
+            diag += a[i][i] * a[i][i];
+            for j in i + 1..N {
+                off += a[i][j] * a[i][j];
+            }
+        }
+        if !(off > T::EPSILON * T::EPSILON * diag) {
+            break;
+        }
+        for p in 0..N {
+            for q in p + 1..N {
+                let apq = a[p][q];
+                if apq == T::ZERO {
+                    continue;
+                }
+                let two = T::ONE + T::ONE;
+                let theta = (a[q][q] - a[p][p]) / (two * apq);
+                let sign = if theta >= T::ZERO { T::ONE } else { -T::ONE };
+                let t = sign / (theta.abs() + (theta * theta + T::ONE).sqrt());
+                let c = T::ONE / (t * t + T::ONE).sqrt();
+                let s = t * c;
+                for k in 0..N {
+                    let akp = a[k][p];
+                    let akq = a[k][q];
+                    a[k][p] = c * akp - s * akq;
+                    a[k][q] = s * akp + c * akq;
+                }
+                for k in 0..N {
+                    let apk = a[p][k];
+                    let aqk = a[q][k];
+                    a[p][k] = c * apk - s * aqk;
+                    a[q][k] = s * apk + c * aqk;
+                }
+            }
+        }
+    }
+    let mut ev = [T::ZERO; N];
+    for i in 0..N {
+        ev[i] = a[i][i];
+    }
+    // Insertion sort (N ≤ 11).
+    for i in 1..N {
+        let mut j = i;
+        while j > 0 && ev[j - 1] > ev[j] {
+            ev.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    ev
+}
+
+/// Largest matrix handled by [`expm`].
+pub const EXPM_MAX: usize = 12;
+
+/// A square `f64` block of runtime size `n ≤ EXPM_MAX`.
+pub type Block = [[f64; EXPM_MAX]; EXPM_MAX];
+
+/// Matrix exponential of the leading `n×n` block of `a` by scaling and
+/// squaring with a truncated Taylor series (degree 18 on a matrix scaled to
+/// ‖A‖₁ ≤ 1/2, truncation error < 1e-22 relative). Used at start-up only.
+///
+/// `n` is clamped to [`EXPM_MAX`].
+pub fn expm(a: &Block, n: usize) -> Block {
+    let n = n.min(EXPM_MAX);
+    // 1-norm (max column sum).
+    let mut norm = 0.0f64;
+    for j in 0..n {
+        let mut s = 0.0;
+        for row in a.iter().take(n) {
+            s += row[j].abs();
+        }
+        norm = norm.max(s);
+    }
+    let mut squarings = 0u32;
+    let mut scale = 1.0f64;
+    while norm * scale > 0.5 && squarings < 200 {
+        scale *= 0.5;
+        squarings += 1;
+    }
+    let mut x = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+    for i in 0..n {
+        for j in 0..n {
+            x[i][j] = a[i][j] * scale;
+        }
+    }
+    // Horner: E = I + X(I + X/2(I + X/3(...))).
+    let mut e = identity(n);
+    for k in (1..=18).rev() {
+        let xe = block_mul(&x, &e, n);
+        e = identity(n);
+        for i in 0..n {
+            for j in 0..n {
+                e[i][j] += xe[i][j] / k as f64;
+            }
+        }
+    }
+    for _ in 0..squarings {
+        e = block_mul(&e, &e, n);
+    }
+    e
+}
+
+fn identity(n: usize) -> Block {
+    let mut e = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+    for (i, row) in e.iter_mut().enumerate().take(n) {
+        row[i] = 1.0;
+    }
+    e
+}
+
+fn block_mul(a: &Block, b: &Block, n: usize) -> Block {
+    let mut c = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+    for i in 0..n {
+        for k in 0..n {
+            let aik = a[i][k];
+            if aik == 0.0 {
+                continue;
+            }
+            for j in 0..n {
+                c[i][j] += aik * b[k][j];
+            }
+        }
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expm_of_rotation_generator_is_rotation() {
+        let mut a = [[0.0; EXPM_MAX]; EXPM_MAX];
+        let w = 3.7;
+        a[0][1] = -w;
+        a[1][0] = w;
+        let e = expm(&a, 2);
+        assert!((e[0][0] - w.cos()).abs() < 1e-14);
+        assert!((e[1][0] - w.sin()).abs() < 1e-14);
+        assert!((e[0][1] + w.sin()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn expm_of_nilpotent_jordan_block_is_polynomial() {
+        let mut a = [[0.0; EXPM_MAX]; EXPM_MAX];
+        a[0][1] = 2.0;
+        a[1][2] = 3.0;
+        let e = expm(&a, 3);
+        // exp(N) = I + N + N²/2: (0,2) entry = 2·3/2 = 3.
+        assert!((e[0][1] - 2.0).abs() < 1e-15);
+        assert!((e[0][2] - 3.0).abs() < 1e-15);
+        assert_eq!(e[2][0], 0.0);
+    }
+
+    #[test]
+    fn cholesky_solves_spd_system_and_rejects_indefinite() {
+        let s0 = [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]];
+        let x_true = [1.0, -2.0, 0.5];
+        let b = mat_vec(&s0, &x_true);
+        let mut s = s0;
+        let x = cholesky_solve(&mut s, &b).unwrap();
+        for i in 0..3 {
+            assert!((x[i] - x_true[i]).abs() < 1e-14);
+        }
+        let mut bad = [[1.0, 2.0], [2.0, 1.0]];
+        assert_eq!(
+            cholesky_solve(&mut bad, &[1.0, 1.0]),
+            Err(LinalgError::NotPositiveDefinite)
+        );
+        let mut nan = [[f64::NAN, 0.0], [0.0, 1.0]];
+        assert!(cholesky_solve(&mut nan, &[1.0, 1.0]).is_err());
+    }
+
+    #[test]
+    fn jacobi_eigenvalues_of_known_matrix() {
+        // Eigenvalues of [[2,1,0],[1,2,1],[0,1,2]] are 2-√2, 2, 2+√2.
+        let m = [[2.0, 1.0, 0.0], [1.0, 2.0, 1.0], [0.0, 1.0, 2.0]];
+        let ev = symmetric_eigenvalues(&m);
+        let r2 = 2f64.sqrt();
+        assert!((ev[0] - (2.0 - r2)).abs() < 1e-14);
+        assert!((ev[1] - 2.0).abs() < 1e-14);
+        assert!((ev[2] - (2.0 + r2)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn decay_add_outer_stays_symmetric() {
+        let mut a = [[1.0f32, 0.5], [0.5, 2.0]];
+        decay_add_outer(&mut a, 0.9, 0.1, &[3.0, -1.0]);
+        assert_eq!(a[0][1], a[1][0]);
+        assert!((a[0][0] - (0.9 + 0.9)).abs() < 1e-6);
+    }
+}
