@@ -19,6 +19,7 @@
 
 pub mod beam;
 pub mod estimator;
+pub mod excitation;
 pub mod filter_bank;
 pub mod linalg;
 pub mod modal;

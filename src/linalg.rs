@@ -227,6 +227,56 @@ pub fn expm(a: &Block, n: usize) -> Block {
     e
 }
 
+/// Solve the leading `n×n` block of `a`·x = b by Gaussian elimination with
+/// partial pivoting (start-up use: plant construction). Returns `None` if
+/// the matrix is singular to working precision.
+pub fn solve_dense(a: &Block, b: &[f64; EXPM_MAX], n: usize) -> Option<[f64; EXPM_MAX]> {
+    let n = n.min(EXPM_MAX);
+    let mut m = *a;
+    let mut x = *b;
+    let mut scale = 0.0f64;
+    for row in m.iter().take(n) {
+        for v in row.iter().take(n) {
+            scale = scale.max(v.abs());
+        }
+    }
+    if !(scale > 0.0) || !scale.is_finite() {
+        return None;
+    }
+    for col in 0..n {
+        let mut piv = col;
+        for r in col + 1..n {
+            if m[r][col].abs() > m[piv][col].abs() {
+                piv = r;
+            }
+        }
+        if !(m[piv][col].abs() > 1e-14 * scale) {
+            return None;
+        }
+        m.swap(col, piv);
+        x.swap(col, piv);
+        for r in col + 1..n {
+            let f = m[r][col] / m[col][col];
+            for c in col..n {
+                m[r][c] -= f * m[col][c];
+            }
+            x[r] -= f * x[col];
+        }
+    }
+    for col in (0..n).rev() {
+        let mut acc = x[col];
+        for c in col + 1..n {
+            acc -= m[col][c] * x[c];
+        }
+        x[col] = acc / m[col][col];
+    }
+    if x.iter().take(n).all(|v| v.is_finite()) {
+        Some(x)
+    } else {
+        None
+    }
+}
+
 fn identity(n: usize) -> Block {
     let mut e = [[0.0f64; EXPM_MAX]; EXPM_MAX];
     for (i, row) in e.iter_mut().enumerate().take(n) {
@@ -296,6 +346,23 @@ mod tests {
         );
         let mut nan = [[f64::NAN, 0.0], [0.0, 1.0]];
         assert!(cholesky_solve(&mut nan, &[1.0, 1.0]).is_err());
+    }
+
+    #[test]
+    fn solve_dense_with_pivoting() {
+        let mut a = [[0.0; EXPM_MAX]; EXPM_MAX];
+        a[0][0] = 0.0;
+        a[0][1] = 2.0;
+        a[1][0] = 3.0;
+        a[1][1] = 1.0;
+        let mut b = [0.0; EXPM_MAX];
+        b[0] = 4.0;
+        b[1] = 5.0;
+        let x = solve_dense(&a, &b, 2).unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
+        a[1][1] = 0.0;
+        a[1][0] = 0.0;
+        assert!(solve_dense(&a, &b, 2).is_none());
     }
 
     #[test]

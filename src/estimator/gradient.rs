@@ -1,0 +1,120 @@
+//! The gradient baseline, eq. 47: Θ' = Γ1·e·Ψ, e = y − ΘᵀΨ.
+//!
+//! # Design
+//! With φ held over one sample the law is a linear ODE with rank-one
+//! dynamics: the prediction error obeys e' = −c·e with c = φᵀΓ1φ, so the
+//! exact step is θ⁺ = θ + Γ1φ·e·Ts·(1 − e^{−cTs})/(cTs). It is stable for any
+//! gain (an explicit Euler step needs TsΓ1|φ|² < 2, which the paper's Γ1
+//! violates by orders of magnitude in places). Γ1 is diagonal, as in the
+//! paper.
+
+use super::{one_minus_exp_over_x, positive, ConfigError, LawError, UpdateLaw};
+use crate::filter_bank::{Regressor, Scaling};
+use crate::linalg::{all_finite, dot};
+use crate::scalar::Real;
+
+/// Gains of the gradient law, in scaled coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GradientConfig<const NP: usize> {
+    /// Diagonal of Γ1 (scaled).
+    pub gain_diag: [f64; NP],
+    /// Initial scaled estimate.
+    pub theta0: [f64; NP],
+}
+
+impl<const NP: usize> Default for GradientConfig<NP> {
+    /// Γ1 = 1e4·I in scaled coordinates.
+    fn default() -> Self {
+        Self {
+            gain_diag: [1e4; NP],
+            theta0: [0.0; NP],
+        }
+    }
+}
+
+impl<const NP: usize> GradientConfig<NP> {
+    /// Map a physical diagonal Γ1 (the paper's) to scaled coordinates:
+    /// Γ1,s = E⁻¹Γ1E⁻¹.
+    pub fn from_physical(scaling: &Scaling<NP>, gain_physical: &[f64; NP]) -> Self {
+        let mut gain_diag = [0.0; NP];
+        for j in 0..NP {
+            gain_diag[j] = gain_physical[j] / (scaling.e[j] * scaling.e[j]);
+        }
+        Self {
+            gain_diag,
+            theta0: [0.0; NP],
+        }
+    }
+
+    /// The paper's Γ1 for two modes (Section IV.A).
+    pub const PAPER_GAIN_2_MODES: [f64; 7] = [2e11, 2e15, 6e19, 3e12, 2e17, 7e18, 4e23];
+}
+
+/// State of the gradient law.
+#[derive(Debug, Clone)]
+pub struct GradientLaw<T, const NP: usize> {
+    cfg: GradientConfig<NP>,
+    gain: [T; NP],
+    ts: T,
+    theta: [T; NP],
+}
+
+impl<T: Real, const NP: usize> UpdateLaw<T, NP> for GradientLaw<T, NP> {
+    type Config = GradientConfig<NP>;
+
+    fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError> {
+        positive(ts_s)?;
+        let mut gain = [T::ZERO; NP];
+        for j in 0..NP {
+            positive(cfg.gain_diag[j])?;
+            gain[j] = T::from_f64(cfg.gain_diag[j]);
+        }
+        if !cfg.theta0.iter().all(|t| t.is_finite()) {
+            return Err(ConfigError::Gain);
+        }
+        let mut law = Self {
+            cfg: *cfg,
+            gain,
+            ts: T::from_f64(ts_s),
+            theta: [T::ZERO; NP],
+        };
+        law.reset();
+        Ok(law)
+    }
+
+    #[inline]
+    fn update(&mut self, reg: &Regressor<T, NP>) -> Result<(), LawError> {
+        let phi = &reg.phi;
+        let e = reg.y - dot(phi, &self.theta);
+        let mut g = [T::ZERO; NP];
+        let mut c = T::ZERO;
+        for j in 0..NP {
+            g[j] = self.gain[j] * phi[j];
+            c += g[j] * phi[j];
+        }
+        let factor = self.ts * e * one_minus_exp_over_x(c * self.ts);
+        let mut next = self.theta;
+        for j in 0..NP {
+            next[j] += g[j] * factor;
+        }
+        if !all_finite(&next) {
+            return Err(LawError::NonFinite);
+        }
+        self.theta = next;
+        Ok(())
+    }
+
+    fn theta_scaled(&self) -> &[T; NP] {
+        &self.theta
+    }
+
+    fn reset(&mut self) {
+        for j in 0..NP {
+            self.theta[j] = T::from_f64(self.cfg.theta0[j]);
+        }
+    }
+
+    fn information(&self) -> Option<&[[T; NP]; NP]> {
+        None
+    }
+}

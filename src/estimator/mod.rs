@@ -1,0 +1,272 @@
+//! Online estimators of Θ (eq. 29) behind one trait.
+//!
+//! An estimator is a filter bank ([`FilterBank`]) feeding an update law
+//! ([`UpdateLaw`]); [`Identifier`] joins the two, screens the raw samples and
+//! keeps health counters. Three laws are provided:
+//!
+//! * [`adaptive::AdaptiveLaw`] — the paper's proposed law, eqs. 33–41;
+//! * [`gradient::GradientLaw`] — the gradient baseline, eq. 47;
+//! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
+//!
+//! All laws work on the scaled regressor φ and scaled parameters θ_s (see
+//! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
+//!
+//! # Bad input
+//! A non-finite sample, or one more than [`INPUT_LIMIT`] times its signal
+//! scale, is never fed to the filters: the last good value is substituted to
+//! keep the filter states continuous, and the law is frozen for the
+//! [`QUARANTINE_SAMPLES`] regressors whose interpolation window contains the
+//! substitute. Estimator state is therefore never corrupted by bad data.
+
+pub mod adaptive;
+pub mod gradient;
+pub mod least_squares;
+
+use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
+use crate::linalg::symmetric_eigenvalues;
+use crate::model::TransferFunction;
+use crate::scalar::Real;
+
+pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
+pub use gradient::{GradientConfig, GradientLaw};
+pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
+
+/// A sample more than this many signal scales away from zero is rejected.
+pub const INPUT_LIMIT: f64 = 1e6;
+/// Number of regressors frozen after a rejected sample: the cubic hold's
+/// window spans four samples.
+pub const QUARANTINE_SAMPLES: u8 = 4;
+
+/// What one call to [`Estimator::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepStatus {
+    /// The law was updated with a new regressor.
+    Updated,
+    /// The sample was accepted but the law is frozen (recent bad sample).
+    Frozen,
+    /// The sample was non-finite or out of range and was replaced.
+    Rejected,
+    /// The law could not update (e.g. no excitation yet: the implicit step's
+    /// matrix is singular); Θ was left unchanged.
+    Skipped,
+}
+
+/// Why a law could not apply an update. Θ is unchanged when this is returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LawError {
+    /// The step matrix was not positive definite in working precision.
+    Singular,
+    /// The update produced a non-finite value and was discarded.
+    NonFinite,
+}
+
+/// Invalid gain or rate settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfigError {
+    /// The filter-bank configuration is invalid.
+    Filter(FilterConfigError),
+    /// A gain, rate or initial matrix entry is not positive and finite.
+    Gain,
+}
+
+impl From<FilterConfigError> for ConfigError {
+    fn from(e: FilterConfigError) -> Self {
+        Self::Filter(e)
+    }
+}
+
+/// Counters describing how an estimator has been fed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Health {
+    /// Samples pushed.
+    pub samples: u64,
+    /// Samples rejected as non-finite or out of range.
+    pub rejected: u64,
+    /// Law updates that failed (Θ held).
+    pub skipped: u64,
+}
+
+/// An update law acting on scaled regressors (one per paper equation).
+pub trait UpdateLaw<T: Real, const NP: usize>: Sized {
+    /// Gains and rates, in scaled coordinates.
+    type Config: Clone;
+    /// Build from a validated configuration.
+    fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError>;
+    /// Apply one regressor sample.
+    fn update(&mut self, reg: &Regressor<T, NP>) -> Result<(), LawError>;
+    /// Current scaled estimate θ_s.
+    fn theta_scaled(&self) -> &[T; NP];
+    /// Return to the initial state.
+    fn reset(&mut self);
+    /// The law's information matrix P (eq. 33) if it keeps one; its smallest
+    /// eigenvalue is the excitation monitor of Lemma 1.
+    fn information(&self) -> Option<&[[T; NP]; NP]>;
+}
+
+/// The common interface of every estimator: feed samples, read Θ.
+pub trait Estimator<T: Real, const NP: usize> {
+    /// Push one sample: `u` held over the coming sample period and `y`
+    /// sampled now, in physical units. Never panics.
+    fn step(&mut self, u: T, y: T) -> StepStatus;
+    /// Θ of eq. 29 in physical units.
+    fn theta(&self) -> [T; NP];
+    /// The estimated transfer function (a, b of eq. 25–27).
+    fn transfer_function(&self) -> TransferFunction<T>;
+    /// Back to the initial state (filters at rest, initial Θ and gains).
+    fn reset(&mut self);
+    /// Excitation level: λmin of the scaled information matrix P (Lemma 1),
+    /// `None` for laws that keep no P. Costs an eigen-decomposition: call at
+    /// the telemetry rate, not per sample.
+    fn excitation_level(&self) -> Option<T>;
+    /// Input-screening and update counters.
+    fn health(&self) -> Health;
+}
+
+/// A filter bank and an update law: a complete estimator.
+///
+/// `D = 2n` is the model order and `NP = 2D − 1` the number of parameters.
+#[derive(Debug, Clone)]
+pub struct Identifier<T, L, const D: usize, const NP: usize> {
+    bank: FilterBank<T, D, NP>,
+    law: L,
+    scaling: Scaling<NP>,
+    lambda_rad_s: f64,
+    u_limit: T,
+    y_limit: T,
+    last_u: T,
+    last_y: T,
+    quarantine: u8,
+    health: Health,
+}
+
+impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T, L, D, NP> {
+    /// Build from a filter configuration and a law configuration.
+    pub fn new(filter: &FilterConfig, law: &L::Config) -> Result<Self, ConfigError> {
+        let bank = FilterBank::new(filter)?;
+        let law = L::new(law, filter.ts_s)?;
+        Ok(Self {
+            bank,
+            law,
+            scaling: Scaling::new(filter),
+            lambda_rad_s: filter.lambda_rad_s,
+            u_limit: T::from_f64(INPUT_LIMIT * filter.scales.u_scale),
+            y_limit: T::from_f64(INPUT_LIMIT * filter.scales.y_scale),
+            last_u: T::ZERO,
+            last_y: T::ZERO,
+            quarantine: 0,
+            health: Health::default(),
+        })
+    }
+
+    /// The update law (read-only).
+    pub fn law(&self) -> &L {
+        &self.law
+    }
+
+    /// The Θ ↔ θ_s scaling in use.
+    pub fn scaling(&self) -> &Scaling<NP> {
+        &self.scaling
+    }
+
+    /// The filter pole λ (rad/s).
+    pub fn lambda_rad_s(&self) -> f64 {
+        self.lambda_rad_s
+    }
+}
+
+impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T, NP>
+    for Identifier<T, L, D, NP>
+{
+    #[inline]
+    fn step(&mut self, u: T, y: T) -> StepStatus {
+        self.health.samples += 1;
+        let good = u.is_finite() && y.is_finite() && u.abs() <= self.u_limit && y.abs() <= self.y_limit;
+        let (u, y) = if good {
+            self.last_u = u;
+            self.last_y = y;
+            (u, y)
+        } else {
+            self.health.rejected += 1;
+            self.quarantine = QUARANTINE_SAMPLES;
+            (self.last_u, self.last_y)
+        };
+        let reg = self.bank.push(u, y);
+        if !good {
+            return StepStatus::Rejected;
+        }
+        if self.quarantine > 0 {
+            self.quarantine -= 1;
+            return StepStatus::Frozen;
+        }
+        match self.law.update(&reg) {
+            Ok(()) => StepStatus::Updated,
+            Err(_) => {
+                self.health.skipped += 1;
+                StepStatus::Skipped
+            }
+        }
+    }
+
+    fn theta(&self) -> [T; NP] {
+        self.scaling.to_physical(self.law.theta_scaled())
+    }
+
+    fn transfer_function(&self) -> TransferFunction<T> {
+        let th = self.theta();
+        // NP = 4n − 1 with n ≤ MAX_MODES is guaranteed by FilterConfig::validate.
+        TransferFunction::from_theta(&th, self.lambda_rad_s).unwrap_or(TransferFunction {
+            modes: 0,
+            a: Default::default(),
+            b: Default::default(),
+        })
+    }
+
+    fn reset(&mut self) {
+        self.bank.reset();
+        self.law.reset();
+        self.last_u = T::ZERO;
+        self.last_y = T::ZERO;
+        self.quarantine = 0;
+        self.health = Health::default();
+    }
+
+    fn excitation_level(&self) -> Option<T> {
+        self.law.information().map(|p| symmetric_eigenvalues(p)[0])
+    }
+
+    fn health(&self) -> Health {
+        self.health
+    }
+}
+
+/// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`, `NP = 4n − 1`.
+pub type AdaptiveEstimator<T, const D: usize, const NP: usize> = Identifier<T, AdaptiveLaw<T, NP>, D, NP>;
+/// The gradient baseline (eq. 47).
+pub type GradientEstimator<T, const D: usize, const NP: usize> = Identifier<T, GradientLaw<T, NP>, D, NP>;
+/// The least-squares baseline (eq. 48).
+pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
+    Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
+
+/// (1 − e^{−x})/x, accurate for small x ≥ 0 (the exact-step factor of the
+/// rank-one laws).
+pub(crate) fn one_minus_exp_over_x<T: Real>(x: T) -> T {
+    let small = T::from_f64(1e-3);
+    if x < small {
+        // 1 − x/2 + x²/6 − x³/24
+        let half = T::from_f64(0.5);
+        let sixth = T::from_f64(1.0 / 6.0);
+        let q = T::from_f64(1.0 / 24.0);
+        T::ONE - x * (half - x * (sixth - x * q))
+    } else {
+        (T::ONE - (-x).exp()) / x
+    }
+}
+
+/// Check a gain is positive and finite.
+pub(crate) fn positive(x: f64) -> Result<(), ConfigError> {
+    if x > 0.0 && x.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::Gain)
+    }
+}
