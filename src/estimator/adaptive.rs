@@ -49,14 +49,14 @@ pub struct AdaptiveConfig<const NP: usize> {
 }
 
 impl<const NP: usize> Default for AdaptiveConfig<NP> {
-    /// Defaults for scaled coordinates (measured in BENCHMARKS.md): Γ = 1000,
-    /// l = γ = 0.05, R(0) = 1e-6·I, θ(0) = 0.
+    /// Defaults for scaled coordinates (measured in BENCHMARKS.md): Γ = 1e4,
+    /// l = γ = 0.05, R(0) = 1e-9·I, θ(0) = 0.
     fn default() -> Self {
         Self {
-            gain: 1000.0,
+            gain: 10000.0,
             forgetting_p: 0.05,
             forgetting_h: 0.05,
-            r0_diag: [1e-6; NP],
+            r0_diag: [1e-9; NP],
             theta0: [0.0; NP],
         }
     }
@@ -73,7 +73,7 @@ impl<const NP: usize> AdaptiveConfig<NP> {
             r0_diag[j] = scaling.e[j] * scaling.e[j] / h0_physical[j];
         }
         Self {
-            gain: 80.0,
+            gain: 10000.0,
             forgetting_p: 0.01,
             forgetting_h: 0.1,
             r0_diag,
