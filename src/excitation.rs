@@ -103,7 +103,7 @@ mod tests {
         }
         // 10 s at 7 Hz: 140 half periods.
         assert!((139..=141).contains(&flips), "{flips}");
-        assert!((pos as i32 - 50_000).abs() < 200);
+        assert!((pos - 50_000i32).abs() < 200);
         assert!(SquareWave::<f32>::new(1.0, 6000.0, 1e4).is_err());
         assert!(SquareWave::<f32>::new(f64::NAN, 6.0, 1e4).is_err());
     }

@@ -16,17 +16,20 @@
 //! * **Exact zero-order hold on u.** The DAC holds u between samples, so
 //!   x⁺ = Φx + G₀u is exact.
 //! * **Interpolating hold on y.** y is *sampled*, not held. Over
-//!   [t_k, t_{k+1}] the filter is driven by the cubic through
-//!   y_{k−1}..y_{k+2} ([`OutputHold::Cubic`], the default), integrated exactly:
-//!   x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the response to τ^m/m!. The
-//!   four taps are folded into four gain vectors at start-up. DESIGN.md §3
-//!   measured the floors this leaves on ζ2: ZOH 1.2%, first-order hold
-//!   1.9e-4, cubic 1.3e-8. The look-ahead costs one sample of lag; the u
-//!   channel is delayed to match, so Ψ and y stay aligned in time.
+//!   [t_k, t_{k+1}] the filter is driven by the polynomial p through nearby
+//!   samples, integrated exactly: x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the
+//!   response to τ^m/m!. The taps are folded into one gain vector per
+//!   window sample at start-up. DESIGN.md §3 measured the floors this leaves
+//!   on ζ2 of the paper's plant: ZOH 1.2%, first-order hold 1.9e-4, cubic
+//!   (y_{k−1}..y_{k+2}) 1.3e-8. The cubic's error grows as (ωTs)⁴ and
+//!   reaches 1.2e-3 on a 1520 rad/s mode, so the default is the quintic
+//!   through y_{k−2}..y_{k+3} ([`OutputHold::Quintic`], (ωTs)⁶). The
+//!   look-ahead costs two samples of lag; the u channel is delayed to match,
+//!   so Ψ and y stay aligned in time.
 //! * Φ and the G_m come from one matrix exponential of an augmented system
 //!   (`linalg::expm`, computed in f64 at construction, never Euler).
 
-use crate::linalg::{expm, mat_vec, EXPM_MAX};
+use crate::linalg::{expm, mat_vec, solve_dense, EXPM_MAX};
 use crate::model::binomial;
 use crate::scalar::Real;
 
@@ -37,10 +40,61 @@ pub enum OutputHold {
     ZeroOrder,
     /// Straight line from y_k to y_{k+1} (~1.9e-4 on ζ2).
     FirstOrder,
-    /// Cubic through y_{k−1}, y_k, y_{k+1}, y_{k+2} (~1e-8 on ζ2).
-    #[default]
+    /// Cubic through y_{k−1}, y_k, y_{k+1}, y_{k+2} (~1e-8 on ζ2 for the
+    /// paper's plant; error grows as (ωTs)⁴).
     Cubic,
+    /// Quintic through y_{k−2} … y_{k+3} (error grows as (ωTs)⁶: needed
+    /// when a mode sits above ~1000 rad/s at Ts = 0.1 ms).
+    #[default]
+    Quintic,
 }
+
+impl OutputHold {
+    /// Interpolation nodes τ (in samples, relative to t_k) of this hold.
+    fn nodes(self) -> &'static [f64] {
+        match self {
+            Self::ZeroOrder => &[0.0],
+            Self::FirstOrder => &[0.0, 1.0],
+            Self::Cubic => &[-1.0, 0.0, 1.0, 2.0],
+            Self::Quintic => &[-2.0, -1.0, 0.0, 1.0, 2.0, 3.0],
+        }
+    }
+
+    /// Matrix M with p^{(m)}(0) = Σ_i M[m][i]·y(τ_i) for the interpolating
+    /// polynomial p through the nodes, expressed on the window
+    /// y_{k−2} … y_{k+3} (columns) — unused window entries get zero weight.
+    fn derivative_weights(self) -> [[f64; WINDOW]; WINDOW] {
+        let nodes = self.nodes();
+        let q = nodes.len();
+        // Vandermonde V[i][m] = τ_i^m; coefficients c = V⁻¹y; p^{(m)}(0) = m!·c_m.
+        let mut v = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+        for (i, &t) in nodes.iter().enumerate() {
+            for m in 0..q {
+                v[i][m] = libm::pow(t, m as f64);
+            }
+        }
+        let mut out = [[0.0f64; WINDOW]; WINDOW];
+        for (i, &t) in nodes.iter().enumerate() {
+            // Column i of V⁻¹: solve V·c = e_i.
+            let mut e = [0.0f64; EXPM_MAX];
+            e[i] = 1.0;
+            // Nodes are distinct, so V is invertible.
+            let c = solve_dense(&v, &e, q).unwrap_or([0.0; EXPM_MAX]);
+            let col = (t + 2.0) as usize;
+            let mut fact = 1.0;
+            for m in 0..q {
+                if m > 0 {
+                    fact *= m as f64;
+                }
+                out[m][col] = fact * c[m];
+            }
+        }
+        out
+    }
+}
+
+/// Length of the y window (y_{k−2} … y_{k+3}).
+const WINDOW: usize = 6;
 
 /// Signal scales: u and y enter the filters as u/U0 and y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,7 +147,7 @@ impl Default for FilterConfig {
             ts_s: 1e-4,
             lambda_rad_s: 100.0,
             scales: SignalScales::default(),
-            hold: OutputHold::Cubic,
+            hold: OutputHold::Quintic,
         }
     }
 }
@@ -111,7 +165,7 @@ impl FilterConfig {
         if !(s.u_scale > 0.0 && s.u_scale.is_finite() && s.y_scale > 0.0 && s.y_scale.is_finite()) {
             return Err(FilterConfigError::Scale);
         }
-        if d % 2 != 0 || d < 2 || d + 4 > EXPM_MAX || np != 2 * d - 1 {
+        if d % 2 != 0 || d < 2 || d + WINDOW > EXPM_MAX || np != 2 * d - 1 {
             return Err(FilterConfigError::Dimensions);
         }
         Ok(())
@@ -135,7 +189,7 @@ pub struct Scaling<const NP: usize> {
 impl<const NP: usize> Scaling<NP> {
     /// Build from a configuration (D = (NP+1)/2).
     pub fn new(cfg: &FilterConfig) -> Self {
-        let d = (NP + 1) / 2;
+        let d = NP.div_ceil(2);
         let mut e = [0.0; NP];
         let lam = cfg.lambda_rad_s;
         // u entries: powers D−2 … 0.
@@ -189,15 +243,15 @@ pub struct Regressor<T, const NP: usize> {
 pub struct FilterBank<T, const D: usize, const NP: usize> {
     phi: [[T; D]; D],
     gain_u: [T; D],
-    /// Gains on y_{k−1}, y_k, y_{k+1}, y_{k+2}.
-    taps_y: [[T; D]; 4],
+    /// Gains on y_{k−2} … y_{k+3}.
+    taps_y: [[T; D]; WINDOW],
     inv_u_scale: T,
     inv_y_scale: T,
     x_u: [T; D],
     x_y: [T; D],
-    /// y window y_{k−1}, y_k, y_{k+1}, y_{k+2} (scaled).
-    y_win: [T; 4],
-    /// u delay line u_k, u_{k+1}, u_{k+2} (scaled).
+    /// y window y_{k−2} … y_{k+3} (scaled).
+    y_win: [T; WINDOW],
+    /// u delay line u_{k+1}, u_{k+2}, u_{k+3} (scaled).
     u_win: [T; 3],
 }
 
@@ -206,9 +260,9 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     pub fn new(cfg: &FilterConfig) -> Result<Self, FilterConfigError> {
         cfg.validate(D, NP)?;
         let lt = cfg.lambda_rad_s * cfg.ts_s;
-        // Augmented system in τ = t/Ts: [x; q0..q3], x' = λTs(A_n x + e_{D−1} q0),
+        // Augmented system in τ = t/Ts: [x; q0..q5], x' = λTs(A_n x + e_{D−1} q0),
         // q_m' = q_{m+1}; starting from q_m(0) = 1 drives x with τ^m/m!.
-        let n = D + 4;
+        let n = D + WINDOW;
         let mut m = [[0.0f64; EXPM_MAX]; EXPM_MAX];
         for i in 0..D - 1 {
             m[i][i + 1] = lt;
@@ -217,11 +271,11 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             m[D - 1][j] = -lt * binomial(D, j);
         }
         m[D - 1][D] = lt;
-        for q in 0..3 {
+        for q in 0..WINDOW - 1 {
             m[D + q][D + q + 1] = 1.0;
         }
         let e = expm(&m, n);
-        let mut g = [[0.0f64; D]; 4];
+        let mut g = [[0.0f64; D]; WINDOW];
         let mut phi = [[T::ZERO; D]; D];
         for i in 0..D {
             for j in 0..D {
@@ -231,22 +285,13 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
                 gm[i] = e[i][D + mm];
             }
         }
-        // Coefficients of p^{(m)}(0) on (y_{k−1}, y_k, y_{k+1}, y_{k+2}).
-        let deriv: [[f64; 4]; 4] = match cfg.hold {
-            OutputHold::ZeroOrder => [[0.0, 1.0, 0.0, 0.0], [0.0; 4], [0.0; 4], [0.0; 4]],
-            OutputHold::FirstOrder => [[0.0, 1.0, 0.0, 0.0], [0.0, -1.0, 1.0, 0.0], [0.0; 4], [0.0; 4]],
-            OutputHold::Cubic => [
-                [0.0, 1.0, 0.0, 0.0],
-                [-1.0 / 3.0, -0.5, 1.0, -1.0 / 6.0],
-                [1.0, -2.0, 1.0, 0.0],
-                [-1.0, 3.0, -3.0, 1.0],
-            ],
-        };
-        let mut taps_y = [[T::ZERO; D]; 4];
+        // x⁺ = Φx + Σ_m G_m p^{(m)}(0), p^{(m)}(0) = Σ_tap M[m][tap]·y_tap.
+        let deriv = cfg.hold.derivative_weights();
+        let mut taps_y = [[T::ZERO; D]; WINDOW];
         for (tap, t) in taps_y.iter_mut().enumerate() {
             for i in 0..D {
                 let mut s = 0.0;
-                for mm in 0..4 {
+                for mm in 0..WINDOW {
                     s += deriv[mm][tap] * g[mm][i];
                 }
                 t[i] = T::from_f64(s);
@@ -264,7 +309,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             inv_y_scale: T::from_f64(1.0 / cfg.scales.y_scale),
             x_u: [T::ZERO; D],
             x_y: [T::ZERO; D],
-            y_win: [T::ZERO; 4],
+            y_win: [T::ZERO; WINDOW],
             u_win: [T::ZERO; 3],
         })
     }
@@ -273,23 +318,25 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     pub fn reset(&mut self) {
         self.x_u = [T::ZERO; D];
         self.x_y = [T::ZERO; D];
-        self.y_win = [T::ZERO; 4];
+        self.y_win = [T::ZERO; WINDOW];
         self.u_win = [T::ZERO; 3];
     }
 
-    /// Push sample k: `u` is the input held over [t_k, t_{k+1}), `y` the
-    /// output sampled at t_k (both in physical units). Returns the regressor
-    /// at t_{k−1} (one sample of look-ahead for the cubic hold).
+    /// Push sample n: `u` is the input held over [t_n, t_{n+1}), `y` the
+    /// output sampled at t_n (both in physical units). Returns the regressor
+    /// at t_{n−2}: the quintic hold looks three samples ahead of the interval
+    /// it integrates, [t_{n−3}, t_{n−2}].
     ///
     /// The caller must pass finite values (see `estimator::Identifier`, which
     /// screens inputs); with finite inputs this never panics.
     #[inline]
     pub fn push(&mut self, u: T, y: T) -> Regressor<T, NP> {
-        // Shift windows in the new sample (scaled).
-        self.y_win = [self.y_win[1], self.y_win[2], self.y_win[3], y * self.inv_y_scale];
-        let u_k = self.u_win[1];
+        // Shift the new sample (scaled) into the windows.
+        self.y_win.copy_within(1.., 0);
+        self.y_win[WINDOW - 1] = y * self.inv_y_scale;
+        let u_k = self.u_win[0];
         self.u_win = [self.u_win[1], self.u_win[2], u * self.inv_u_scale];
-        // Advance both filters over [t_{k−2}, t_{k−1}].
+        // Advance both filters over [t_{n−3}, t_{n−2}].
         let mut xy = mat_vec(&self.phi, &self.x_y);
         for (tap, yv) in self.taps_y.iter().zip(self.y_win.iter()) {
             for i in 0..D {
@@ -305,7 +352,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         self.regressor()
     }
 
-    /// The current regressor (φ at t_{k−1} and y_{k−1}/Y0).
+    /// The current regressor (φ at t_{n−2} and y_{n−2}/Y0).
     pub fn regressor(&self) -> Regressor<T, NP> {
         let mut phi = [T::ZERO; NP];
         // u entries: z_{D−2} … z_0; y entries: z_{D−1} … z_0 (eq. 29 order).
@@ -317,7 +364,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         }
         Regressor {
             phi,
-            y: self.y_win[2],
+            y: self.y_win[3],
         }
     }
 }
@@ -353,16 +400,20 @@ mod tests {
         for k in 1..=steps {
             r = fb.push(0.0, libm::sin(w * ts * k as f64));
         }
-        // Regressor time is t_{steps−1}.
-        let t = ts * (steps - 1) as f64;
+        // Regressor time is t_{steps−2}.
+        let t = ts * (steps - 2) as f64;
         let lam = cfg.lambda_rad_s;
         for k in 0..4 {
             // H(jω) = λ^{4−k}(jω)^k/(jω+λ)^4.
-            let mag = libm::pow(lam, (4 - k) as f64) * libm::pow(w, k as f64) / libm::pow(w * w + lam * lam, 2.0);
+            let mag = libm::pow(lam, (4 - k) as f64) * libm::pow(w, k as f64)
+                / libm::pow(w * w + lam * lam, 2.0);
             let phase = k as f64 * core::f64::consts::FRAC_PI_2 - 4.0 * libm::atan2(w, lam);
             let expect = mag * libm::sin(w * t + phase);
             let got = r.phi[3 + (3 - k)];
-            assert!((got - expect).abs() < 1e-9, "k={k} got {got} expect {expect}");
+            assert!(
+                (got - expect).abs() < 1e-9,
+                "k={k} got {got} expect {expect}"
+            );
         }
     }
 
@@ -381,12 +432,14 @@ mod tests {
             for k in 1..=steps {
                 r = fb.push(0.0, libm::sin(w * 1e-4 * k as f64));
             }
-            let t = 1e-4 * (steps - 1) as f64;
+            let t = 1e-4 * (steps - 2) as f64;
             let mag = 1e8 / libm::pow(w * w + 1e4, 2.0);
             let expect = mag * libm::sin(w * t - 4.0 * libm::atan2(w, 100.0));
             (r.phi[6] - expect).abs()
         };
+        let quintic = err(OutputHold::Quintic);
         let cubic = err(OutputHold::Cubic);
+        assert!(quintic * 10.0 < cubic, "quintic {quintic} cubic {cubic}");
         let linear = err(OutputHold::FirstOrder);
         let zoh = err(OutputHold::ZeroOrder);
         assert!(cubic * 100.0 < linear, "cubic {cubic} linear {linear}");

@@ -16,6 +16,12 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// Index loops are the clearest form of small dense matrix code (i, j, k
+// mirror the equations).
+#![allow(clippy::needless_range_loop)]
+// `!(x > 0)` is used on purpose: it is true for NaN, so a NaN fails every
+// positivity check instead of slipping through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
 pub mod estimator;

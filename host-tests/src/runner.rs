@@ -7,8 +7,8 @@
 
 use crate::scenario::{output_scale, Noise, PlantSpec, Truth};
 use beamest::estimator::{
-    AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator, Health, LeastSquaresConfig,
-    LeastSquaresEstimator,
+    AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator, Health,
+    LeastSquaresConfig, LeastSquaresEstimator,
 };
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, Scaling, SignalScales};
@@ -79,8 +79,9 @@ pub struct RunConfig {
     pub duration_s: f64,
     /// Sample period.
     pub ts_s: f64,
-    /// Filter pole λ.
-    pub lambda_rad_s: f64,
+    /// Filter pole λ (rad/s); `None` chooses it from the nominal plant
+    /// ([`auto_lambda`]).
+    pub lambda_rad_s: Option<f64>,
     /// y interpolation.
     pub hold: OutputHold,
     /// Square-wave amplitude (input units).
@@ -106,8 +107,8 @@ impl Default for RunConfig {
             gains: Gains::Default,
             duration_s: 20.0,
             ts_s: 1e-4,
-            lambda_rad_s: 100.0,
-            hold: OutputHold::Cubic,
+            lambda_rad_s: None,
+            hold: OutputHold::default(),
             u_amplitude: 0.1,
             u_freq_hz: 7.0,
             snr_db: None,
@@ -191,7 +192,10 @@ impl RelError {
         self.omega
             .iter()
             .chain(self.zeta.iter())
-            .fold(0.0f64, |m, &e| if e.is_nan() { f64::INFINITY } else { m.max(e) })
+            .fold(
+                0.0f64,
+                |m, &e| if e.is_nan() { f64::INFINITY } else { m.max(e) },
+            )
     }
 }
 
@@ -255,7 +259,9 @@ pub fn run(cfg: &RunConfig, observer: &mut dyn FnMut(&Trace<'_>)) -> Result<RunR
         (2, Precision::F32) => run_sized::<f32, 4, 7>(cfg, observer),
         (3, Precision::F64) => run_sized::<f64, 6, 11>(cfg, observer),
         (3, Precision::F32) => run_sized::<f32, 6, 11>(cfg, observer),
-        _ => Err(RunError::Plant(format!("{modes} modes (supported: 1, 2, 3)"))),
+        _ => Err(RunError::Plant(format!(
+            "{modes} modes (supported: 1, 2, 3)"
+        ))),
     }
 }
 
@@ -272,27 +278,35 @@ pub fn build_estimator<T: Real, const D: usize, const NP: usize>(
             "g1" => &GradientConfig::<7>::PAPER_GAIN_2_MODES,
             _ => &LeastSquaresConfig::<7>::PAPER_GAIN0_2_MODES,
         };
-        v.try_into()
-            .map_err(|_| RunError::Estimator("the paper's gains are defined for 2 modes only".into()))
+        v.try_into().map_err(|_| {
+            RunError::Estimator("the paper's gains are defined for 2 modes only".into())
+        })
     };
     let err = |e| RunError::Estimator(format!("{e:?}"));
     Ok(match (kind, gains) {
-        (EstimatorKind::Adaptive, Gains::Default) => {
-            Box::new(AdaptiveEstimator::<T, D, NP>::new(filter, &AdaptiveConfig::default()).map_err(err)?)
-        }
-        (EstimatorKind::Adaptive, Gains::Paper) => Box::new(
-            AdaptiveEstimator::<T, D, NP>::new(filter, &AdaptiveConfig::paper(&scaling, &paper("h0")?))
-                .map_err(err)?,
+        (EstimatorKind::Adaptive, Gains::Default) => Box::new(
+            AdaptiveEstimator::<T, D, NP>::new(filter, &AdaptiveConfig::default()).map_err(err)?,
         ),
-        (EstimatorKind::Gradient, Gains::Default) => {
-            Box::new(GradientEstimator::<T, D, NP>::new(filter, &GradientConfig::default()).map_err(err)?)
-        }
+        (EstimatorKind::Adaptive, Gains::Paper) => Box::new(
+            AdaptiveEstimator::<T, D, NP>::new(
+                filter,
+                &AdaptiveConfig::paper(&scaling, &paper("h0")?),
+            )
+            .map_err(err)?,
+        ),
+        (EstimatorKind::Gradient, Gains::Default) => Box::new(
+            GradientEstimator::<T, D, NP>::new(filter, &GradientConfig::default()).map_err(err)?,
+        ),
         (EstimatorKind::Gradient, Gains::Paper) => Box::new(
-            GradientEstimator::<T, D, NP>::new(filter, &GradientConfig::from_physical(&scaling, &paper("g1")?))
-                .map_err(err)?,
+            GradientEstimator::<T, D, NP>::new(
+                filter,
+                &GradientConfig::from_physical(&scaling, &paper("g1")?),
+            )
+            .map_err(err)?,
         ),
         (EstimatorKind::LeastSquares, Gains::Default) => Box::new(
-            LeastSquaresEstimator::<T, D, NP>::new(filter, &LeastSquaresConfig::default()).map_err(err)?,
+            LeastSquaresEstimator::<T, D, NP>::new(filter, &LeastSquaresConfig::default())
+                .map_err(err)?,
         ),
         (EstimatorKind::LeastSquares, Gains::Paper) => Box::new(
             LeastSquaresEstimator::<T, D, NP>::new(
@@ -314,7 +328,8 @@ pub fn rel_error(est: Option<&ModalParams<f64>>, truth: &ModalParams<f64>) -> Re
     if let Some(m) = est {
         if m.modes == n {
             for i in 0..n {
-                e.omega[i] = ((m.omega_rad_s[i] - truth.omega_rad_s[i]) / truth.omega_rad_s[i]).abs();
+                e.omega[i] =
+                    ((m.omega_rad_s[i] - truth.omega_rad_s[i]) / truth.omega_rad_s[i]).abs();
                 e.zeta[i] = ((m.zeta[i] - truth.zeta[i]) / truth.zeta[i]).abs();
             }
         }
@@ -322,14 +337,35 @@ pub fn rel_error(est: Option<&ModalParams<f64>>, truth: &ModalParams<f64>) -> Re
     e
 }
 
+/// The default filter pole for a plant: the paper's λ = 100 rad/s for its
+/// plant, otherwise the geometric mean √(ω_min·ω_max) of the nominal modes
+/// (98 rad/s for the paper's plant — the paper's choice follows the same
+/// rule). A λ far below the highest mode leaves P ill-conditioned: on a
+/// 155/1520 rad/s plant λ = 100 stalls at 1e-3 while λ = 300 reaches 2e-7.
+pub fn auto_lambda(plant: &PlantSpec) -> f64 {
+    match plant {
+        PlantSpec::Paper => 100.0,
+        PlantSpec::Modal(m) => {
+            let w = &m.omega_rad_s[..m.modes];
+            let lo = w.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = w.iter().cloned().fold(0.0, f64::max);
+            (lo * hi).sqrt()
+        }
+    }
+}
+
 /// The filter configuration a run uses (scales from the excitation and the
 /// plant's static gain).
 pub fn filter_config(cfg: &RunConfig, truth: &Truth) -> FilterConfig {
     FilterConfig {
         ts_s: cfg.ts_s,
-        lambda_rad_s: cfg.lambda_rad_s,
+        lambda_rad_s: cfg.lambda_rad_s.unwrap_or_else(|| auto_lambda(&cfg.plant)),
         scales: SignalScales {
-            u_scale: if cfg.u_amplitude > 0.0 { cfg.u_amplitude } else { 1.0 },
+            u_scale: if cfg.u_amplitude > 0.0 {
+                cfg.u_amplitude
+            } else {
+                1.0
+            },
             y_scale: output_scale(truth, cfg.u_amplitude),
         },
         hold: cfg.hold,
@@ -363,7 +399,10 @@ struct Settling {
 
 impl Settling {
     fn new(threshold: f64) -> Self {
-        Self { threshold, since: None }
+        Self {
+            threshold,
+            since: None,
+        }
     }
     fn observe(&mut self, t: f64, err: f64) {
         if err < self.threshold {
@@ -387,7 +426,10 @@ fn run_sized<T: Real, const D: usize, const NP: usize>(
         return Err(RunError::Setup("eval_every must be at least 1".into()));
     }
     let truth = cfg.plant.truth();
-    let mut plant = cfg.plant.plant(cfg.ts_s).map_err(|e| RunError::Plant(format!("{e:?}")))?;
+    let mut plant = cfg
+        .plant
+        .plant(cfg.ts_s)
+        .map_err(|e| RunError::Plant(format!("{e:?}")))?;
     let filter = filter_config(cfg, &truth);
     let mut est = build_estimator::<T, D, NP>(cfg.kind, cfg.gains, &filter)?;
     let fs = 1.0 / cfg.ts_s;
@@ -407,7 +449,10 @@ fn run_sized<T: Real, const D: usize, const NP: usize>(
                 acc += y * y;
             }
             let rms = (acc / n as f64).sqrt();
-            Some(Noise::new(snr, rms, cfg.seed).ok_or_else(|| RunError::Setup("invalid SNR".into()))?)
+            Some(
+                Noise::new(snr, rms, cfg.seed)
+                    .ok_or_else(|| RunError::Setup("invalid SNR".into()))?,
+            )
         }
     };
     let weights: Vec<T> = truth.modal.output_weight[..truth.modal.modes]
@@ -426,7 +471,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize>(
         }
         est.step(T::from_f64(u), T::from_f64(y));
         if (k + 1) % cfg.eval_every as u64 == 0 || k + 1 == samples {
-            // The regressor lags the newest sample by one period.
+            // Real time of the newest sample: when the estimate is available.
             let t = k as f64 * cfg.ts_s;
             let modal = modal_from_tf(&est.transfer_function(), &weights)
                 .ok()
@@ -453,7 +498,9 @@ fn run_sized<T: Real, const D: usize, const NP: usize>(
     // Recover in the estimator's own precision, as the firmware does.
     let est_tf = est.transfer_function();
     let tf = to_f64_tf(&est_tf);
-    let modal = modal_from_tf(&est_tf, &weights).ok().map(|m| to_f64_modal(&m));
+    let modal = modal_from_tf(&est_tf, &weights)
+        .ok()
+        .map(|m| to_f64_modal(&m));
     let health: Health = est.health();
     Ok(RunReport {
         estimator: cfg.kind,

@@ -1,0 +1,142 @@
+//! Acceptance tests of the estimator core against the simulated beam
+//! (issue 2): the estimators see only the held u and the sampled y, through
+//! their own filter bank.
+
+use beamest::model::ModalParams;
+use host_tests::runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunReport};
+use host_tests::scenario::PlantSpec;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn simulate(cfg: &RunConfig) -> RunReport {
+    run(cfg, &mut |_| {}).expect("valid configuration")
+}
+
+fn max_rel(report: &RunReport) -> f64 {
+    report.rel_error.max()
+}
+
+#[test]
+fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_half_a_second() {
+    let r = simulate(&RunConfig::default());
+    for i in 0..2 {
+        assert!(
+            r.rel_error.omega[i] < 1e-6,
+            "omega{} {:e}",
+            i + 1,
+            r.rel_error.omega[i]
+        );
+        assert!(
+            r.rel_error.zeta[i] < 1e-6,
+            "zeta{} {:e}",
+            i + 1,
+            r.rel_error.zeta[i]
+        );
+        let b_err = ((r.estimate.bbar[i] - r.truth.bbar[i]) / r.truth.bbar[i]).abs();
+        assert!(b_err < 1e-4, "bbar{} {:e}", i + 1, b_err);
+    }
+    // DESIGN.md's b̄ from eq. 32.
+    assert!((r.truth.bbar[0] - 9.6293).abs() < 1e-4 && (r.truth.bbar[1] - 16.1458).abs() < 1e-4);
+    let t = r.time_to_0p1pct_s.expect("converges to 0.1%");
+    assert!(t <= 0.5, "0.1% reached only at {t} s");
+    let exc = r.excitation_min_eig.expect("adaptive law keeps P");
+    assert!(exc > 0.0, "square wave is persistently exciting (Lemma 1)");
+}
+
+#[test]
+fn paper_gains_adaptive_beats_both_baselines_on_every_parameter() {
+    let base = RunConfig {
+        gains: Gains::Paper,
+        ..RunConfig::default()
+    };
+    let reports: Vec<RunReport> = EstimatorKind::ALL
+        .iter()
+        .map(|&kind| {
+            simulate(&RunConfig {
+                kind,
+                ..base.clone()
+            })
+        })
+        .collect();
+    let adaptive = &reports[0];
+    let t = adaptive
+        .time_to_0p1pct_s
+        .expect("adaptive converges with the paper's gains");
+    assert!(t <= 5.0, "0.1% at {t} s");
+    for baseline in &reports[1..] {
+        for i in 0..2 {
+            assert!(
+                adaptive.rel_error.omega[i] < baseline.rel_error.omega[i]
+                    || baseline.rel_error.omega[i].is_nan(),
+                "omega{}: adaptive {:e} vs {:?} {:e}",
+                i + 1,
+                adaptive.rel_error.omega[i],
+                baseline.estimator,
+                baseline.rel_error.omega[i]
+            );
+            assert!(
+                adaptive.rel_error.zeta[i] < baseline.rel_error.zeta[i]
+                    || baseline.rel_error.zeta[i].is_nan(),
+                "zeta{}: adaptive {:e} vs {:?} {:e}",
+                i + 1,
+                adaptive.rel_error.zeta[i],
+                baseline.estimator,
+                baseline.rel_error.zeta[i]
+            );
+        }
+    }
+}
+
+/// Random two-mode plants: ω1 ∈ [10, 200] rad/s, ω2/ω1 ∈ [2, 10],
+/// ζ ∈ [0.005, 0.2], b̄ ∈ ±[1, 20].
+fn random_two_mode_plants(count: usize, seed: u64) -> Vec<ModalParams<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..count)
+        .map(|_| {
+            let w1 = rng.random_range(10.0..200.0);
+            let w2 = w1 * rng.random_range(2.0..10.0);
+            let z1 = rng.random_range(0.005..0.2);
+            let z2 = rng.random_range(0.005..0.2);
+            let sign = |r: &mut ChaCha8Rng| if r.random_bool(0.5) { 1.0 } else { -1.0 };
+            let b1 = sign(&mut rng) * rng.random_range(1.0..20.0);
+            let b2 = sign(&mut rng) * rng.random_range(1.0..20.0);
+            ModalParams::new(&[w1, w2], &[z1, z2], &[b1, b2], None).expect("two modes")
+        })
+        .collect()
+}
+
+#[test]
+fn five_random_two_mode_plants_converge_to_1e4() {
+    for (i, m) in random_two_mode_plants(5, 2026).into_iter().enumerate() {
+        let r = simulate(&RunConfig {
+            plant: PlantSpec::Modal(m),
+            ..RunConfig::default()
+        });
+        assert!(max_rel(&r) < 1e-4, "plant {i} {m:?}: {:?}", r.rel_error);
+    }
+}
+
+#[test]
+fn one_and_three_mode_plants_converge_to_1e4() {
+    for modes in [1, 3] {
+        let r = simulate(&RunConfig {
+            plant: PlantSpec::default_for_modes(modes).expect("default plant"),
+            ..RunConfig::default()
+        });
+        assert!(max_rel(&r) < 1e-4, "{modes} modes: {:?}", r.rel_error);
+        assert_eq!(r.estimate.omega.len(), modes);
+        assert_eq!(r.estimate.a.len(), 2 * modes);
+        assert_eq!(r.estimate.b.len(), 2 * modes - 1);
+    }
+}
+
+#[test]
+fn f32_and_f64_run_the_same_api() {
+    let r = simulate(&RunConfig {
+        precision: Precision::F32,
+        duration_s: 1.0,
+        ..RunConfig::default()
+    });
+    assert_eq!(r.samples, 10_000);
+    assert!(r.estimate.omega.iter().all(|w| w.is_finite()));
+}
