@@ -48,7 +48,12 @@ pub fn dot<T: Real, const N: usize>(x: &[T; N], y: &[T; N]) -> T {
 /// A ← decay·A + scale·x·xᵀ, keeping A exactly symmetric (the upper triangle
 /// is computed and mirrored).
 #[inline(always)]
-pub fn decay_add_outer<T: Real, const N: usize>(a: &mut [[T; N]; N], decay: T, scale: T, x: &[T; N]) {
+pub fn decay_add_outer<T: Real, const N: usize>(
+    a: &mut [[T; N]; N],
+    decay: T,
+    scale: T,
+    x: &[T; N],
+) {
     for i in 0..N {
         let sx = scale * x[i];
         for j in i..N {

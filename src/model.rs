@@ -154,7 +154,12 @@ pub fn binomial(n: usize, k: usize) -> f64 {
 impl<T: Real> ModalParams<T> {
     /// Build from slices (length = number of modes). Output weights default
     /// to [`default_output_weight`] when `output_weight` is `None`.
-    pub fn new(omega_rad_s: &[T], zeta: &[T], bbar: &[T], output_weight: Option<&[T]>) -> Option<Self> {
+    pub fn new(
+        omega_rad_s: &[T],
+        zeta: &[T],
+        bbar: &[T],
+        output_weight: Option<&[T]>,
+    ) -> Option<Self> {
         let n = omega_rad_s.len();
         if n == 0 || n > MAX_MODES || zeta.len() != n || bbar.len() != n {
             return None;
@@ -267,18 +272,29 @@ mod tests {
 
     #[test]
     fn two_mode_tf_matches_eq_26() {
-        let m = ModalParams::new(&[39.1533, 245.3711], &[0.0207, 0.13], &[9.6, 16.1], None).unwrap();
+        let m =
+            ModalParams::new(&[39.1533, 245.3711], &[0.0207, 0.13], &[9.6, 16.1], None).unwrap();
         let tf = m.transfer_function();
         let (w1, w2, z1, z2) = (39.1533f64, 245.3711f64, 0.0207f64, 0.13f64);
         let (k1, k2, c1, c2) = (-w1 * w1, -w2 * w2, -2.0 * z1 * w1, -2.0 * z2 * w2);
         let (b1, b2) = (9.6, 16.1);
         let expect_a = [-c1 - c2, -k1 - k2 + c1 * c2, c1 * k2 + k1 * c2, k1 * k2];
-        let expect_b = [2.0 * b2 - 2.0 * b1, 2.0 * b1 * c2 - 2.0 * b2 * c1, 2.0 * b1 * k2 - 2.0 * b2 * k1];
+        let expect_b = [
+            2.0 * b2 - 2.0 * b1,
+            2.0 * b1 * c2 - 2.0 * b2 * c1,
+            2.0 * b1 * k2 - 2.0 * b2 * k1,
+        ];
         for i in 0..4 {
-            assert!(crate::scalar::isclose(tf.a[i], expect_a[i], 1e-13, 0.0), "a{i}");
+            assert!(
+                crate::scalar::isclose(tf.a[i], expect_a[i], 1e-13, 0.0),
+                "a{i}"
+            );
         }
         for i in 0..3 {
-            assert!(crate::scalar::isclose(tf.b[i], expect_b[i], 1e-13, 0.0), "b{i}");
+            assert!(
+                crate::scalar::isclose(tf.b[i], expect_b[i], 1e-13, 0.0),
+                "b{i}"
+            );
         }
         // Eq. 46 rounds these: a3 = 65.42, a2 = 6.18e4, a1 = 1.95e5, a0 = 9.23e7.
         assert!((tf.a[0] - 65.42).abs() < 0.01);

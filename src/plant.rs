@@ -56,12 +56,24 @@ impl<T: Real> ModalPlant<T> {
         let mut pos = [0.0; MAX_MODES];
         gain[..n].copy_from_slice(&p.bbar[..n]);
         pos[..n].copy_from_slice(&p.output_weight[..n]);
-        Self::build(&p.omega_rad_s[..n], &p.zeta[..n], &gain[..n], &pos[..n], &[0.0; MAX_MODES][..n], ts_s)
+        Self::build(
+            &p.omega_rad_s[..n],
+            &p.zeta[..n],
+            &gain[..n],
+            &pos[..n],
+            &[0.0; MAX_MODES][..n],
+            ts_s,
+        )
     }
 
     /// Modes ω_i, ζ_i with an arbitrary numerator `b = [b_{2n−2}, …, b_0]`
     /// (the transfer function B(s)/Π q_i(s)), e.g. the paper's eq. 46.
-    pub fn with_numerator(omega_rad_s: &[f64], zeta: &[f64], b: &[f64], ts_s: f64) -> Result<Self, PlantError> {
+    pub fn with_numerator(
+        omega_rad_s: &[f64],
+        zeta: &[f64],
+        b: &[f64],
+        ts_s: f64,
+    ) -> Result<Self, PlantError> {
         let n = omega_rad_s.len();
         if n == 0 || n > MAX_MODES || zeta.len() != n || b.len() != 2 * n - 1 {
             return Err(PlantError::Dimensions);
@@ -70,8 +82,13 @@ impl<T: Real> ModalPlant<T> {
         // Unknowns [α_1..α_n, β_1..β_n]; equations: coefficients of s^{d−1}..s^0.
         let mut a = [[0.0f64; EXPM_MAX]; EXPM_MAX];
         let mut rhs = [0.0f64; EXPM_MAX];
-        let unit = ModalParams::new(omega_rad_s, zeta, &[1.0; MAX_MODES][..n], Some(&[1.0; MAX_MODES][..n]))
-            .ok_or(PlantError::Dimensions)?;
+        let unit = ModalParams::new(
+            omega_rad_s,
+            zeta,
+            &[1.0; MAX_MODES][..n],
+            Some(&[1.0; MAX_MODES][..n]),
+        )
+        .ok_or(PlantError::Dimensions)?;
         for i in 0..n {
             // Π_{j≠i} q_j, 2n−1 coefficients, highest first.
             let mut p = [0.0f64; MAX_ORDER + 1];
@@ -91,10 +108,24 @@ impl<T: Real> ModalPlant<T> {
         }
         rhs[1..d].copy_from_slice(b);
         let x = solve_dense(&a, &rhs, d).ok_or(PlantError::Numerator)?;
-        Self::build(omega_rad_s, zeta, &[1.0; MAX_MODES][..n], &x[..n], &x[n..d], ts_s)
+        Self::build(
+            omega_rad_s,
+            zeta,
+            &[1.0; MAX_MODES][..n],
+            &x[..n],
+            &x[n..d],
+            ts_s,
+        )
     }
 
-    fn build(omega: &[f64], zeta: &[f64], gain: &[f64], pos: &[f64], vel: &[f64], ts: f64) -> Result<Self, PlantError> {
+    fn build(
+        omega: &[f64],
+        zeta: &[f64],
+        gain: &[f64],
+        pos: &[f64],
+        vel: &[f64],
+        ts: f64,
+    ) -> Result<Self, PlantError> {
         let n = omega.len();
         if !(ts > 0.0 && ts.is_finite()) {
             return Err(PlantError::Value);
@@ -108,7 +139,9 @@ impl<T: Real> ModalPlant<T> {
         let mut m = [zero; MAX_MODES];
         for i in 0..n {
             let (w, z) = (omega[i], zeta[i]);
-            let finite = [w, z, gain[i], pos[i], vel[i]].iter().all(|v| v.is_finite());
+            let finite = [w, z, gain[i], pos[i], vel[i]]
+                .iter()
+                .all(|v| v.is_finite());
             if !finite || !(w > 0.0) || z < 0.0 {
                 return Err(PlantError::Value);
             }
@@ -177,7 +210,8 @@ mod tests {
     #[test]
     fn step_response_settles_at_dc_gain() {
         let plant_tf = paper_plant_tf();
-        let mut p = ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+        let mut p =
+            ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
         let mut y = 0.0;
         for _ in 0..400_000 {
             y = p.sample(1.0);
@@ -204,11 +238,22 @@ mod tests {
 
     #[test]
     fn numerator_form_reproduces_modal_form() {
-        let mp = ModalParams::new(&[30.0, 200.0, 700.0], &[0.02, 0.05, 0.1], &[1.0, 3.0, -2.0], None).unwrap();
+        let mp = ModalParams::new(
+            &[30.0, 200.0, 700.0],
+            &[0.02, 0.05, 0.1],
+            &[1.0, 3.0, -2.0],
+            None,
+        )
+        .unwrap();
         let tf = mp.transfer_function();
         let mut a = ModalPlant::<f64>::from_modal(&mp, 1e-4).unwrap();
-        let mut b = ModalPlant::<f64>::with_numerator(&[30.0, 200.0, 700.0], &[0.02, 0.05, 0.1], &tf.b[..5], 1e-4)
-            .unwrap();
+        let mut b = ModalPlant::<f64>::with_numerator(
+            &[30.0, 200.0, 700.0],
+            &[0.02, 0.05, 0.1],
+            &tf.b[..5],
+            1e-4,
+        )
+        .unwrap();
         for k in 0..5000 {
             let u = if (k / 300) % 2 == 0 { 1.0 } else { -1.0 };
             let (ya, yb) = (a.sample(u), b.sample(u));
@@ -227,7 +272,8 @@ mod tests {
             Some(PlantError::Value)
         );
         assert_eq!(
-            ModalPlant::<f64>::with_numerator(&[10.0, 10.0], &[0.1, 0.1], &[1.0, 1.0, 1.0], 1e-4).err(),
+            ModalPlant::<f64>::with_numerator(&[10.0, 10.0], &[0.1, 0.1], &[1.0, 1.0, 1.0], 1e-4)
+                .err(),
             Some(PlantError::Numerator)
         );
     }

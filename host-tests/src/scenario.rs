@@ -1,6 +1,8 @@
 //! Simulated rigs: which beam, its true parameters, and measurement noise.
 
-use beamest::model::{paper_plant_tf, ModalParams, TransferFunction, MAX_MODES, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use beamest::model::{
+    paper_plant_tf, ModalParams, TransferFunction, MAX_MODES, PAPER_B, PAPER_OMEGA, PAPER_ZETA,
+};
 use beamest::plant::{ModalPlant, PlantError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -38,7 +40,8 @@ impl PlantSpec {
     /// 1 → its first mode; 3 → the paper's two modes plus [`DEFAULT_MODE3`].
     pub fn default_for_modes(modes: usize) -> Option<Self> {
         match modes {
-            1 => ModalParams::new(&PAPER_OMEGA[..1], &PAPER_ZETA[..1], &PAPER_BBAR[..1], None).map(Self::Modal),
+            1 => ModalParams::new(&PAPER_OMEGA[..1], &PAPER_ZETA[..1], &PAPER_BBAR[..1], None)
+                .map(Self::Modal),
             2 => Some(Self::Paper),
             3 => {
                 let (w, z, b) = DEFAULT_MODE3;
@@ -67,7 +70,8 @@ impl PlantSpec {
         match self {
             Self::Paper => {
                 let tf = paper_plant_tf();
-                let mut modal = ModalParams::new(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_BBAR, None).expect("static");
+                let mut modal =
+                    ModalParams::new(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_BBAR, None).expect("static");
                 // b̄ exactly as eq. 32 gives it from eq. 46 (PAPER_BBAR is rounded).
                 if let Ok(m) = beamest::modal::modal_from_tf(&tf, &modal.output_weight[..2]) {
                     modal.bbar = m.bbar;

@@ -180,7 +180,8 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
         self.health.samples += 1;
-        let good = u.is_finite() && y.is_finite() && u.abs() <= self.u_limit && y.abs() <= self.y_limit;
+        let good =
+            u.is_finite() && y.is_finite() && u.abs() <= self.u_limit && y.abs() <= self.y_limit;
         let (u, y) = if good {
             self.last_u = u;
             self.last_y = y;
@@ -240,9 +241,11 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
 }
 
 /// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`, `NP = 4n − 1`.
-pub type AdaptiveEstimator<T, const D: usize, const NP: usize> = Identifier<T, AdaptiveLaw<T, NP>, D, NP>;
+pub type AdaptiveEstimator<T, const D: usize, const NP: usize> =
+    Identifier<T, AdaptiveLaw<T, NP>, D, NP>;
 /// The gradient baseline (eq. 47).
-pub type GradientEstimator<T, const D: usize, const NP: usize> = Identifier<T, GradientLaw<T, NP>, D, NP>;
+pub type GradientEstimator<T, const D: usize, const NP: usize> =
+    Identifier<T, GradientLaw<T, NP>, D, NP>;
 /// The least-squares baseline (eq. 48).
 pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
     Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
