@@ -241,7 +241,9 @@ pub struct Regressor<T, const NP: usize> {
 /// `D` is the filter order 2n; `NP = 2D − 1` is the length of Ψ.
 #[derive(Debug, Clone)]
 pub struct FilterBank<T, const D: usize, const NP: usize> {
-    phi: [[T; D]; D],
+    /// Φ − I (Φ = e^{A·Ts} is within λTs ≈ 0.01 of I: storing the
+    /// difference keeps its full precision in `f32`).
+    phi_minus_i: [[T; D]; D],
     gain_u: [T; D],
     /// Gains on y_{k−2} … y_{k+3}.
     taps_y: [[T; D]; WINDOW],
@@ -276,10 +278,11 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         }
         let e = expm(&m, n);
         let mut g = [[0.0f64; D]; WINDOW];
-        let mut phi = [[T::ZERO; D]; D];
+        let mut phi_minus_i = [[T::ZERO; D]; D];
         for i in 0..D {
             for j in 0..D {
-                phi[i][j] = T::from_f64(e[i][j]);
+                let identity = if i == j { 1.0 } else { 0.0 };
+                phi_minus_i[i][j] = T::from_f64(e[i][j] - identity);
             }
             for (mm, gm) in g.iter_mut().enumerate() {
                 gm[i] = e[i][D + mm];
@@ -302,7 +305,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             gain_u[i] = T::from_f64(g[0][i]);
         }
         Ok(Self {
-            phi,
+            phi_minus_i,
             gain_u,
             taps_y,
             inv_u_scale: T::from_f64(1.0 / cfg.scales.u_scale),
@@ -337,18 +340,19 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         let u_k = self.u_win[0];
         self.u_win = [self.u_win[1], self.u_win[2], u * self.inv_u_scale];
         // Advance both filters over [t_{n−3}, t_{n−2}].
-        let mut xy = mat_vec(&self.phi, &self.x_y);
+        // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last.
+        let mut dy = mat_vec(&self.phi_minus_i, &self.x_y);
         for (tap, yv) in self.taps_y.iter().zip(self.y_win.iter()) {
             for i in 0..D {
-                xy[i] += tap[i] * *yv;
+                dy[i] += tap[i] * *yv;
             }
         }
-        let mut xu = mat_vec(&self.phi, &self.x_u);
+        let mut du = mat_vec(&self.phi_minus_i, &self.x_u);
         for i in 0..D {
-            xu[i] += self.gain_u[i] * u_k;
+            du[i] += self.gain_u[i] * u_k;
+            self.x_y[i] += dy[i];
+            self.x_u[i] += du[i];
         }
-        self.x_y = xy;
-        self.x_u = xu;
         self.regressor()
     }
 

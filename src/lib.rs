@@ -24,6 +24,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
+pub mod compensated;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;

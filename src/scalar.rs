@@ -41,6 +41,13 @@ pub trait Real:
     const MAX: Self;
     /// Short name used in reports (`"f32"` / `"f64"`).
     const NAME: &'static str;
+    /// Whether long sums and the W residual (eq. 35) use compensated
+    /// (double-word) arithmetic, see [`crate::compensated`]. `true` for
+    /// `f32`, whose 24-bit mantissa cannot hold P (cond ≈ 1e6) otherwise;
+    /// `false` for `f64`, where plain arithmetic already reaches ~1e-10.
+    const COMPENSATED: bool;
+    /// Veltkamp splitting constant 2^⌈p/2⌉ + 1 for Dekker's exact product.
+    const SPLITTER: Self;
 
     /// Round an `f64` to this type.
     fn from_f64(x: f64) -> Self;
@@ -107,7 +114,7 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal, $sqrt:path, $exp:path, $ln:path, $sin:path, $cos:path,
+    ($t:ty, $name:literal, $comp:literal, $split:literal, $sqrt:path, $exp:path, $ln:path, $sin:path, $cos:path,
      $sinh:path, $cosh:path, $atan2:path, $hypot:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
@@ -115,6 +122,8 @@ macro_rules! impl_real {
             const EPSILON: Self = <$t>::EPSILON;
             const MAX: Self = <$t>::MAX;
             const NAME: &'static str = $name;
+            const COMPENSATED: bool = $comp;
+            const SPLITTER: Self = $split;
 
             #[inline(always)]
             fn from_f64(x: f64) -> Self {
@@ -183,6 +192,8 @@ macro_rules! impl_real {
 impl_real!(
     f32,
     "f32",
+    true,
+    4097.0,
     libm::sqrtf,
     libm::expf,
     libm::logf,
@@ -196,6 +207,8 @@ impl_real!(
 impl_real!(
     f64,
     "f64",
+    false,
+    134217729.0,
     libm::sqrt,
     libm::exp,
     libm::log,

@@ -253,20 +253,21 @@ pub struct Trace<'a> {
 pub fn run(cfg: &RunConfig, observer: &mut dyn FnMut(&Trace<'_>)) -> Result<RunReport, RunError> {
     let modes = cfg.plant.modes();
     match (modes, cfg.precision) {
-        (1, Precision::F64) => run_sized::<f64, 2, 3>(cfg, observer),
-        (1, Precision::F32) => run_sized::<f32, 2, 3>(cfg, observer),
-        (2, Precision::F64) => run_sized::<f64, 4, 7>(cfg, observer),
-        (2, Precision::F32) => run_sized::<f32, 4, 7>(cfg, observer),
-        (3, Precision::F64) => run_sized::<f64, 6, 11>(cfg, observer),
-        (3, Precision::F32) => run_sized::<f32, 6, 11>(cfg, observer),
+        (1, Precision::F64) => run_sized::<f64, 2, 3, 6>(cfg, observer),
+        (1, Precision::F32) => run_sized::<f32, 2, 3, 6>(cfg, observer),
+        (2, Precision::F64) => run_sized::<f64, 4, 7, 28>(cfg, observer),
+        (2, Precision::F32) => run_sized::<f32, 4, 7, 28>(cfg, observer),
+        (3, Precision::F64) => run_sized::<f64, 6, 11, 66>(cfg, observer),
+        (3, Precision::F32) => run_sized::<f32, 6, 11, 66>(cfg, observer),
         _ => Err(RunError::Plant(format!(
             "{modes} modes (supported: 1, 2, 3)"
         ))),
     }
 }
 
-/// Build the configured estimator for `D`, `NP` as a boxed trait object.
-pub fn build_estimator<T: Real, const D: usize, const NP: usize>(
+/// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a
+/// boxed trait object.
+pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize>(
     kind: EstimatorKind,
     gains: Gains,
     filter: &FilterConfig,
@@ -285,10 +286,11 @@ pub fn build_estimator<T: Real, const D: usize, const NP: usize>(
     let err = |e| RunError::Estimator(format!("{e:?}"));
     Ok(match (kind, gains) {
         (EstimatorKind::Adaptive, Gains::Default) => Box::new(
-            AdaptiveEstimator::<T, D, NP>::new(filter, &AdaptiveConfig::default()).map_err(err)?,
+            AdaptiveEstimator::<T, D, NP, NS>::new(filter, &AdaptiveConfig::default())
+                .map_err(err)?,
         ),
         (EstimatorKind::Adaptive, Gains::Paper) => Box::new(
-            AdaptiveEstimator::<T, D, NP>::new(
+            AdaptiveEstimator::<T, D, NP, NS>::new(
                 filter,
                 &AdaptiveConfig::paper(&scaling, &paper("h0")?),
             )
@@ -415,7 +417,7 @@ impl Settling {
     }
 }
 
-fn run_sized<T: Real, const D: usize, const NP: usize>(
+fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     cfg: &RunConfig,
     observer: &mut dyn FnMut(&Trace<'_>),
 ) -> Result<RunReport, RunError> {
@@ -431,7 +433,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize>(
         .plant(cfg.ts_s)
         .map_err(|e| RunError::Plant(format!("{e:?}")))?;
     let filter = filter_config(cfg, &truth);
-    let mut est = build_estimator::<T, D, NP>(cfg.kind, cfg.gains, &filter)?;
+    let mut est = build_estimator::<T, D, NP, NS>(cfg.kind, cfg.gains, &filter)?;
     let fs = 1.0 / cfg.ts_s;
     let mut square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, fs)
         .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))?;

@@ -114,7 +114,7 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for GradientLaw<T, NP> {
         }
     }
 
-    fn information(&self) -> Option<&[[T; NP]; NP]> {
+    fn information(&self) -> Option<[[T; NP]; NP]> {
         None
     }
 }

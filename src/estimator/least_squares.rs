@@ -126,7 +126,7 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for LeastSquaresLaw<T, NP> {
         }
     }
 
-    fn information(&self) -> Option<&[[T; NP]; NP]> {
+    fn information(&self) -> Option<[[T; NP]; NP]> {
         None
     }
 }

@@ -67,6 +67,8 @@ pub enum ConfigError {
     Filter(FilterConfigError),
     /// A gain, rate or initial matrix entry is not positive and finite.
     Gain,
+    /// Inconsistent const sizes (e.g. NS ≠ NP(NP+1)/2).
+    Dimensions,
 }
 
 impl From<FilterConfigError> for ConfigError {
@@ -100,7 +102,7 @@ pub trait UpdateLaw<T: Real, const NP: usize>: Sized {
     fn reset(&mut self);
     /// The law's information matrix P (eq. 33) if it keeps one; its smallest
     /// eigenvalue is the excitation monitor of Lemma 1.
-    fn information(&self) -> Option<&[[T; NP]; NP]>;
+    fn information(&self) -> Option<[[T; NP]; NP]>;
 }
 
 /// The common interface of every estimator: feed samples, read Θ.
@@ -232,7 +234,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn excitation_level(&self) -> Option<T> {
-        self.law.information().map(|p| symmetric_eigenvalues(p)[0])
+        self.law.information().map(|p| symmetric_eigenvalues(&p)[0])
     }
 
     fn health(&self) -> Health {
@@ -240,9 +242,16 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 }
 
-/// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`, `NP = 4n − 1`.
-pub type AdaptiveEstimator<T, const D: usize, const NP: usize> =
-    Identifier<T, AdaptiveLaw<T, NP>, D, NP>;
+/// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`,
+/// `NP = 4n − 1`, `NS = NP(NP+1)/2` (packed symmetric storage).
+pub type AdaptiveEstimator<T, const D: usize, const NP: usize, const NS: usize> =
+    Identifier<T, AdaptiveLaw<T, NP, NS>, D, NP>;
+/// The proposed estimator for one mode.
+pub type Adaptive1<T> = AdaptiveEstimator<T, 2, 3, 6>;
+/// The proposed estimator for two modes (the paper's case).
+pub type Adaptive2<T> = AdaptiveEstimator<T, 4, 7, 28>;
+/// The proposed estimator for three modes.
+pub type Adaptive3<T> = AdaptiveEstimator<T, 6, 11, 66>;
 /// The gradient baseline (eq. 47).
 pub type GradientEstimator<T, const D: usize, const NP: usize> =
     Identifier<T, GradientLaw<T, NP>, D, NP>;

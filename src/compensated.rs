@@ -1,0 +1,267 @@
+//! Compensated (double-word) arithmetic for the sums that single precision
+//! cannot hold: the exponentially weighted P, Q, H⁻¹ of eqs. 33 and 39, and
+//! the residual W = PΘ − Q of eq. 35.
+//!
+//! # Why
+//! The fixed point of the law is PΘ = Q. In scaled coordinates P of the
+//! paper's plant has cond(P) ≈ 9e5, so an error δ (relative to ‖P‖) in P, Q
+//! or in the evaluation of PΘ − Q moves Θ by ≈ cond(P)·δ. Plain `f32`
+//! (δ ≈ 6e-8 per operation, and far more after millions of recursive
+//! updates) therefore cannot reach 1e-4 — a straightforward `f32` port
+//! diverges after 12–16 s (DESIGN.md §3). Double-word arithmetic gives
+//! δ ≈ 1e-14 for about 3–8 extra flops per term, all in single precision,
+//! which fits a Cortex-M4F (no software `f64`).
+//!
+//! # What
+//! * [`two_sum`] (Knuth) and [`two_prod`] (Dekker/Veltkamp, no FMA needed)
+//!   are error-free transformations.
+//! * [`Compensated`] is a (hi, lo) accumulator: `add` is exact up to the
+//!   second-order term.
+//! * [`Dot2`] is the Ogita–Rump–Oishi dot product "as if in twice the
+//!   working precision".
+//!
+//! When `T::COMPENSATED` is `false` (`f64`) every operation degrades to the
+//! plain one at compile time: the low words stay zero and cost nothing in
+//! the hot path beyond their storage.
+
+use crate::scalar::Real;
+
+/// s + e = a + b exactly, with s = fl(a + b) (Knuth's TwoSum, 6 flops).
+#[inline(always)]
+pub fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
+    let s = a + b;
+    let bb = s - a;
+    let e = (a - (s - bb)) + (b - bb);
+    (s, e)
+}
+
+/// p + e = a·b exactly, with p = fl(a·b) (Dekker's product with Veltkamp
+/// splitting, 17 flops, no fused multiply-add required).
+#[inline(always)]
+pub fn two_prod<T: Real>(a: T, b: T) -> (T, T) {
+    let p = a * b;
+    let (ah, al) = split(a);
+    let (bh, bl) = split(b);
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    (p, e)
+}
+
+#[inline(always)]
+fn split<T: Real>(a: T) -> (T, T) {
+    let c = T::SPLITTER * a;
+    let hi = c - (c - a);
+    (hi, a - hi)
+}
+
+/// A double-word accumulator: the value is `hi + lo`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Compensated<T> {
+    /// Leading word.
+    pub hi: T,
+    /// Trailing word (rounding error of `hi`); zero when `T` is not compensated.
+    pub lo: T,
+}
+
+impl<T: Real> Compensated<T> {
+    /// A plain value.
+    #[inline(always)]
+    pub fn new(x: T) -> Self {
+        Self { hi: x, lo: T::ZERO }
+    }
+
+    /// self += x, renormalized so that |lo| ≤ ulp(hi)/2 (otherwise a long
+    /// run of increments below ulp(hi) would stagnate in `lo` instead).
+    #[inline(always)]
+    pub fn add(&mut self, x: T) {
+        if T::COMPENSATED {
+            let (s, e) = two_sum(self.hi, x);
+            let lo = self.lo + e;
+            // Fast two-sum: |s| ≥ |lo| holds after a two-sum.
+            let hi = s + lo;
+            self.lo = lo - (hi - s);
+            self.hi = hi;
+        } else {
+            self.hi += x;
+        }
+    }
+
+    /// self *= 1/2 (exact in binary floating point, barring underflow).
+    #[inline(always)]
+    pub fn halve(&mut self) {
+        let half = T::from_f64(0.5);
+        self.hi *= half;
+        self.lo *= half;
+    }
+
+    /// The value rounded to one word.
+    #[inline(always)]
+    pub fn value(self) -> T {
+        self.hi + self.lo
+    }
+}
+
+/// An array of double-word accumulators stored as two word arrays
+/// (structure of arrays), so that with `T::COMPENSATED = false` the update
+/// loops touch one contiguous array and vectorize.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompensatedArray<T, const N: usize> {
+    /// Leading words.
+    pub hi: [T; N],
+    /// Trailing words (all zero when `T` is not compensated).
+    pub lo: [T; N],
+}
+
+impl<T: Real, const N: usize> Default for CompensatedArray<T, N> {
+    fn default() -> Self {
+        Self {
+            hi: [T::ZERO; N],
+            lo: [T::ZERO; N],
+        }
+    }
+}
+
+impl<T: Real, const N: usize> CompensatedArray<T, N> {
+    /// Element `i` += x (see [`Compensated::add`]).
+    #[inline(always)]
+    pub fn add(&mut self, i: usize, x: T) {
+        if T::COMPENSATED {
+            let mut c = self.get(i);
+            c.add(x);
+            self.hi[i] = c.hi;
+            self.lo[i] = c.lo;
+        } else {
+            self.hi[i] += x;
+        }
+    }
+
+    /// Element `i` as a double word.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Compensated<T> {
+        Compensated {
+            hi: self.hi[i],
+            lo: self.lo[i],
+        }
+    }
+
+    /// Element `i` := x.
+    pub fn set(&mut self, i: usize, x: T) {
+        self.hi[i] = x;
+        self.lo[i] = T::ZERO;
+    }
+
+    /// Every element *= 1/2 (exact).
+    #[inline(always)]
+    pub fn halve(&mut self) {
+        let half = T::from_f64(0.5);
+        for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
+            *h *= half;
+            *l *= half;
+        }
+    }
+
+    /// True if every word is finite.
+    pub fn is_finite(&self) -> bool {
+        self.hi.iter().chain(self.lo.iter()).all(|v| v.is_finite())
+    }
+}
+
+/// Dot product accumulator "as if computed in twice the working precision"
+/// (Ogita, Rump & Oishi 2005, Algorithm Dot2) when `T::COMPENSATED`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Dot2<T> {
+    p: T,
+    s: T,
+}
+
+impl<T: Real> Dot2<T> {
+    /// Start at zero.
+    #[inline(always)]
+    pub fn new() -> Self {
+        Self {
+            p: T::ZERO,
+            s: T::ZERO,
+        }
+    }
+
+    /// Accumulate the product (hi + lo)·y of a double-word `x` and a word `y`.
+    #[inline(always)]
+    pub fn add_product(&mut self, x: Compensated<T>, y: T) {
+        if T::COMPENSATED {
+            let (h, r) = two_prod(x.hi, y);
+            let (p, q) = two_sum(self.p, h);
+            self.p = p;
+            self.s += q + r + x.lo * y;
+        } else {
+            self.p += x.hi * y;
+        }
+    }
+
+    /// Accumulate a double-word value.
+    #[inline(always)]
+    pub fn add_value(&mut self, x: Compensated<T>) {
+        if T::COMPENSATED {
+            let (p, q) = two_sum(self.p, x.hi);
+            self.p = p;
+            self.s += q + x.lo;
+        } else {
+            self.p += x.hi;
+        }
+    }
+
+    /// The result rounded to one word.
+    #[inline(always)]
+    pub fn value(self) -> T {
+        self.p + self.s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_prod_is_exact_in_f32() {
+        for &(a, b) in &[(1.1f32, 3.3f32), (1.0e-3, 7.77e5), (-0.3333333, 2.9999)] {
+            let (p, e) = two_prod(a, b);
+            let exact = a as f64 * b as f64;
+            assert_eq!(p as f64 + e as f64, exact);
+        }
+    }
+
+    #[test]
+    fn two_sum_is_exact_in_f32() {
+        let (s, e) = two_sum(1.0f32, 1e-9f32);
+        assert_eq!(s, 1.0);
+        assert_eq!(s as f64 + e as f64, 1.0 + 1e-9f32 as f64);
+    }
+
+    #[test]
+    fn compensated_sum_of_many_small_terms() {
+        // 1 + 1e6 × 1e-8: plain f32 stagnates at 1.0.
+        let mut c = Compensated::new(1.0f32);
+        let mut plain = 1.0f32;
+        for _ in 0..1_000_000 {
+            c.add(1e-8);
+            plain += 1e-8;
+        }
+        assert_eq!(plain, 1.0);
+        let expect = 1.0 + 1e6 * (1e-8f32 as f64);
+        assert!((c.hi as f64 + c.lo as f64 - expect).abs() < 1e-9);
+    }
+
+    #[test]
+    fn dot2_recovers_cancelling_dot_product() {
+        // x·y with heavy cancellation: (1e4, 1, −1e4)·(1e4 + 1, 1, 1e4).
+        let x = [1e4f32, 1.0, -1e4];
+        let y = [1e4f32 + 1.0, 1.0, 1e4];
+        let mut d = Dot2::new();
+        for i in 0..3 {
+            d.add_product(Compensated::new(x[i]), y[i]);
+        }
+        assert_eq!(d.value(), 1e4 + 1.0);
+        let mut d64 = Dot2::<f64>::new();
+        d64.add_product(Compensated::new(2.0), 3.0);
+        d64.add_value(Compensated::new(1.0));
+        assert_eq!(d64.value(), 7.0);
+    }
+}
