@@ -100,6 +100,16 @@ impl<T: Real> Compensated<T> {
     }
 }
 
+/// w·x·y as a double word (p, e) for words w, y and a double word
+/// x = (xh, xl), with the xl·y and second-order terms folded into `e`.
+#[inline(always)]
+pub fn weighted_product<T: Real>(w: T, xh: T, xl: T, y: T, yl: T) -> (T, T) {
+    let (th, tl) = two_prod(xh, y);
+    let tl = tl + (xh * yl + xl * y);
+    let (p, e) = two_prod(w, th);
+    (p, e + w * tl)
+}
+
 /// An array of double-word accumulators stored as two word arrays
 /// (structure of arrays), so that with `T::COMPENSATED = false` the update
 /// loops touch one contiguous array and vectorize.
@@ -134,6 +144,20 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
         }
     }
 
+    /// Element `i` += (p + e), a double word (see [`Compensated::add`]).
+    #[inline(always)]
+    pub fn add_dw(&mut self, i: usize, p: T, e: T) {
+        if T::COMPENSATED {
+            let (s, e2) = two_sum(self.hi[i], p);
+            let lo = self.lo[i] + (e + e2);
+            let hi = s + lo;
+            self.lo[i] = lo - (hi - s);
+            self.hi[i] = hi;
+        } else {
+            self.hi[i] += p + e;
+        }
+    }
+
     /// Element `i` as a double word.
     #[inline(always)]
     pub fn get(&self, i: usize) -> Compensated<T> {
@@ -141,6 +165,15 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
             hi: self.hi[i],
             lo: self.lo[i],
         }
+    }
+
+    /// All elements rounded to one word.
+    pub fn values(&self) -> [T; N] {
+        let mut v = [T::ZERO; N];
+        for i in 0..N {
+            v[i] = self.hi[i] + self.lo[i];
+        }
+        v
     }
 
     /// Element `i` := x.
@@ -193,6 +226,20 @@ impl<T: Real> Dot2<T> {
             self.s += q + r + x.lo * y;
         } else {
             self.p += x.hi * y;
+        }
+    }
+
+    /// Accumulate the product of two double words (the lo·lo term is below
+    /// the working precision squared and dropped).
+    #[inline(always)]
+    pub fn add_product_dd(&mut self, x: Compensated<T>, y: Compensated<T>) {
+        if T::COMPENSATED {
+            let (h, r) = two_prod(x.hi, y.hi);
+            let (p, q) = two_sum(self.p, h);
+            self.p = p;
+            self.s += q + r + (x.lo * y.hi + x.hi * y.lo);
+        } else {
+            self.p += x.hi * y.hi;
         }
     }
 

@@ -29,6 +29,7 @@
 //! * Φ and the G_m come from one matrix exponential of an augmented system
 //!   (`linalg::expm`, computed in f64 at construction, never Euler).
 
+use crate::compensated::CompensatedArray;
 use crate::linalg::{expm, mat_vec, solve_dense, EXPM_MAX};
 use crate::model::binomial;
 use crate::scalar::Real;
@@ -230,8 +231,11 @@ impl<const NP: usize> Scaling<NP> {
 /// One regressor sample: φ (scaled Ψ) and the matching scaled output y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Regressor<T, const NP: usize> {
-    /// φ = E·Ψ (see [`Scaling`]).
+    /// φ = E·Ψ (see [`Scaling`]), rounded to working precision.
     pub phi: [T; NP],
+    /// Rounding error of `phi` (φ ≈ phi + phi_lo to about twice the working
+    /// precision) when `T::COMPENSATED`; zero otherwise.
+    pub phi_lo: [T; NP],
     /// y/Y0 at the same instant.
     pub y: T,
 }
@@ -249,8 +253,11 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     taps_y: [[T; D]; WINDOW],
     inv_u_scale: T,
     inv_y_scale: T,
-    x_u: [T; D],
-    x_y: [T; D],
+    /// Filter states (double-word when `T::COMPENSATED`: the per-sample
+    /// increment is only ~λTs of the state, so the addition, not the
+    /// increment, carries the rounding error).
+    x_u: CompensatedArray<T, D>,
+    x_y: CompensatedArray<T, D>,
     /// y window y_{k−2} … y_{k+3} (scaled).
     y_win: [T; WINDOW],
     /// u delay line u_{k+1}, u_{k+2}, u_{k+3} (scaled).
@@ -310,8 +317,8 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             taps_y,
             inv_u_scale: T::from_f64(1.0 / cfg.scales.u_scale),
             inv_y_scale: T::from_f64(1.0 / cfg.scales.y_scale),
-            x_u: [T::ZERO; D],
-            x_y: [T::ZERO; D],
+            x_u: CompensatedArray::default(),
+            x_y: CompensatedArray::default(),
             y_win: [T::ZERO; WINDOW],
             u_win: [T::ZERO; 3],
         })
@@ -319,8 +326,8 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
 
     /// Zero all states (the plant is assumed at rest before the first sample).
     pub fn reset(&mut self) {
-        self.x_u = [T::ZERO; D];
-        self.x_y = [T::ZERO; D];
+        self.x_u = CompensatedArray::default();
+        self.x_y = CompensatedArray::default();
         self.y_win = [T::ZERO; WINDOW];
         self.u_win = [T::ZERO; 3];
     }
@@ -340,18 +347,27 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         let u_k = self.u_win[0];
         self.u_win = [self.u_win[1], self.u_win[2], u * self.inv_u_scale];
         // Advance both filters over [t_{n−3}, t_{n−2}].
-        // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last.
-        let mut dy = mat_vec(&self.phi_minus_i, &self.x_y);
+        // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last
+        // (with the low word's share when compensated).
+        let mut dy = mat_vec(&self.phi_minus_i, &self.x_y.hi);
+        let mut du = mat_vec(&self.phi_minus_i, &self.x_u.hi);
+        if T::COMPENSATED {
+            let ly = mat_vec(&self.phi_minus_i, &self.x_y.lo);
+            let lu = mat_vec(&self.phi_minus_i, &self.x_u.lo);
+            for i in 0..D {
+                dy[i] += ly[i];
+                du[i] += lu[i];
+            }
+        }
         for (tap, yv) in self.taps_y.iter().zip(self.y_win.iter()) {
             for i in 0..D {
                 dy[i] += tap[i] * *yv;
             }
         }
-        let mut du = mat_vec(&self.phi_minus_i, &self.x_u);
         for i in 0..D {
             du[i] += self.gain_u[i] * u_k;
-            self.x_y[i] += dy[i];
-            self.x_u[i] += du[i];
+            self.x_y.add(i, dy[i]);
+            self.x_u.add(i, du[i]);
         }
         self.regressor()
     }
@@ -359,15 +375,19 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     /// The current regressor (φ at t_{n−2} and y_{n−2}/Y0).
     pub fn regressor(&self) -> Regressor<T, NP> {
         let mut phi = [T::ZERO; NP];
+        let mut phi_lo = [T::ZERO; NP];
         // u entries: z_{D−2} … z_0; y entries: z_{D−1} … z_0 (eq. 29 order).
         for j in 0..D - 1 {
-            phi[j] = self.x_u[D - 2 - j];
+            phi[j] = self.x_u.hi[D - 2 - j];
+            phi_lo[j] = self.x_u.lo[D - 2 - j];
         }
         for j in 0..D {
-            phi[D - 1 + j] = self.x_y[D - 1 - j];
+            phi[D - 1 + j] = self.x_y.hi[D - 1 - j];
+            phi_lo[D - 1 + j] = self.x_y.lo[D - 1 - j];
         }
         Regressor {
             phi,
+            phi_lo,
             y: self.y_win[3],
         }
     }

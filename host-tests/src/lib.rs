@@ -2,6 +2,7 @@
 //! measurement noise and convergence metrics used by the integration tests,
 //! the benchmarks and `beamctl`.
 
+pub mod naive;
 pub mod runner;
 pub mod scenario;
 

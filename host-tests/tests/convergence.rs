@@ -2,11 +2,8 @@
 //! (issue 2): the estimators see only the held u and the sampled y, through
 //! their own filter bank.
 
-use beamest::model::ModalParams;
 use host_tests::runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunReport};
-use host_tests::scenario::PlantSpec;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use host_tests::scenario::{random_two_mode_plants, PlantSpec};
 
 fn simulate(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")
@@ -85,24 +82,6 @@ fn paper_gains_adaptive_beats_both_baselines_on_every_parameter() {
             );
         }
     }
-}
-
-/// Random two-mode plants: ω1 ∈ [10, 200] rad/s, ω2/ω1 ∈ [2, 10],
-/// ζ ∈ [0.005, 0.2], b̄ ∈ ±[1, 20].
-fn random_two_mode_plants(count: usize, seed: u64) -> Vec<ModalParams<f64>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    (0..count)
-        .map(|_| {
-            let w1 = rng.random_range(10.0..200.0);
-            let w2 = w1 * rng.random_range(2.0..10.0);
-            let z1 = rng.random_range(0.005..0.2);
-            let z2 = rng.random_range(0.005..0.2);
-            let sign = |r: &mut ChaCha8Rng| if r.random_bool(0.5) { 1.0 } else { -1.0 };
-            let b1 = sign(&mut rng) * rng.random_range(1.0..20.0);
-            let b2 = sign(&mut rng) * rng.random_range(1.0..20.0);
-            ModalParams::new(&[w1, w2], &[z1, z2], &[b1, b2], None).expect("two modes")
-        })
-        .collect()
 }
 
 #[test]

@@ -47,7 +47,7 @@
 //!   reports [`LawError::Singular`].
 
 use super::{positive, ConfigError, LawError, UpdateLaw};
-use crate::compensated::{Compensated, CompensatedArray, Dot2};
+use crate::compensated::{weighted_product, Compensated, CompensatedArray, Dot2};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, cholesky_solve_floored};
 use crate::scalar::Real;
@@ -159,7 +159,11 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     /// Q/scale of P (P and Q share the forgetting factor l).
     q: CompensatedArray<T, NP>,
     r: DecayingSum<T, NS>,
-    theta: [T; NP],
+    /// θ_s, double-word when `T::COMPENSATED`: for an ill-conditioned P
+    /// (cond ≈ 1e8 on a plant with a weak high mode) the rounding of θ to
+    /// `f32` in the strong directions would otherwise drive a 1e-2 error
+    /// along the weak one.
+    theta: CompensatedArray<T, NP>,
 }
 
 /// Expand a packed upper triangle into a full symmetric matrix, times `k`.
@@ -208,9 +212,9 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         for i in 0..NP {
             for j in i..NP {
                 let pij = self.p.sum.get(idx);
-                acc[i].add_product(pij, self.theta[j]);
+                acc[i].add_product_dd(pij, self.theta.get(j));
                 if j != i {
-                    acc[j].add_product(pij, self.theta[i]);
+                    acc[j].add_product_dd(pij, self.theta.get(i));
                 }
                 idx += 1;
             }
@@ -247,7 +251,7 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             }
             idx += NP - i;
         }
-        all_finite(&self.theta)
+        self.theta.is_finite()
             && self.p.sum.is_finite()
             && self.r.sum.is_finite()
             && self.q.is_finite()
@@ -290,7 +294,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             p: DecayingSum::new(decay_p),
             q: CompensatedArray::default(),
             r: DecayingSum::new(decay_h),
-            theta: theta0,
+            theta: CompensatedArray::default(),
         };
         law.reset();
         Ok(law)
@@ -306,18 +310,30 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         }
         let wp = self.ts * inv_p;
         let wr = self.ts * self.r.tick().0;
+        let lo = &reg.phi_lo;
         let mut idx = 0;
         for i in 0..NP {
-            let (pi, ri) = (wp * phi[i], wr * phi[i]);
-            for j in i..NP {
-                self.p.sum.add(idx, pi * phi[j]);
-                self.r.sum.add(idx, ri * phi[j]);
-                idx += 1;
+            let ri = wr * phi[i];
+            if T::COMPENSATED {
+                // P decides the fixed point: form w·φ_iφ_j from the
+                // double-word φ without rounding (R only sets the speed).
+                for j in i..NP {
+                    let (p, e) = weighted_product(wp, phi[i], lo[i], phi[j], lo[j]);
+                    self.p.sum.add_dw(idx, p, e);
+                    self.r.sum.add(idx, ri * phi[j]);
+                    idx += 1;
+                }
+                let (p, e) = weighted_product(wp, phi[i], lo[i], reg.y, T::ZERO);
+                self.q.add_dw(i, p, e);
+            } else {
+                let pi = wp * phi[i];
+                for j in i..NP {
+                    self.p.sum.add(idx, pi * phi[j]);
+                    self.r.sum.add(idx, ri * phi[j]);
+                    idx += 1;
+                }
+                self.q.add(i, pi * reg.y);
             }
-        }
-        let wy = wp * reg.y;
-        for i in 0..NP {
-            self.q.add(i, wy * phi[i]);
         }
         self.pending += 1;
         if self.pending < self.update_every {
@@ -342,19 +358,22 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             rhs[i] = -self.step_gain * w[i];
         }
         let delta = cholesky_solve_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
-        let mut next = self.theta;
-        for (t, d) in next.iter_mut().zip(delta.iter()) {
-            *t += *d;
+        if !all_finite(&delta) {
+            return Err(LawError::NonFinite);
         }
-        if !all_finite(&next) {
+        let mut next = self.theta;
+        for (i, d) in delta.iter().enumerate() {
+            next.add(i, *d);
+        }
+        if !next.is_finite() {
             return Err(LawError::NonFinite);
         }
         self.theta = next;
         Ok(())
     }
 
-    fn theta_scaled(&self) -> &[T; NP] {
-        &self.theta
+    fn theta_scaled(&self) -> [T; NP] {
+        self.theta.values()
     }
 
     fn reset(&mut self) {
@@ -366,7 +385,10 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             self.r.sum.set(idx, self.r0_diag[i]);
             idx += NP - i;
         }
-        self.theta = self.theta0;
+        self.theta = CompensatedArray::default();
+        for (i, t) in self.theta0.iter().enumerate() {
+            self.theta.set(i, *t);
+        }
         self.pending = 0;
     }
 

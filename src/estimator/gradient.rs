@@ -104,8 +104,8 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for GradientLaw<T, NP> {
         Ok(())
     }
 
-    fn theta_scaled(&self) -> &[T; NP] {
-        &self.theta
+    fn theta_scaled(&self) -> [T; NP] {
+        self.theta
     }
 
     fn reset(&mut self) {

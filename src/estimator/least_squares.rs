@@ -114,8 +114,8 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for LeastSquaresLaw<T, NP> {
         Ok(())
     }
 
-    fn theta_scaled(&self) -> &[T; NP] {
-        &self.theta
+    fn theta_scaled(&self) -> [T; NP] {
+        self.theta
     }
 
     fn reset(&mut self) {

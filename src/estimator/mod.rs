@@ -97,7 +97,7 @@ pub trait UpdateLaw<T: Real, const NP: usize>: Sized {
     /// Apply one regressor sample.
     fn update(&mut self, reg: &Regressor<T, NP>) -> Result<(), LawError>;
     /// Current scaled estimate θ_s.
-    fn theta_scaled(&self) -> &[T; NP];
+    fn theta_scaled(&self) -> [T; NP];
     /// Return to the initial state.
     fn reset(&mut self);
     /// The law's information matrix P (eq. 33) if it keeps one; its smallest
@@ -211,7 +211,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn theta(&self) -> [T; NP] {
-        self.scaling.to_physical(self.law.theta_scaled())
+        self.scaling.to_physical(&self.law.theta_scaled())
     }
 
     fn transfer_function(&self) -> TransferFunction<T> {
