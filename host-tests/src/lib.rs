@@ -2,6 +2,10 @@
 //! measurement noise and convergence metrics used by the integration tests,
 //! the benchmarks and `beamctl`.
 
+// Same numerical-code conventions as the core (see src/lib.rs).
+#![allow(clippy::needless_range_loop)]
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod naive;
 pub mod runner;
 pub mod scenario;

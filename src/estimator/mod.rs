@@ -131,7 +131,8 @@ pub trait Estimator<T: Real, const NP: usize> {
 pub struct Identifier<T, L, const D: usize, const NP: usize> {
     bank: FilterBank<T, D, NP>,
     law: L,
-    scaling: Scaling<NP>,
+    /// Θ_j = θ_s,j·unscale_j (Y0·E_j of [`Scaling`]), in working precision.
+    unscale: [T; NP],
     lambda_rad_s: f64,
     u_limit: T,
     y_limit: T,
@@ -149,7 +150,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
         Ok(Self {
             bank,
             law,
-            scaling: Scaling::new(filter),
+            unscale: Scaling::<NP>::new(filter).to_physical(&[T::ONE; NP]),
             lambda_rad_s: filter.lambda_rad_s,
             u_limit: T::from_f64(INPUT_LIMIT * filter.scales.u_scale),
             y_limit: T::from_f64(INPUT_LIMIT * filter.scales.y_scale),
@@ -163,11 +164,6 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
     /// The update law (read-only).
     pub fn law(&self) -> &L {
         &self.law
-    }
-
-    /// The Θ ↔ θ_s scaling in use.
-    pub fn scaling(&self) -> &Scaling<NP> {
-        &self.scaling
     }
 
     /// The filter pole λ (rad/s).
@@ -211,7 +207,11 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn theta(&self) -> [T; NP] {
-        self.scaling.to_physical(&self.law.theta_scaled())
+        let mut th = self.law.theta_scaled();
+        for (t, k) in th.iter_mut().zip(self.unscale.iter()) {
+            *t *= *k;
+        }
+        th
     }
 
     fn transfer_function(&self) -> TransferFunction<T> {

@@ -1,0 +1,25 @@
+//! Print the memory footprint of every estimator configuration (bytes).
+//! `cargo run --release -p host-tests --example footprint`
+use beamest::estimator::*;
+use std::mem::size_of;
+
+fn main() {
+    println!("| estimator | modes | f32 bytes | f64 bytes |");
+    println!("|---|---|---|---|");
+    macro_rules! row {
+        ($name:literal, $modes:literal, $t32:ty, $t64:ty) => {
+            println!(
+                "| {} | {} | {} | {} |",
+                $name,
+                $modes,
+                size_of::<$t32>(),
+                size_of::<$t64>()
+            );
+        };
+    }
+    row!("adaptive", 1, Adaptive1<f32>, Adaptive1<f64>);
+    row!("adaptive", 2, Adaptive2<f32>, Adaptive2<f64>);
+    row!("adaptive", 3, Adaptive3<f32>, Adaptive3<f64>);
+    row!("gradient", 2, GradientEstimator<f32, 4, 7>, GradientEstimator<f64, 4, 7>);
+    row!("ls", 2, LeastSquaresEstimator<f32, 4, 7>, LeastSquaresEstimator<f64, 4, 7>);
+}
