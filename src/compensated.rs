@@ -100,14 +100,12 @@ impl<T: Real> Compensated<T> {
     }
 }
 
-/// w·x·y as a double word (p, e) for words w, y and a double word
-/// x = (xh, xl), with the xl·y and second-order terms folded into `e`.
+/// (xh + xl)·(yh + yl) as a double word (p, e), dropping xl·yl (below the
+/// working precision squared).
 #[inline(always)]
-pub fn weighted_product<T: Real>(w: T, xh: T, xl: T, y: T, yl: T) -> (T, T) {
-    let (th, tl) = two_prod(xh, y);
-    let tl = tl + (xh * yl + xl * y);
-    let (p, e) = two_prod(w, th);
-    (p, e + w * tl)
+pub fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
+    let (p, e) = two_prod(xh, yh);
+    (p, e + (xh * yl + xl * yh))
 }
 
 /// An array of double-word accumulators stored as two word arrays

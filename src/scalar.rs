@@ -43,7 +43,8 @@ pub trait Real:
     const NAME: &'static str;
     /// Whether long sums and the W residual (eq. 35) use compensated
     /// (double-word) arithmetic, see [`crate::compensated`]. `true` for
-    /// `f32`, whose 24-bit mantissa cannot hold P (cond ≈ 1e6) otherwise;
+    /// `f32`, whose 24-bit mantissa cannot hold P otherwise (cond(P) ≈ 9e5
+    /// for the paper's plant, ~1e8 with a weak high mode);
     /// `false` for `f64`, where plain arithmetic already reaches ~1e-10.
     const COMPENSATED: bool;
     /// Veltkamp splitting constant 2^⌈p/2⌉ + 1 for Dekker's exact product.

@@ -226,7 +226,7 @@ pub struct RunReport {
     /// Largest relative ω/ζ error seen after the first second (None if the
     /// run is shorter).
     pub max_error_after_1s: Option<f64>,
-    /// Samples rejected / law updates skipped.
+    /// Samples rejected as non-finite or out of range.
     pub rejected_samples: u64,
     /// Law updates skipped (singular step).
     pub skipped_updates: u64,

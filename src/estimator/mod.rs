@@ -27,7 +27,7 @@ pub mod gradient;
 pub mod least_squares;
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
-use crate::linalg::symmetric_eigenvalues;
+use crate::modal::excitation_min_eig;
 use crate::model::TransferFunction;
 use crate::scalar::Real;
 
@@ -50,8 +50,9 @@ pub enum StepStatus {
     Frozen,
     /// The sample was non-finite or out of range and was replaced.
     Rejected,
-    /// The law could not update (e.g. no excitation yet: the implicit step's
-    /// matrix is singular); Θ was left unchanged.
+    /// The law could not update (its step matrix had no positive diagonal or
+    /// a non-finite entry — e.g. R(0) decayed to zero after a long absence of
+    /// excitation); Θ was left unchanged.
     Skipped,
 }
 
@@ -245,7 +246,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn excitation_level(&self) -> Option<T> {
-        self.law.information().map(|p| symmetric_eigenvalues(&p)[0])
+        self.law.information().map(|p| excitation_min_eig(&p))
     }
 
     fn health(&self) -> Health {
