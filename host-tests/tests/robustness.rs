@@ -59,7 +59,8 @@ fn nan_inf_and_absurd_samples_are_rejected_without_corrupting_the_estimate() {
         70_000 => Some(1e30), // absurd but finite: beyond INPUT_LIMIT scales
         _ => None,
     };
-    let mut est = Adaptive2::<f64>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
+    let mut est =
+        Adaptive2::<f64>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
     let statuses = run_with_faults(&mut est, 10.0, fault);
     assert_eq!(statuses[30_000], StepStatus::Rejected);
     assert_eq!(statuses[50_005], StepStatus::Rejected);
@@ -74,14 +75,22 @@ fn nan_inf_and_absurd_samples_are_rejected_without_corrupting_the_estimate() {
     assert_eq!(h.rejected, 13);
     assert_eq!(h.samples, 100_000);
     let err = paper_error(&est);
-    assert!(err < 1e-6, "estimate corrupted by rejected samples: {err:e}");
-    assert!(est.excitation_level().is_some_and(|v| v > 0.0 && v.is_finite()));
+    assert!(
+        err < 1e-6,
+        "estimate corrupted by rejected samples: {err:e}"
+    );
+    assert!(est
+        .excitation_level()
+        .is_some_and(|v| v > 0.0 && v.is_finite()));
 }
 
 #[test]
 fn f32_estimator_rejects_the_same_faults() {
-    let mut est = Adaptive2::<f32>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
-    run_with_faults(&mut est, 5.0, |k| (k % 7919 == 0 && k > 0).then_some(f64::NAN));
+    let mut est =
+        Adaptive2::<f32>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
+    run_with_faults(&mut est, 5.0, |k| {
+        (k % 7919 == 0 && k > 0).then_some(f64::NAN)
+    });
     assert_eq!(est.health().rejected, 6);
     assert!(paper_error(&est) < 1e-4);
 }
@@ -102,7 +111,8 @@ fn reset_restores_the_initial_state_exactly() {
 #[test]
 fn no_excitation_means_no_update_and_no_garbage() {
     // u = 0, y = 0 forever: P stays zero; Θ must stay at its initial value.
-    let mut est = Adaptive2::<f32>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
+    let mut est =
+        Adaptive2::<f32>::new(&paper_filter(), &AdaptiveConfig::default()).expect("valid");
     for _ in 0..20_000 {
         est.step(0.0, 0.0);
     }

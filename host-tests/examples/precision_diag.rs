@@ -1,3 +1,8 @@
+//! Diagnostic behind docs/NUMERICS.md (row 5–6): on random plant #3 (a weak
+//! high mode, cond(P) ~ 1e8) compare the `f32` adaptive law fed with
+//! (a) the `f64` regressor split into double words and (b) its own `f32`
+//! filter bank, against the `f64` law.
+//! `cargo run --release -p host-tests --example precision_diag`
 use beamest::estimator::*;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::*;
