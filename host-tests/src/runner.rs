@@ -230,6 +230,8 @@ pub struct RunReport {
     pub rejected_samples: u64,
     /// Law updates skipped (singular step).
     pub skipped_updates: u64,
+    /// The estimator's state integrity check at the end of the run.
+    pub state_ok: bool,
 }
 
 /// One telemetry-rate sample handed to an observer.
@@ -518,5 +520,6 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         max_error_after_1s: max_after_1s,
         rejected_samples: health.rejected,
         skipped_updates: health.skipped,
+        state_ok: health.state_ok,
     })
 }

@@ -114,6 +114,7 @@ fn f32_holds_1e3_for_one_hour_with_a_meaningful_excitation_monitor() {
         .chain(r32.estimate.zeta.iter())
         .all(|v| v.is_finite()));
     assert_eq!(r32.skipped_updates, 0);
+    assert!(r32.state_ok, "state integrity check failed after an hour");
     // The excitation monitor (Lemma 1) agrees with the f64 estimator's.
     let r64 = simulate(&base);
     let (e32, e64) = (

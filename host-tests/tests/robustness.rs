@@ -72,6 +72,7 @@ fn nan_inf_and_absurd_samples_are_rejected_without_corrupting_the_estimate() {
     assert_eq!(statuses[70_000 + q], StepStatus::Frozen);
     assert_eq!(statuses[70_000 + q + 1], StepStatus::Updated);
     let h = est.health();
+    assert!(h.state_ok);
     assert_eq!(h.rejected, 13);
     assert_eq!(h.samples, 100_000);
     let err = paper_error(&est);

@@ -243,23 +243,6 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         }
         w
     }
-
-    /// True if every stored quantity is finite and the diagonals of P and R
-    /// are non-negative — a cheap integrity check for telemetry.
-    pub fn is_healthy(&self) -> bool {
-        let mut idx = 0;
-        for i in 0..NP {
-            let (pd, rd) = (self.p.sum.hi[idx], self.r.sum.hi[idx]);
-            if !(pd >= T::ZERO && rd > T::ZERO) {
-                return false;
-            }
-            idx += NP - i;
-        }
-        self.theta.is_finite()
-            && self.p.sum.is_finite()
-            && self.r.sum.is_finite()
-            && self.q.is_finite()
-    }
 }
 
 impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw<T, NP, NS> {
@@ -401,5 +384,22 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
 
     fn information(&self) -> Option<[[T; NP]; NP]> {
         Some(self.p())
+    }
+
+    /// Every stored word finite, diagonals of P non-negative and of R
+    /// positive.
+    fn is_healthy(&self) -> bool {
+        let mut idx = 0;
+        for i in 0..NP {
+            let (pd, rd) = (self.p.sum.hi[idx], self.r.sum.hi[idx]);
+            if !(pd >= T::ZERO && rd > T::ZERO) {
+                return false;
+            }
+            idx += NP - i;
+        }
+        self.theta.is_finite()
+            && self.p.sum.is_finite()
+            && self.r.sum.is_finite()
+            && self.q.is_finite()
     }
 }

@@ -83,7 +83,7 @@ impl From<FilterConfigError> for ConfigError {
 }
 
 /// Counters describing how an estimator has been fed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Health {
     /// Samples pushed.
     pub samples: u64,
@@ -91,6 +91,10 @@ pub struct Health {
     pub rejected: u64,
     /// Law updates that failed (Θ held).
     pub skipped: u64,
+    /// False if the law's state has degraded (a non-finite word, or a
+    /// negative diagonal in P or R). Never expected; checked when
+    /// [`Estimator::health`] is called, so call it at the telemetry rate.
+    pub state_ok: bool,
 }
 
 /// An update law acting on scaled regressors (one per paper equation).
@@ -108,6 +112,11 @@ pub trait UpdateLaw<T: Real, const NP: usize>: Sized {
     /// The law's information matrix P (eq. 33) if it keeps one; its smallest
     /// eigenvalue is the excitation monitor of Lemma 1.
     fn information(&self) -> Option<[[T; NP]; NP]>;
+    /// Cheap integrity check of the law's state (finite, definite
+    /// diagonals); laws without matrices only check Θ.
+    fn is_healthy(&self) -> bool {
+        self.theta_scaled().iter().all(|t| t.is_finite())
+    }
 }
 
 /// The common interface of every estimator: feed samples, read Θ.
@@ -250,7 +259,21 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn health(&self) -> Health {
-        self.health
+        Health {
+            state_ok: self.law.is_healthy(),
+            ..self.health
+        }
+    }
+}
+
+impl Default for Health {
+    fn default() -> Self {
+        Self {
+            samples: 0,
+            rejected: 0,
+            skipped: 0,
+            state_ok: true,
+        }
     }
 }
 
