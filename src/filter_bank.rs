@@ -218,6 +218,16 @@ impl<const NP: usize> Scaling<NP> {
         out
     }
 
+    /// A diagonal gain given in physical units (H, Γ1, Γ2 of eqs. 37, 47,
+    /// 48) in scaled coordinates: G_s = E⁻¹·G·E⁻¹, i.e. g_j/E_j².
+    pub fn gain_to_scaled(&self, gain_physical: &[f64; NP]) -> [f64; NP] {
+        let mut g = [0.0; NP];
+        for j in 0..NP {
+            g[j] = gain_physical[j] / (self.e[j] * self.e[j]);
+        }
+        g
+    }
+
     /// Θ → θ_s.
     pub fn to_scaled<T: Real>(&self, theta: &[T; NP]) -> [T; NP] {
         let mut out = [T::ZERO; NP];

@@ -50,7 +50,7 @@
 //!   excitation at all and R decayed to zero), θ is held and the step
 //!   reports [`LawError::Singular`].
 
-use super::{positive, ConfigError, LawError, UpdateLaw};
+use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, cholesky_solve_floored};
@@ -97,10 +97,7 @@ impl<const NP: usize> AdaptiveConfig<NP> {
     /// H(0) = `h0_physical` (for two modes, 1e22·diag(1, 1, 10, 10, 10, 10, 10)).
     /// R_s(0) = E·H(0)⁻¹·E with E from [`Scaling`].
     pub fn paper(scaling: &Scaling<NP>, h0_physical: &[f64; NP]) -> Self {
-        let mut r0_diag = [0.0; NP];
-        for j in 0..NP {
-            r0_diag[j] = scaling.e[j] * scaling.e[j] / h0_physical[j];
-        }
+        let r0_diag = scaling.gain_to_scaled(h0_physical).map(|h| 1.0 / h);
         Self {
             gain: 80.0,
             forgetting_p: 0.01,
@@ -259,16 +256,10 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         if cfg.theta_update_every == 0 {
             return Err(ConfigError::Gain);
         }
-        let mut r0_diag = [T::ZERO; NP];
-        let mut theta0 = [T::ZERO; NP];
-        for j in 0..NP {
-            positive(cfg.r0_diag[j])?;
-            if !cfg.theta0[j].is_finite() {
-                return Err(ConfigError::Gain);
-            }
-            r0_diag[j] = T::from_f64(cfg.r0_diag[j]);
-            theta0[j] = T::from_f64(cfg.theta0[j]);
-        }
+        all_positive(&cfg.r0_diag)?;
+        all_finite_f64(&cfg.theta0)?;
+        let r0_diag = cfg.r0_diag.map(T::from_f64);
+        let theta0 = cfg.theta0.map(T::from_f64);
         let decay_p = T::from_f64(libm::exp(-cfg.forgetting_p * ts_s));
         let decay_h = T::from_f64(libm::exp(-cfg.forgetting_h * ts_s));
         let mut law = Self {

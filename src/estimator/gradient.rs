@@ -8,7 +8,9 @@
 //! violates by orders of magnitude in places). Γ1 is diagonal, as in the
 //! paper.
 
-use super::{one_minus_exp_over_x, positive, ConfigError, LawError, UpdateLaw};
+use super::{
+    all_finite_f64, all_positive, one_minus_exp_over_x, positive, ConfigError, LawError, UpdateLaw,
+};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, dot};
 use crate::scalar::Real;
@@ -36,12 +38,8 @@ impl<const NP: usize> GradientConfig<NP> {
     /// Map a physical diagonal Γ1 (the paper's) to scaled coordinates:
     /// Γ1,s = E⁻¹Γ1E⁻¹.
     pub fn from_physical(scaling: &Scaling<NP>, gain_physical: &[f64; NP]) -> Self {
-        let mut gain_diag = [0.0; NP];
-        for j in 0..NP {
-            gain_diag[j] = gain_physical[j] / (scaling.e[j] * scaling.e[j]);
-        }
         Self {
-            gain_diag,
+            gain_diag: scaling.gain_to_scaled(gain_physical),
             theta0: [0.0; NP],
         }
     }
@@ -64,14 +62,9 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for GradientLaw<T, NP> {
 
     fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError> {
         positive(ts_s)?;
-        let mut gain = [T::ZERO; NP];
-        for j in 0..NP {
-            positive(cfg.gain_diag[j])?;
-            gain[j] = T::from_f64(cfg.gain_diag[j]);
-        }
-        if !cfg.theta0.iter().all(|t| t.is_finite()) {
-            return Err(ConfigError::Gain);
-        }
+        all_positive(&cfg.gain_diag)?;
+        all_finite_f64(&cfg.theta0)?;
+        let gain = cfg.gain_diag.map(T::from_f64);
         let mut law = Self {
             cfg: *cfg,
             gain,

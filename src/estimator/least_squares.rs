@@ -10,7 +10,7 @@
 //! it is the honest version of the baseline. There is no forgetting, as in
 //! the paper.
 
-use super::{positive, ConfigError, LawError, UpdateLaw};
+use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, dot, mat_vec};
 use crate::scalar::Real;
@@ -37,12 +37,8 @@ impl<const NP: usize> Default for LeastSquaresConfig<NP> {
 impl<const NP: usize> LeastSquaresConfig<NP> {
     /// Map a physical diagonal Γ2(0) to scaled coordinates: Γ2,s = E⁻¹Γ2E⁻¹.
     pub fn from_physical(scaling: &Scaling<NP>, gain0_physical: &[f64; NP]) -> Self {
-        let mut gain0_diag = [0.0; NP];
-        for j in 0..NP {
-            gain0_diag[j] = gain0_physical[j] / (scaling.e[j] * scaling.e[j]);
-        }
         Self {
-            gain0_diag,
+            gain0_diag: scaling.gain_to_scaled(gain0_physical),
             theta0: [0.0; NP],
         }
     }
@@ -65,12 +61,8 @@ impl<T: Real, const NP: usize> UpdateLaw<T, NP> for LeastSquaresLaw<T, NP> {
 
     fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError> {
         positive(ts_s)?;
-        for &g in &cfg.gain0_diag {
-            positive(g)?;
-        }
-        if !cfg.theta0.iter().all(|t| t.is_finite()) {
-            return Err(ConfigError::Gain);
-        }
+        all_positive(&cfg.gain0_diag)?;
+        all_finite_f64(&cfg.theta0)?;
         let mut law = Self {
             cfg: *cfg,
             ts: T::from_f64(ts_s),

@@ -328,3 +328,17 @@ pub(crate) fn positive(x: f64) -> Result<(), ConfigError> {
         Err(ConfigError::Gain)
     }
 }
+
+/// Check every entry of a gain diagonal is positive and finite.
+pub(crate) fn all_positive(xs: &[f64]) -> Result<(), ConfigError> {
+    xs.iter().try_for_each(|&x| positive(x))
+}
+
+/// Check every entry (e.g. of an initial estimate) is finite.
+pub(crate) fn all_finite_f64(xs: &[f64]) -> Result<(), ConfigError> {
+    if xs.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(ConfigError::Gain)
+    }
+}
