@@ -518,8 +518,8 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         time_to_0p1pct_s: s01.since,
         excitation_min_eig: est.excitation_level().map(|v| v.to_f64()),
         max_error_after_1s: max_after_1s,
-        rejected_samples: health.rejected,
-        skipped_updates: health.skipped,
+        rejected_samples: health.rejected.into(),
+        skipped_updates: health.skipped.into(),
         state_ok: health.state_ok,
     })
 }

@@ -126,3 +126,11 @@ fn f32_holds_1e3_for_one_hour_with_a_meaningful_excitation_monitor() {
         "λmin(P): f32 {e32:e} vs f64 {e64:e}"
     );
 }
+
+#[test]
+fn two_mode_f32_adaptive_state_fits_in_one_kib() {
+    // Issue 3's memory target for Cortex-M4F class MCUs; the whole
+    // estimator (filter bank, law, screening) counts.
+    let bytes = std::mem::size_of::<beamest::estimator::Adaptive2<f32>>();
+    assert!(bytes <= 1024, "Adaptive2<f32> is {bytes} B");
+}

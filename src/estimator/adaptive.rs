@@ -34,7 +34,8 @@
 //!   at Ts = 0.1 ms) with step K·Ts, while P, Q, R are updated every sample.
 //!   Backward Euler stays stable at any step and keeps the fixed point, so
 //!   accuracy is unchanged (measured: identical ω, ζ errors for K = 1 and
-//!   10 on the paper's plant) and the per-sample cost drops ~2.5×.
+//!   10 on the paper's plant) and the per-sample cost drops ~3×
+//!   (BENCHMARKS.md).
 //! * **Precision where the fixed point lives.** θ is determined by W = 0;
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
@@ -77,7 +78,7 @@ pub struct AdaptiveConfig<const NP: usize> {
 impl<const NP: usize> Default for AdaptiveConfig<NP> {
     /// Defaults for scaled coordinates (measured in BENCHMARKS.md): Γ = 1e4,
     /// θ stepped every 10 samples (1 kHz at Ts = 0.1 ms; same accuracy,
-    /// 2.5× cheaper per sample than every sample),
+    /// ~3× cheaper per sample than every sample),
     /// l = γ = 0.05, R(0) = 1e-9·I, θ(0) = 0.
     fn default() -> Self {
         Self {

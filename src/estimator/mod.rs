@@ -87,10 +87,10 @@ impl From<FilterConfigError> for ConfigError {
 pub struct Health {
     /// Samples pushed.
     pub samples: u64,
-    /// Samples rejected as non-finite or out of range.
-    pub rejected: u64,
-    /// Law updates that failed (Θ held).
-    pub skipped: u64,
+    /// Samples rejected as non-finite or out of range (saturating).
+    pub rejected: u32,
+    /// Law updates that failed, Θ held (saturating).
+    pub skipped: u32,
     /// False if the law's state has degraded (a non-finite word, or a
     /// negative diagonal in P or R). Never expected; checked when
     /// [`Estimator::health`] is called, so call it at the telemetry rate.
@@ -154,7 +154,9 @@ pub struct Identifier<T, L, const D: usize, const NP: usize> {
     last_y: T,
     quarantine: u32,
     quarantine_len: u32,
-    health: Health,
+    samples: u64,
+    rejected: u32,
+    skipped: u32,
 }
 
 impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T, L, D, NP> {
@@ -173,7 +175,9 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
             last_y: T::ZERO,
             quarantine: 0,
             quarantine_len: quarantine_samples(filter),
-            health: Health::default(),
+            samples: 0,
+            rejected: 0,
+            skipped: 0,
         })
     }
 
@@ -198,7 +202,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.health.samples += 1;
+        self.samples = self.samples.wrapping_add(1);
         let good =
             u.is_finite() && y.is_finite() && u.abs() <= self.u_limit && y.abs() <= self.y_limit;
         let (u, y) = if good {
@@ -206,7 +210,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
             self.last_y = y;
             (u, y)
         } else {
-            self.health.rejected += 1;
+            self.rejected = self.rejected.saturating_add(1);
             self.quarantine = self.quarantine_len;
             (self.last_u, self.last_y)
         };
@@ -221,7 +225,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         match self.law.update(&reg) {
             Ok(()) => StepStatus::Updated,
             Err(_) => {
-                self.health.skipped += 1;
+                self.skipped = self.skipped.saturating_add(1);
                 StepStatus::Skipped
             }
         }
@@ -251,7 +255,9 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.last_u = T::ZERO;
         self.last_y = T::ZERO;
         self.quarantine = 0;
-        self.health = Health::default();
+        self.samples = 0;
+        self.rejected = 0;
+        self.skipped = 0;
     }
 
     fn excitation_level(&self) -> Option<T> {
@@ -260,8 +266,10 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
 
     fn health(&self) -> Health {
         Health {
+            samples: self.samples,
+            rejected: self.rejected,
+            skipped: self.skipped,
             state_ok: self.law.is_healthy(),
-            ..self.health
         }
     }
 }
