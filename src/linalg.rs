@@ -110,10 +110,12 @@ fn substitute<T: Real, const N: usize>(s: &[[T; N]; N], b: &[T; N]) -> [T; N] {
 /// or contains non-finite values. `s` is overwritten by the factors.
 ///
 /// # Design
-/// LDLᵀ needs one division per column and no square root, and the rows are
-/// processed as contiguous dot products: about 3× faster than the textbook
-/// Cholesky–Crout loop on this 7×7 per-sample solve, whose cost is dominated
-/// by the latency of the divide/square-root chain.
+/// LDLᵀ needs one division per column and no square root, and the
+/// factorization is right-looking (outer-product form), so each column's
+/// update is independent multiply-adds rather than long dot-product chains.
+/// On the benchmark host a 7×7 solve measured 273 ns against 314 ns for the
+/// textbook Cholesky–Crout loop; the remaining cost is the serial
+/// divide/update chain, which is why the θ step runs every K samples.
 pub fn cholesky_solve_floored<T: Real, const N: usize>(
     s: &mut [[T; N]; N],
     b: &[T; N],
