@@ -161,6 +161,12 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     /// Q/scale of P (P and Q share the forgetting factor l).
     q: CompensatedArray<T, NP>,
     r: DecayingSum<T, NS>,
+    /// γ = l: then R = e^{−lt}R(0) + P exactly, so R is not accumulated but
+    /// formed from P̃ and `r0_weight`·R(0) (saves a third of the per-sample
+    /// work; the default gains tie γ to l).
+    tied: bool,
+    /// e^{−lt}/g_P: halves whenever P̃ is halved (tied case only).
+    r0_weight: T,
     /// θ_s, double-word when `T::COMPENSATED`: for an ill-conditioned P
     /// (cond ≈ 1e8 on a plant with a weak high mode) the rounding of θ to
     /// `f32` in the strong directions would otherwise drive a 1e-2 error
@@ -194,7 +200,27 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
 
     /// R = H⁻¹ (eq. 39), scaled, rounded to working precision.
     pub fn h_inverse(&self) -> [[T; NP]; NP] {
-        unpack(&self.r.sum, self.r.scale)
+        if self.tied {
+            let mut r = self.p();
+            for i in 0..NP {
+                r[i][i] += self.p.scale * self.r0_weight * self.r0_diag[i];
+            }
+            r
+        } else {
+            unpack(&self.r.sum, self.r.scale)
+        }
+    }
+
+    /// R/g_P (g_P: P's lazy scale), entry `idx` of the packed upper
+    /// triangle, which is diagonal entry `i` when `diag` is `Some(i)`.
+    #[inline(always)]
+    fn r_over_p_scale(&self, idx: usize, diag: Option<usize>) -> T {
+        if self.tied {
+            let d = diag.map_or(T::ZERO, |i| self.r0_weight * self.r0_diag[i]);
+            self.p.sum.hi[idx] + d
+        } else {
+            self.r.scale / self.p.scale * self.r.sum.hi[idx]
+        }
     }
 
     /// Auxiliary vector Q (eq. 33), scaled.
@@ -273,6 +299,8 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             p: DecayingSum::new(decay_p),
             q: CompensatedArray::default(),
             r: DecayingSum::new(decay_h),
+            tied: cfg.forgetting_h == cfg.forgetting_p,
+            r0_weight: T::ONE,
             theta: CompensatedArray::default(),
         };
         law.reset();
@@ -286,23 +314,20 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         let (inv_p, halved) = self.p.tick();
         if halved {
             self.q.halve();
+            self.r0_weight *= T::from_f64(0.5);
         }
         let wp = self.ts * inv_p;
-        let wr = self.ts * self.r.tick().0;
         let lo = &reg.phi_lo;
         let mut idx = 0;
         for i in 0..NP {
-            let ri = wr * phi[i];
             if T::COMPENSATED {
                 // P decides the fixed point: form w·φ_iφ_j from the
-                // double-word φ without rounding (R only sets the speed).
-                // a = w·φ_i once per row as a double word.
+                // double-word φ without rounding. a = w·φ_i once per row.
                 let (ah, al) = two_prod(wp, phi[i]);
                 let al = al + wp * lo[i];
                 for j in i..NP {
                     let (p, e) = product_dd(ah, al, phi[j], lo[j]);
                     self.p.sum.add_dw(idx, p, e);
-                    self.r.sum.add(idx, ri * phi[j]);
                     idx += 1;
                 }
                 let (p, e) = product_dd(ah, al, reg.y, T::ZERO);
@@ -311,10 +336,21 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
                 let pi = wp * phi[i];
                 for j in i..NP {
                     self.p.sum.add(idx, pi * phi[j]);
-                    self.r.sum.add(idx, ri * phi[j]);
                     idx += 1;
                 }
                 self.q.add(i, pi * reg.y);
+            }
+        }
+        if !self.tied {
+            // R only sets the speed: working-precision increments suffice.
+            let wr = self.ts * self.r.tick().0;
+            let mut idx = 0;
+            for i in 0..NP {
+                let ri = wr * phi[i];
+                for j in i..NP {
+                    self.r.sum.add(idx, ri * phi[j]);
+                    idx += 1;
+                }
             }
         }
         self.pending += 1;
@@ -324,12 +360,12 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         self.pending = 0;
         // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
         let w = self.w_unscaled();
-        let ratio = self.r.scale / self.p.scale;
         let mut s = [[T::ZERO; NP]; NP];
         let mut idx = 0;
         for i in 0..NP {
             for j in i..NP {
-                let v = ratio * self.r.sum.hi[idx] + self.step_gain * self.p.sum.hi[idx];
+                let diag = if i == j { Some(i) } else { None };
+                let v = self.r_over_p_scale(idx, diag) + self.step_gain * self.p.sum.hi[idx];
                 s[i][j] = v;
                 s[j][i] = v;
                 idx += 1;
@@ -362,6 +398,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         self.p = DecayingSum::new(self.p.decay);
         self.q = CompensatedArray::default();
         self.r = DecayingSum::new(self.r.decay);
+        self.r0_weight = T::ONE;
         let mut idx = 0;
         for i in 0..NP {
             self.r.sum.set(idx, self.r0_diag[i]);
@@ -383,7 +420,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
     fn is_healthy(&self) -> bool {
         let mut idx = 0;
         for i in 0..NP {
-            let (pd, rd) = (self.p.sum.hi[idx], self.r.sum.hi[idx]);
+            let (pd, rd) = (self.p.sum.hi[idx], self.r_over_p_scale(idx, Some(i)));
             if !(pd >= T::ZERO && rd > T::ZERO) {
                 return false;
             }
@@ -393,5 +430,114 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             && self.p.sum.is_finite()
             && self.r.sum.is_finite()
             && self.q.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimator::{Adaptive2, Estimator};
+    use crate::excitation::SquareWave;
+    use crate::filter_bank::{FilterConfig, SignalScales};
+    use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+    use crate::plant::ModalPlant;
+
+    fn run(cfg: &AdaptiveConfig<7>, seconds: f64) -> Adaptive2<f64> {
+        let filter = FilterConfig {
+            scales: SignalScales {
+                u_scale: 0.1,
+                y_scale: 1.2e-3,
+            },
+            ..FilterConfig::default()
+        };
+        let mut est = Adaptive2::<f64>::new(&filter, cfg).unwrap();
+        let mut plant =
+            ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+        let mut u = SquareWave::<f64>::paper();
+        for _ in 0..(seconds / 1e-4) as usize {
+            let uk = u.next_sample();
+            est.step(uk, plant.sample(uk));
+        }
+        est
+    }
+
+    #[test]
+    fn tied_forgetting_matches_separately_accumulated_r() {
+        // γ = l takes the shortcut R = e^{−lt}R(0) + P; a γ one part in
+        // 1e12 away accumulates R separately. Both must agree.
+        let tied = AdaptiveConfig::<7>::default();
+        let untied = AdaptiveConfig {
+            forgetting_h: tied.forgetting_p * (1.0 + 1e-12),
+            ..tied
+        };
+        // 30 s crosses a halving of the lazy scale (every ln2/l ≈ 13.9 s).
+        let (a, b) = (run(&tied, 30.0), run(&untied, 30.0));
+        assert!(a.law().tied && !b.law().tied);
+        let (ra, rb) = (a.law().h_inverse(), b.law().h_inverse());
+        for i in 0..7 {
+            for j in 0..7 {
+                assert!((ra[i][j] - rb[i][j]).abs() <= 1e-9 * ra[i][i].abs().max(rb[j][j].abs()));
+            }
+        }
+        let (ta, tb) = (a.theta(), b.theta());
+        for i in 0..7 {
+            assert!(
+                (ta[i] - tb[i]).abs() <= 1e-9 * ta[i].abs(),
+                "θ{i}: {} vs {}",
+                ta[i],
+                tb[i]
+            );
+        }
+    }
+
+    #[test]
+    fn implicit_step_is_stable_where_the_explicit_one_is_not() {
+        // Ts·Γ·λmax(HP) ≫ 2 (huge Γ, tiny R(0)): an explicit Euler step would
+        // diverge; the implicit one converges to the same fixed point.
+        let cfg = AdaptiveConfig::<7> {
+            gain: 1e9,
+            r0_diag: [1e-15; 7],
+            theta_update_every: 1,
+            ..AdaptiveConfig::default()
+        };
+        let est = run(&cfg, 2.0);
+        let truth = run(&AdaptiveConfig::default(), 2.0).theta();
+        let th = est.theta();
+        for i in 0..7 {
+            assert!((th[i] - truth[i]).abs() <= 1e-6 * truth[i].abs(), "θ{i}");
+        }
+        assert_eq!(est.health().skipped, 0);
+    }
+
+    #[test]
+    fn rejects_invalid_gains() {
+        let bad = [
+            AdaptiveConfig::<7> {
+                gain: 0.0,
+                ..AdaptiveConfig::default()
+            },
+            AdaptiveConfig::<7> {
+                forgetting_p: f64::NAN,
+                ..AdaptiveConfig::default()
+            },
+            AdaptiveConfig::<7> {
+                theta_update_every: 0,
+                ..AdaptiveConfig::default()
+            },
+            AdaptiveConfig::<7> {
+                r0_diag: [-1.0; 7],
+                ..AdaptiveConfig::default()
+            },
+        ];
+        for cfg in &bad {
+            assert_eq!(
+                AdaptiveLaw::<f32, 7, 28>::new(cfg, 1e-4).err(),
+                Some(ConfigError::Gain)
+            );
+        }
+        assert_eq!(
+            AdaptiveLaw::<f32, 7, 27>::new(&AdaptiveConfig::default(), 1e-4).err(),
+            Some(ConfigError::Dimensions)
+        );
     }
 }
