@@ -65,9 +65,9 @@ impl<T: Real> TransferFunction<T> {
         2 * self.modes
     }
 
-    /// Number of numerator coefficients, 2n − 1.
+    /// Number of numerator coefficients, 2n − 1 (0 for an empty model).
     pub fn numerator_len(&self) -> usize {
-        2 * self.modes - 1
+        (2 * self.modes).saturating_sub(1)
     }
 
     /// Build Θ of eq. 29 for a filter Λ(s) = (s+λ)^{2n}:
@@ -75,7 +75,7 @@ impl<T: Real> TransferFunction<T> {
     /// `theta` must have length 4n − 1; returns `None` otherwise.
     pub fn to_theta(&self, lambda: f64, theta: &mut [T]) -> Option<()> {
         let d = self.order();
-        if theta.len() != 2 * d - 1 {
+        if d == 0 || d > MAX_ORDER || theta.len() != 2 * d - 1 {
             return None;
         }
         let k = lambda_poly(d, lambda);
@@ -110,9 +110,13 @@ impl<T: Real> TransferFunction<T> {
         Some(tf)
     }
 
-    /// Frequency response G(jω).
+    /// Frequency response G(jω) as (re, im); NaN for an empty or invalid
+    /// model.
     pub fn freq_response(&self, omega_rad_s: f64) -> (f64, f64) {
         let d = self.order();
+        if d == 0 || d > MAX_ORDER {
+            return (f64::NAN, f64::NAN);
+        }
         // Evaluate with Horner in complex arithmetic (f64).
         let (mut ar, mut ai) = (1.0f64, 0.0f64);
         for j in 0..d {
@@ -196,8 +200,17 @@ impl<T: Real> ModalParams<T> {
     }
 
     /// Transfer function by eq. 26 generalised to n modes.
+    /// A `modes` outside 1..=[`MAX_MODES`] (the fields are public) is
+    /// clamped; 0 gives the empty model.
     pub fn transfer_function(&self) -> TransferFunction<T> {
-        let n = self.modes;
+        let n = self.modes.min(MAX_MODES);
+        if n == 0 {
+            return TransferFunction {
+                modes: 0,
+                a: [T::ZERO; MAX_ORDER],
+                b: [T::ZERO; MAX_ORDER],
+            };
+        }
         let d = 2 * n;
         // Denominator: product of all mode polynomials.
         let mut den = [T::ZERO; MAX_ORDER + 1];
@@ -314,6 +327,19 @@ mod tests {
             assert!((back.a[i] - tf.a[i]).abs() <= 1e-9 * tf.a[i].abs());
         }
         assert!(TransferFunction::<f64>::from_theta(&th[..6], 100.0).is_none());
+    }
+
+    #[test]
+    fn degenerate_models_do_not_panic() {
+        let mut m = ModalParams::new(&[10.0], &[0.1], &[1.0], None).unwrap();
+        m.modes = 0;
+        let tf = m.transfer_function();
+        assert_eq!(tf.modes, 0);
+        assert_eq!(tf.numerator_len(), 0);
+        assert!(tf.freq_response(1.0).0.is_nan());
+        assert!(tf.to_theta(100.0, &mut [0.0; 3]).is_none());
+        m.modes = 7;
+        assert_eq!(m.transfer_function().modes, MAX_MODES);
     }
 
     #[test]
