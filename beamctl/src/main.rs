@@ -54,7 +54,8 @@ Run an estimator against the simulated beam and compare its estimates with the t
 The estimator sees only what the firmware would: the held input \
 u = 0.1·square(7 Hz) and the sampled output y (plus optional white noise) at \
 Ts = 0.1 ms, through its own filter bank Λ(s) = (s+λ)^(2N). Modal parameters are \
-recovered every 10 samples (1 kHz) from the estimated transfer function.
+recovered every 10 samples (1 kHz) from the estimated transfer function; runs longer \
+than 60 s without --csv recover them every 100 samples (100 Hz).
 
 Plant: with none of --omega/--zeta/--bbar/--weights, the default plant for N modes \
 is used: N = 2 is the paper's simulation plant (Table III ω, ζ with eq. 46's \
