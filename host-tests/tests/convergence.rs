@@ -62,25 +62,25 @@ fn paper_gains_adaptive_beats_both_baselines_on_every_parameter() {
         .expect("adaptive converges with the paper's gains");
     assert!(t <= 5.0, "0.1% at {t} s");
     for baseline in &reports[1..] {
-        for i in 0..2 {
-            assert!(
-                adaptive.rel_error.omega[i] < baseline.rel_error.omega[i]
-                    || baseline.rel_error.omega[i].is_nan(),
-                "omega{}: adaptive {:e} vs {:?} {:e}",
-                i + 1,
-                adaptive.rel_error.omega[i],
-                baseline.estimator,
-                baseline.rel_error.omega[i]
-            );
-            assert!(
-                adaptive.rel_error.zeta[i] < baseline.rel_error.zeta[i]
-                    || baseline.rel_error.zeta[i].is_nan(),
-                "zeta{}: adaptive {:e} vs {:?} {:e}",
-                i + 1,
-                adaptive.rel_error.zeta[i],
-                baseline.estimator,
-                baseline.rel_error.zeta[i]
-            );
+        let pairs = [
+            (
+                "omega",
+                &adaptive.rel_error.omega,
+                &baseline.rel_error.omega,
+            ),
+            ("zeta", &adaptive.rel_error.zeta, &baseline.rel_error.zeta),
+        ];
+        for (name, ours, theirs) in pairs {
+            for i in 0..2 {
+                assert!(
+                    ours[i] < theirs[i] || theirs[i].is_nan(),
+                    "{name}{}: adaptive {:e} vs {:?} {:e}",
+                    i + 1,
+                    ours[i],
+                    baseline.estimator,
+                    theirs[i]
+                );
+            }
         }
     }
 }
