@@ -85,14 +85,6 @@ impl<T: Real> Compensated<T> {
         }
     }
 
-    /// self *= 1/2 (exact in binary floating point, barring underflow).
-    #[inline(always)]
-    pub fn halve(&mut self) {
-        let half = T::from_f64(0.5);
-        self.hi *= half;
-        self.lo *= half;
-    }
-
     /// The value rounded to one word.
     #[inline(always)]
     pub fn value(self) -> T {
@@ -214,19 +206,6 @@ impl<T: Real> Dot2<T> {
         }
     }
 
-    /// Accumulate the product (hi + lo)·y of a double-word `x` and a word `y`.
-    #[inline(always)]
-    pub fn add_product(&mut self, x: Compensated<T>, y: T) {
-        if T::COMPENSATED {
-            let (h, r) = two_prod(x.hi, y);
-            let (p, q) = two_sum(self.p, h);
-            self.p = p;
-            self.s += q + r + x.lo * y;
-        } else {
-            self.p += x.hi * y;
-        }
-    }
-
     /// Accumulate the product of two double words (the lo·lo term is below
     /// the working precision squared and dropped).
     #[inline(always)]
@@ -301,11 +280,11 @@ mod tests {
         let y = [1e4f32 + 1.0, 1.0, 1e4];
         let mut d = Dot2::new();
         for i in 0..3 {
-            d.add_product(Compensated::new(x[i]), y[i]);
+            d.add_product_dd(Compensated::new(x[i]), Compensated::new(y[i]));
         }
         assert_eq!(d.value(), 1e4 + 1.0);
         let mut d64 = Dot2::<f64>::new();
-        d64.add_product(Compensated::new(2.0), 3.0);
+        d64.add_product_dd(Compensated::new(2.0), Compensated::new(3.0));
         d64.add_value(Compensated::new(1.0));
         assert_eq!(d64.value(), 7.0);
     }

@@ -9,9 +9,10 @@
 //! * [`expm`] (matrix exponential) is only used at start-up to discretize the
 //!   filter bank and the plant, so it runs in `f64` on a runtime-sized block
 //!   of a fixed maximum size ([`EXPM_MAX`]).
-//! * [`cholesky_solve`] is the per-sample solver of the implicit parameter
-//!   step (see `estimator::adaptive`). It factors in place and rejects a
-//!   non-positive pivot instead of producing NaN.
+//! * [`ldlt_solve_floored`] solves the implicit parameter step (see
+//!   `estimator::adaptive`) once per θ step: a root-free LDLᵀ whose pivots
+//!   are floored, so a rounding-level loss of definiteness cannot produce
+//!   NaN or stop the law.
 //! * [`symmetric_eigenvalues`] (cyclic Jacobi) backs the excitation monitor of
 //!   Lemma 1 (λmin(P)); it is run at the telemetry rate, not per sample.
 
@@ -45,61 +46,9 @@ pub fn dot<T: Real, const N: usize>(x: &[T; N], y: &[T; N]) -> T {
     s
 }
 
-/// A ← decay·A + scale·x·xᵀ, keeping A exactly symmetric (the upper triangle
-/// is computed and mirrored).
-#[inline(always)]
-pub fn decay_add_outer<T: Real, const N: usize>(
-    a: &mut [[T; N]; N],
-    decay: T,
-    scale: T,
-    x: &[T; N],
-) {
-    for i in 0..N {
-        let sx = scale * x[i];
-        for j in i..N {
-            let v = decay * a[i][j] + sx * x[j];
-            a[i][j] = v;
-            a[j][i] = v;
-        }
-    }
-}
-
 /// True if every element is finite.
 pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
     x.iter().all(|v| v.is_finite())
-}
-
-/// Solve S·x = b for symmetric positive-definite S, factoring S in place
-/// (its lower triangle becomes the Cholesky factor L, S = L·Lᵀ). On error the
-/// contents of `s` are unspecified and `b` is untouched.
-pub fn cholesky_solve<T: Real, const N: usize>(
-    s: &mut [[T; N]; N],
-    b: &[T; N],
-) -> Result<[T; N], LinalgError> {
-    cholesky_in_place(s)?;
-    Ok(substitute(s, b))
-}
-
-/// Solve L·Lᵀ·x = b given the factor in the lower triangle of `l`.
-fn substitute<T: Real, const N: usize>(s: &[[T; N]; N], b: &[T; N]) -> [T; N] {
-    // Forward substitution L·z = b.
-    let mut z = *b;
-    for i in 0..N {
-        let mut acc = z[i];
-        for k in 0..i {
-            acc -= s[i][k] * z[k];
-        }
-        z[i] = acc / s[i][i];
-    }
-    // Back substitution Lᵀ·x = z.
-    for i in (0..N).rev() {
-        let mut acc = z[i];
-        for k in i + 1..N {
-            acc -= s[k][i] * z[k];
-        }
-        z[i] = acc / s[i][i];
-    }
-    z
 }
 
 /// Solve S·x = b for symmetric S by a root-free LDLᵀ factorization in which
@@ -116,7 +65,7 @@ fn substitute<T: Real, const N: usize>(s: &[[T; N]; N], b: &[T; N]) -> [T; N] {
 /// On the benchmark host a 7×7 solve measured 273 ns against 314 ns for the
 /// textbook Cholesky–Crout loop; the remaining cost is the serial
 /// divide/update chain, which is why the θ step runs every K samples.
-pub fn cholesky_solve_floored<T: Real, const N: usize>(
+pub fn ldlt_solve_floored<T: Real, const N: usize>(
     s: &mut [[T; N]; N],
     b: &[T; N],
 ) -> Result<[T; N], LinalgError> {
@@ -179,39 +128,6 @@ pub fn cholesky_solve_floored<T: Real, const N: usize>(
     } else {
         Err(LinalgError::NotPositiveDefinite)
     }
-}
-
-/// In-place Cholesky factorization (lower triangle of `s` becomes L).
-pub fn cholesky_in_place<T: Real, const N: usize>(s: &mut [[T; N]; N]) -> Result<(), LinalgError> {
-    factor(s, T::ZERO)
-}
-
-/// Cholesky with pivots below `floor` raised to it (`floor = 0`: plain).
-fn factor<T: Real, const N: usize>(s: &mut [[T; N]; N], floor: T) -> Result<(), LinalgError> {
-    for j in 0..N {
-        let mut d = s[j][j];
-        for k in 0..j {
-            d -= s[j][k] * s[j][k];
-        }
-        if floor > T::ZERO && d < floor {
-            d = floor;
-        }
-        // `!(d > 0)` also catches NaN.
-        if !(d > T::ZERO) || !d.is_finite() {
-            return Err(LinalgError::NotPositiveDefinite);
-        }
-        let l = d.sqrt();
-        s[j][j] = l;
-        let inv = T::ONE / l;
-        for i in j + 1..N {
-            let mut acc = s[i][j];
-            for k in 0..j {
-                acc -= s[i][k] * s[j][k];
-            }
-            s[i][j] = acc * inv;
-        }
-    }
-    Ok(())
 }
 
 /// Eigenvalues of a symmetric matrix by cyclic Jacobi rotations, ascending.
@@ -427,22 +343,18 @@ mod tests {
     }
 
     #[test]
-    fn cholesky_solves_spd_system_and_rejects_indefinite() {
+    fn ldlt_solves_spd_system_and_rejects_non_finite() {
         let s0 = [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]];
         let x_true = [1.0, -2.0, 0.5];
         let b = mat_vec(&s0, &x_true);
-        let mut s = s0;
-        let x = cholesky_solve(&mut s, &b).unwrap();
+        let x = ldlt_solve_floored(&mut s0.clone(), &b).unwrap();
         for i in 0..3 {
             assert!((x[i] - x_true[i]).abs() < 1e-14);
         }
-        let mut bad = [[1.0, 2.0], [2.0, 1.0]];
-        assert_eq!(
-            cholesky_solve(&mut bad, &[1.0, 1.0]),
-            Err(LinalgError::NotPositiveDefinite)
-        );
         let mut nan = [[f64::NAN, 0.0], [0.0, 1.0]];
-        assert!(cholesky_solve(&mut nan, &[1.0, 1.0]).is_err());
+        assert!(ldlt_solve_floored(&mut nan, &[1.0, 1.0]).is_err());
+        let mut inf = [[1.0, f64::INFINITY], [f64::INFINITY, 1.0]];
+        assert!(ldlt_solve_floored(&mut inf, &[1.0, 1.0]).is_err());
     }
 
     #[test]
@@ -463,15 +375,14 @@ mod tests {
     }
 
     #[test]
-    fn floored_cholesky_regularizes_semidefinite_matrix() {
-        // Rank-one matrix: plain Cholesky fails, the floored one solves a
-        // nearby positive-definite system.
+    fn floored_ldlt_regularizes_semidefinite_matrix() {
+        // Rank-one matrix (second pivot exactly 0): the floored solver
+        // solves a nearby positive-definite system instead of failing.
         let m = [[1.0f32, 1.0], [1.0, 1.0]];
-        assert!(cholesky_solve(&mut m.clone(), &[1.0, 1.0]).is_err());
-        let x = cholesky_solve_floored(&mut m.clone(), &[1.0, 1.0]).unwrap();
+        let x = ldlt_solve_floored(&mut m.clone(), &[1.0, 1.0]).unwrap();
         assert!(x.iter().all(|v| v.is_finite()));
         assert!((x[0] + x[1] - 1.0).abs() < 1e-3, "{x:?}");
-        assert!(cholesky_solve_floored(&mut [[0.0f32; 2]; 2], &[1.0, 1.0]).is_err());
+        assert!(ldlt_solve_floored(&mut [[0.0f32; 2]; 2], &[1.0, 1.0]).is_err());
     }
 
     #[test]
@@ -483,13 +394,5 @@ mod tests {
         assert!((ev[0] - (2.0 - r2)).abs() < 1e-14);
         assert!((ev[1] - 2.0).abs() < 1e-14);
         assert!((ev[2] - (2.0 + r2)).abs() < 1e-14);
-    }
-
-    #[test]
-    fn decay_add_outer_stays_symmetric() {
-        let mut a = [[1.0f32, 0.5], [0.5, 2.0]];
-        decay_add_outer(&mut a, 0.9, 0.1, &[3.0, -1.0]);
-        assert_eq!(a[0][1], a[1][0]);
-        assert!((a[0][0] - (0.9 + 0.9)).abs() < 1e-6);
     }
 }

@@ -191,7 +191,7 @@ fn custom_plant_from_lists() {
 
 #[test]
 fn noise_and_precision_flags() {
-    let a = json(&beamctl(&[
+    let args = [
         "simulate",
         "--json",
         "--duration",
@@ -202,21 +202,11 @@ fn noise_and_precision_flags() {
         "7",
         "--precision",
         "f32",
-    ]));
+    ];
+    let a = json(&beamctl(&args));
     assert_eq!(a["precision"], "f32");
     assert_eq!(a["snr_db"], 40.0);
-    let b = json(&beamctl(&[
-        "simulate",
-        "--json",
-        "--duration",
-        "0.3",
-        "--snr-db",
-        "40",
-        "--seed",
-        "7",
-        "--precision",
-        "f32",
-    ]));
+    let b = json(&beamctl(&args));
     assert_eq!(a["estimate"], b["estimate"], "same seed, same run");
 }
 

@@ -54,7 +54,7 @@
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::filter_bank::{Regressor, Scaling};
-use crate::linalg::{all_finite, cholesky_solve_floored};
+use crate::linalg::{all_finite, ldlt_solve_floored};
 use crate::scalar::Real;
 
 /// Gains of the proposed law, in scaled coordinates.
@@ -375,7 +375,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         for i in 0..NP {
             rhs[i] = -self.step_gain * w[i];
         }
-        let delta = cholesky_solve_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
+        let delta = ldlt_solve_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
         if !all_finite(&delta) {
             return Err(LawError::NonFinite);
         }

@@ -274,17 +274,6 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 }
 
-impl Default for Health {
-    fn default() -> Self {
-        Self {
-            samples: 0,
-            rejected: 0,
-            skipped: 0,
-            state_ok: true,
-        }
-    }
-}
-
 /// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`,
 /// `NP = 4n − 1`, `NS = NP(NP+1)/2` (packed symmetric storage).
 pub type AdaptiveEstimator<T, const D: usize, const NP: usize, const NS: usize> =
