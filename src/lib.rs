@@ -12,7 +12,10 @@
 //!   excitation monitor of Lemma 1;
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`plant`] — an exact discrete simulator of the modal model (eq. 22);
-//! * [`scalar`] / [`linalg`] — the `f32`/`f64` abstraction and small matrices.
+//! * [`scalar`] — the `f32`/`f64` abstraction.
+//!
+//! Internal helpers (`linalg`: small fixed-size matrices; `compensated`:
+//! double-word arithmetic for `f32`) are crate-private.
 //!
 //! # Example
 //!
@@ -60,11 +63,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
-pub mod compensated;
+pub(crate) mod compensated;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;
-pub mod linalg;
+pub(crate) mod linalg;
 pub mod modal;
 pub mod model;
 pub mod plant;

@@ -147,7 +147,7 @@ pub fn lambda_poly(d: usize, lambda: f64) -> [f64; MAX_ORDER] {
 }
 
 /// Binomial coefficient C(n, k) as f64 (small n).
-pub fn binomial(n: usize, k: usize) -> f64 {
+pub(crate) fn binomial(n: usize, k: usize) -> f64 {
     let mut c = 1.0f64;
     for i in 0..k {
         c = c * (n - i) as f64 / (i + 1) as f64;
@@ -249,7 +249,11 @@ impl<T: Real> ModalParams<T> {
 
 /// Multiply polynomial `p` (first `len` coefficients, highest power first)
 /// by a quadratic `q` in place; returns the new length `len + 2`.
-pub fn poly_mul_quadratic<T: Real>(p: &mut [T; MAX_ORDER + 1], len: usize, q: &[T; 3]) -> usize {
+pub(crate) fn poly_mul_quadratic<T: Real>(
+    p: &mut [T; MAX_ORDER + 1],
+    len: usize,
+    q: &[T; 3],
+) -> usize {
     let mut out = [T::ZERO; MAX_ORDER + 1];
     for i in 0..len {
         for (k, qk) in q.iter().enumerate() {

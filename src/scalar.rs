@@ -42,7 +42,7 @@ pub trait Real:
     /// Short name used in reports (`"f32"` / `"f64"`).
     const NAME: &'static str;
     /// Whether long sums and the W residual (eq. 35) use compensated
-    /// (double-word) arithmetic, see [`crate::compensated`]. `true` for
+    /// (double-word) arithmetic, see `src/compensated.rs`. `true` for
     /// `f32`, whose 24-bit mantissa cannot hold P otherwise (cond(P) ≈ 9e5
     /// for the paper's plant, ~1e8 with a weak high mode);
     /// `false` for `f64`, where plain arithmetic already reaches ~1e-10.

@@ -39,7 +39,7 @@
 //! * **Precision where the fixed point lives.** θ is determined by W = 0;
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
-//!   evaluated with a double-word dot product ([`crate::compensated`]) when
+//!   evaluated with a double-word dot product (`src/compensated.rs`) when
 //!   `T::COMPENSATED` (`f32`). The step matrix only sets the speed, so it is
 //!   formed and factored in working precision, with a pivot floor so a
 //!   rounding-level indefiniteness slows a direction instead of stopping the
