@@ -80,6 +80,18 @@ impl<T: Real> SquareWave<T> {
     }
 }
 
+/// An endless sequence of samples ([`SquareWave::next_sample`]), so code
+/// generic over the excitation (e.g. [`crate::rig::Rig`]) takes a square wave
+/// as it takes any other signal.
+impl<T: Real> Iterator for SquareWave<T> {
+    type Item = T;
+
+    #[inline]
+    fn next(&mut self) -> Option<T> {
+        Some(self.next_sample())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,6 +117,10 @@ mod tests {
         assert!((139..=141).contains(&flips), "{flips}");
         assert!((pos - 50_000i32).abs() < 200);
         assert!(SquareWave::<f32>::new(1.0, 6000.0, 1e4).is_err());
+        // As an iterator it is the same endless sequence.
+        let mut a = SquareWave::<f32>::paper();
+        let b: [f32; 3000] = core::array::from_fn(|_| a.next_sample());
+        assert!(SquareWave::<f32>::paper().take(3000).eq(b));
         assert!(SquareWave::<f32>::new(f64::NAN, 6.0, 1e4).is_err());
     }
 }

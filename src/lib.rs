@@ -11,7 +11,10 @@
 //! * [`modal`] / [`poly`] — Θ → polynomial → ω, ζ, b̄ (eqs. 25–32) and the
 //!   excitation monitor of Lemma 1;
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
-//! * [`plant`] — an exact discrete simulator of the modal model (eq. 22);
+//! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
+//!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
+//!   them with the excitation per sample;
+//! * [`excitation`] — the paper's square-wave drive (Section IV.A);
 //! * [`scalar`] — the `f32`/`f64` abstraction.
 //!
 //! Internal helpers (`linalg`: small fixed-size matrices; `compensated`:
@@ -29,7 +32,7 @@
 //! use beamest::filter_bank::{FilterConfig, SignalScales};
 //! use beamest::modal::modal_from_tf;
 //! use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-//! use beamest::plant::ModalPlant;
+//! use beamest::rig::{ModalPlant, Rig};
 //!
 //! let filter = FilterConfig {
 //!     ts_s: 1e-4,
@@ -38,13 +41,12 @@
 //!     ..FilterConfig::default()
 //! };
 //! let mut est = Adaptive2::<f32>::new(&filter, &AdaptiveConfig::default()).unwrap();
-//! let mut rig = ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
-//! let mut excitation = SquareWave::<f64>::paper();
+//! let plant = ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+//! let mut rig = Rig::new(plant, SquareWave::<f64>::paper());
 //! for _ in 0..5_000 {
 //!     // The 10 kHz sample path: u held over the coming period, y sampled now.
-//!     let u = excitation.next_sample();
-//!     let y = rig.sample(u);
-//!     assert_eq!(est.step(u as f32, y as f32), StepStatus::Updated);
+//!     let sample = rig.tick();
+//!     assert_eq!(est.step(sample.u as f32, sample.y as f32), StepStatus::Updated);
 //! }
 //! // At the telemetry rate: Θ → ω, ζ, b̄ (eqs. 30–32) and Lemma 1's monitor.
 //! let modes = modal_from_tf(&est.transfer_function(), &[-2.0, 2.0]).unwrap();
@@ -70,8 +72,11 @@ pub mod filter_bank;
 pub(crate) mod linalg;
 pub mod modal;
 pub mod model;
-pub mod plant;
 pub mod poly;
+pub mod rig;
 pub mod scalar;
+
+/// The plant simulator's former path; it lives in [`rig::plant`] now.
+pub use rig::plant;
 
 pub use scalar::Real;

@@ -5,7 +5,7 @@
 //! Modal parameters are recovered at the telemetry rate ([`RunConfig::eval_every`])
 //! and compared with the truth.
 
-use crate::scenario::{output_scale, Noise, PlantSpec, Truth};
+use crate::scenario::{output_scale, PlantSpec, Truth};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator, Health,
     LeastSquaresConfig, LeastSquaresEstimator,
@@ -14,6 +14,7 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, Scaling, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, TransferFunction};
+use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample};
 use beamest::Real;
 use serde::Serialize;
 
@@ -430,35 +431,31 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         return Err(RunError::Setup("eval_every must be at least 1".into()));
     }
     let truth = cfg.plant.truth();
-    let mut plant = cfg
+    let plant = cfg
         .plant
         .plant(cfg.ts_s)
         .map_err(|e| RunError::Plant(format!("{e:?}")))?;
     let filter = filter_config(cfg, &truth);
     let mut est = build_estimator::<T, D, NP, NS>(cfg.kind, cfg.gains, &filter)?;
     let fs = 1.0 / cfg.ts_s;
-    let mut square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, fs)
+    let square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, fs)
         .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))?;
     let samples = (cfg.duration_s / cfg.ts_s).round() as u64;
-    let mut noise = match cfg.snr_db {
-        None => None,
-        Some(snr) => {
-            // RMS of the noise-free output over (up to) the first 2 s.
-            let mut p = plant.clone();
-            let mut sq = square;
-            let n = samples.min((2.0 / cfg.ts_s) as u64).max(1);
-            let mut acc = 0.0;
-            for _ in 0..n {
-                let y = p.sample(sq.next_sample());
-                acc += y * y;
-            }
-            let rms = (acc / n as f64).sqrt();
-            Some(
-                Noise::new(snr, rms, cfg.seed)
-                    .ok_or_else(|| RunError::Setup("invalid SNR".into()))?,
-            )
+    let mut rig = Rig::new(plant, square);
+    if let Some(snr) = cfg.snr_db {
+        // RMS of the noise-free output over (up to) the first 2 s.
+        let mut probe = rig.noise_free();
+        let n = samples.min((2.0 / cfg.ts_s) as u64).max(1);
+        let mut acc = 0.0;
+        for _ in 0..n {
+            let y = probe.tick().y;
+            acc += y * y;
         }
-    };
+        let rms = (acc / n as f64).sqrt();
+        let noise = GaussianNoise::new(noise_sd_for_snr(rms, snr), cfg.seed)
+            .map_err(|_| RunError::Setup("invalid SNR".into()))?;
+        rig = rig.with_noise(noise);
+    }
     let weights: Vec<T> = truth.modal.output_weight[..truth.modal.modes]
         .iter()
         .map(|&c| T::from_f64(c))
@@ -468,11 +465,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let mut max_after_1s: Option<f64> = None;
     let mut theta64 = [0.0f64; NP];
     for k in 0..samples {
-        let u = square.next_sample();
-        let mut y = plant.sample(u);
-        if let Some(n) = noise.as_mut() {
-            y += n.sample();
-        }
+        let Sample { u, y } = rig.tick();
         est.step(T::from_f64(u), T::from_f64(y));
         if (k + 1) % cfg.eval_every as u64 == 0 || k + 1 == samples {
             // Real time of the newest sample: when the estimate is available.

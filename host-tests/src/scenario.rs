@@ -1,12 +1,12 @@
-//! Simulated rigs: which beam, its true parameters, and measurement noise.
+//! Simulated beams: which plant, and its true parameters. (The rig itself —
+//! plant, excitation and measurement noise — is `beamest::rig`.)
 
 use beamest::model::{
     paper_plant_tf, ModalParams, TransferFunction, MAX_MODES, PAPER_B, PAPER_OMEGA, PAPER_ZETA,
 };
-use beamest::plant::{ModalPlant, PlantError};
+use beamest::rig::{ModalPlant, PlantError};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
 /// The paper's b̄ (eq. 32 applied to eq. 46's b with Table III's ω, ζ), as
 /// derived in DESIGN.md §3.
@@ -112,30 +112,6 @@ pub fn output_scale(truth: &Truth, u_amplitude: f64) -> f64 {
         y0
     } else {
         1.0
-    }
-}
-
-/// White Gaussian measurement noise on y at a given SNR.
-#[derive(Debug, Clone)]
-pub struct Noise {
-    rng: ChaCha8Rng,
-    normal: Normal<f64>,
-}
-
-impl Noise {
-    /// Noise with standard deviation `rms_signal / 10^(snr_db/20)`.
-    pub fn new(snr_db: f64, rms_signal: f64, seed: u64) -> Option<Self> {
-        let sd = rms_signal / 10f64.powf(snr_db / 20.0);
-        let normal = Normal::new(0.0, sd).ok()?;
-        Some(Self {
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            normal,
-        })
-    }
-
-    /// One noise sample.
-    pub fn sample(&mut self) -> f64 {
-        self.normal.sample(&mut self.rng)
     }
 }
 

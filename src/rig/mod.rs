@@ -1,0 +1,22 @@
+//! The simulated rig: one plant, one excitation and one noise model in the
+//! `no_std` core, so `beamctl simulate`, the host tests and the emulated
+//! firmware all run the same rig.
+//!
+//! * [`plant`] — an exact discrete simulator of the modal model (eq. 22–23)
+//!   under a held input: what the beam does between two samples;
+//! * [`noise`] — seeded, deterministic Gaussian measurement noise;
+//! * [`sim`] — [`Rig`], which joins them per 10 kHz tick exactly as the
+//!   firmware's sample path sees the beam: the input u held over the coming
+//!   period and the output y sampled now (plus noise).
+//!
+//! Later scenario features (plant changes, excitation pauses, sensor
+//! faults) and the converter chip models belong here too; [`Rig::tick_with`]
+//! takes the input from outside (e.g. from a DAC model) for that.
+
+pub mod noise;
+pub mod plant;
+pub mod sim;
+
+pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
+pub use plant::{ModalPlant, PlantError};
+pub use sim::{Rig, Sample};
