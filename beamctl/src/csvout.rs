@@ -7,7 +7,7 @@
 //! An estimate whose modal recovery failed leaves its ω/ζ fields empty.
 
 use crate::error::CliError;
-use host_tests::Trace;
+use beamctl::Trace;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};

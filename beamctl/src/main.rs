@@ -2,7 +2,7 @@
 //!
 //! * `beamctl simulate` runs the proposed adaptive law (eqs. 33–41) or the
 //!   gradient (47) / least-squares (48) baselines against the simulated beam
-//!   (through [`host_tests::run`]) and reports the estimates against the truth,
+//!   (through [`beamctl::run`]) and reports the estimates against the truth,
 //!   like the paper's Table III; optionally writes the time series (CSV) and
 //!   a plot of the estimates vs time (PNG, like Fig. 4).
 //! * `beamctl model` prints the physical beam's modal model (Section II and

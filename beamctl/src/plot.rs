@@ -18,8 +18,8 @@
 //!   ±0.5% of the truth wide; lines outside it are clamped to its edge.
 
 use crate::error::CliError;
+use beamctl::Trace;
 use beamest::model::{ModalParams, MAX_MODES};
-use host_tests::Trace;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::series::DashedLineSeries;

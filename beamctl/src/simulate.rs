@@ -1,5 +1,5 @@
 //! `beamctl simulate`: validate the flags into [`RunConfig`]s, run them
-//! through [`host_tests::run`] and report (table or JSON, plus optional CSV
+//! through [`beamctl::run`] and report (table or JSON, plus optional CSV
 //! and PNG).
 //!
 //! # Design
@@ -22,9 +22,9 @@ use crate::plot::{self, Recorder};
 use crate::progress::Progress;
 use crate::table::{rel, seconds, short, sig, Column, Table};
 use crate::{EstimatorChoice, PrecisionChoice, SimulateArgs};
+use beamctl::runner::auto_lambda;
+use beamctl::{EstimatorKind, Gains, PlantSpec, Precision, RunConfig, RunReport, Trace};
 use beamest::model::ModalParams;
-use host_tests::runner::auto_lambda;
-use host_tests::{EstimatorKind, Gains, PlantSpec, Precision, RunConfig, RunReport, Trace};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
 
@@ -381,7 +381,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             let done = ((t.t_s / cfg.ts_s).round() as u64 + 1).min(per_run);
             progress.set_position(offset + done);
         };
-        let report = host_tests::run(&cfg, &mut observer).map_err(|e| {
+        let report = beamctl::run(&cfg, &mut observer).map_err(|e| {
             progress.finish();
             CliError::failure(format!("simulation ({}): {e}", kind.name()))
         })?;
@@ -521,7 +521,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         );
     }
     let truth = &first.truth;
-    type Pick = fn(&host_tests::runner::ModalSummary) -> &Vec<f64>;
+    type Pick = fn(&beamctl::runner::ModalSummary) -> &Vec<f64>;
     let params: [(&str, &str, Pick); 3] = [
         ("ω", " (rad/s)", |m| &m.omega),
         ("ζ", "", |m| &m.zeta),

@@ -1,14 +1,17 @@
-//! Host-side scenario helpers around the `beamest` core: simulated rigs,
-//! measurement noise and convergence metrics used by the integration tests,
-//! the benchmarks and `beamctl`.
+//! Host-side tests around the `beamest` core: the paper-literal reference
+//! law ([`naive`]), integration tests, examples and criterion benchmarks.
+//!
+//! The run loop and the simulated beams live in the `beamctl` library
+//! (`beamctl::runner`, `beamctl::scenario`), so the CLI does not depend on
+//! this crate; they are re-exported here under their former paths.
 
 // Same numerical-code conventions as the core (see src/lib.rs).
 #![allow(clippy::needless_range_loop)]
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod naive;
-pub mod runner;
 pub mod scenario;
 
-pub use runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};
+pub use beamctl::runner;
+pub use beamctl::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};
 pub use scenario::{PlantSpec, Truth};
