@@ -22,6 +22,19 @@ pub enum ExcitationError {
     Amplitude,
 }
 
+impl core::fmt::Display for ExcitationError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Frequency => {
+                "invalid excitation frequency: must be positive and below half the sample rate"
+            }
+            Self::Amplitude => "invalid excitation amplitude: must be finite and >= 0",
+        })
+    }
+}
+
+impl core::error::Error for ExcitationError {}
+
 /// A square wave ±amplitude, starting at +amplitude at t = 0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SquareWave<T> {

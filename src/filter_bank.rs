@@ -128,6 +128,19 @@ pub enum FilterConfigError {
     Dimensions,
 }
 
+impl core::fmt::Display for FilterConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::SamplePeriod => "invalid sample period ts_s: must be positive and finite",
+            Self::Lambda => "invalid filter pole lambda_rad_s: must be positive and finite",
+            Self::Scale => "invalid signal scale u_scale or y_scale: must be positive and finite",
+            Self::Dimensions => "invalid filter sizes: need NP = 2*D - 1 with D even, 2..=6",
+        })
+    }
+}
+
+impl core::error::Error for FilterConfigError {}
+
 /// Configuration shared by the filter bank and the scaling of Θ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FilterConfig {

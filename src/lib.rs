@@ -80,3 +80,96 @@ pub mod scalar;
 pub use rig::plant;
 
 pub use scalar::Real;
+
+#[cfg(test)]
+mod tests {
+    use crate::beam::{BeamError, BeamParam};
+    use crate::estimator::{ConfigError, LawError};
+    use crate::excitation::ExcitationError;
+    use crate::filter_bank::FilterConfigError;
+    use crate::linalg::LinalgError;
+    use crate::modal::ModalError;
+    use crate::poly::PolyError;
+    use crate::rig::{NoiseError, PlantError};
+    use core::error::Error;
+    use std::string::{String, ToString};
+    use std::vec::Vec;
+
+    /// Every variant of every error enum of the core (wrapping variants with
+    /// one representative inner error).
+    fn all_errors() -> Vec<&'static dyn Error> {
+        vec![
+            &FilterConfigError::SamplePeriod,
+            &FilterConfigError::Lambda,
+            &FilterConfigError::Scale,
+            &FilterConfigError::Dimensions,
+            &ConfigError::Filter(FilterConfigError::Lambda),
+            &ConfigError::Gain,
+            &ConfigError::Dimensions,
+            &LawError::Singular,
+            &LawError::NonFinite,
+            &LinalgError::NotPositiveDefinite,
+            &PolyError::InvalidDegree,
+            &PolyError::NonFinite,
+            &PolyError::NoConvergence,
+            &ModalError::InvalidModeCount,
+            &ModalError::LengthMismatch,
+            &ModalError::NonFinite,
+            &ModalError::Roots(PolyError::NoConvergence),
+            &ModalError::RealRootPairIndefinite,
+            &ModalError::GainsRankDeficient,
+            &PlantError::Dimensions,
+            &PlantError::Value,
+            &PlantError::Numerator,
+            &NoiseError::StandardDeviation,
+            &ExcitationError::Frequency,
+            &ExcitationError::Amplitude,
+            &BeamError::InvalidParameter(BeamParam::Length),
+            &BeamError::ActuatorSpan,
+            &BeamError::OutputPosition,
+            &BeamError::ModeCount,
+            &BeamError::ModeNumber,
+            &BeamError::RootNotConverged,
+            &BeamError::NonFinite,
+        ]
+    }
+
+    #[test]
+    fn error_messages_are_short_distinct_lowercase_lines() {
+        let messages: Vec<String> = all_errors().iter().map(|e| e.to_string()).collect();
+        for (i, m) in messages.iter().enumerate() {
+            assert!(!m.is_empty(), "error {i} has an empty message");
+            assert!(m.chars().next().is_some_and(|c| c.is_lowercase()), "{m}");
+            assert!(!m.contains('\n') && !m.ends_with('.'), "{m}");
+            assert!(m.len() < 120, "{m}");
+            for other in &messages[i + 1..] {
+                assert_ne!(m, other);
+            }
+        }
+    }
+
+    #[test]
+    fn messages_name_the_parameter_and_wrapped_errors_are_sources() {
+        assert!(FilterConfigError::SamplePeriod.to_string().contains("ts_s"));
+        assert!(FilterConfigError::Lambda
+            .to_string()
+            .contains("lambda_rad_s"));
+        assert!(ExcitationError::Amplitude.to_string().contains("amplitude"));
+        assert!(NoiseError::StandardDeviation
+            .to_string()
+            .contains("standard deviation"));
+        let config = ConfigError::Filter(FilterConfigError::Lambda);
+        assert!(config
+            .to_string()
+            .ends_with(&FilterConfigError::Lambda.to_string()));
+        let inner = config
+            .source()
+            .and_then(|s| s.downcast_ref::<FilterConfigError>());
+        assert_eq!(inner, Some(&FilterConfigError::Lambda));
+        assert!(ConfigError::Gain.source().is_none());
+        let modal = ModalError::Roots(PolyError::NonFinite);
+        let inner = modal.source().and_then(|s| s.downcast_ref::<PolyError>());
+        assert_eq!(inner, Some(&PolyError::NonFinite));
+        assert!(ModalError::NonFinite.source().is_none());
+    }
+}

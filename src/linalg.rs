@@ -26,6 +26,16 @@ pub enum LinalgError {
     NotPositiveDefinite,
 }
 
+impl core::fmt::Display for LinalgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NotPositiveDefinite => "matrix not positive definite in working precision",
+        })
+    }
+}
+
+impl core::error::Error for LinalgError {}
+
 /// y = A·x.
 #[inline(always)]
 pub fn mat_vec<T: Real, const R: usize, const C: usize>(a: &[[T; C]; R], x: &[T; C]) -> [T; R] {

@@ -1,6 +1,7 @@
 //! The error type of the beam physics: one enum for the family, each
 //! invalid-parameter variant naming the field ([`BeamParam`]) it is about.
 
+use crate::model::MAX_MODES;
 use core::fmt;
 
 /// Names the parameter a [`BeamError`] is about.
@@ -43,7 +44,7 @@ pub enum BeamError {
     /// The output position is not within [0, L] (or not finite), or equals L
     /// for [`BeamOutput::StrainAsTipDeflection`](super::BeamOutput::StrainAsTipDeflection) (L₁ = 0).
     OutputPosition,
-    /// The mode count is not in 1..=[`MAX_MODES`](crate::model::MAX_MODES).
+    /// The mode count is not in 1..=[`MAX_MODES`].
     ModeCount,
     /// Mode numbers are 1-based; 0 was given.
     ModeNumber,
@@ -92,7 +93,7 @@ impl fmt::Display for BeamError {
             Self::OutputPosition => f.write_str(
                 "invalid output_position_m: must lie in [0, length_m] (below length_m for strain_as_tip_deflection)",
             ),
-            Self::ModeCount => f.write_str("invalid mode count: must be 1..=3"),
+            Self::ModeCount => write!(f, "invalid beam mode count: must be 1..={MAX_MODES}"),
             Self::ModeNumber => f.write_str("invalid mode number: mode numbers start at 1"),
             Self::RootNotConverged => {
                 f.write_str("root of the frequency equation (eq. 20) not found")

@@ -82,6 +82,40 @@ impl From<FilterConfigError> for ConfigError {
     }
 }
 
+impl core::fmt::Display for LawError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Singular => "law update skipped: step matrix not positive definite",
+            Self::NonFinite => "law update skipped: the update came out non-finite",
+        })
+    }
+}
+
+impl core::error::Error for LawError {}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Filter(e) => write!(f, "invalid filter configuration: {e}"),
+            Self::Gain => f.write_str(
+                "invalid gain: every gain, forgetting rate and initial matrix entry must be positive and finite",
+            ),
+            Self::Dimensions => {
+                f.write_str("invalid estimator sizes: need NS = NP*(NP+1)/2 and NP = 2*D - 1")
+            }
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Self::Filter(e) => Some(e),
+            Self::Gain | Self::Dimensions => None,
+        }
+    }
+}
+
 /// Counters describing how an estimator has been fed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Health {

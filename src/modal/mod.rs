@@ -73,6 +73,36 @@ impl From<PolyError> for ModalError {
     }
 }
 
+impl core::fmt::Display for ModalError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::InvalidModeCount => write!(f, "invalid mode count: must be 1..={MAX_MODES}"),
+            Self::LengthMismatch => f.write_str(
+                "slice length does not match the mode count (weights n, numerator 2n-1, denominator 2n, theta 4n-1)",
+            ),
+            Self::NonFinite => {
+                f.write_str("coefficient, output weight or recovered omega/zeta is not finite")
+            }
+            Self::Roots(e) => write!(f, "poles not found: {e}"),
+            Self::RealRootPairIndefinite => f.write_str(
+                "real poles cannot be paired into modes (one in each half plane, or at s = 0)",
+            ),
+            Self::GainsRankDeficient => {
+                f.write_str("modal gains bbar undetermined: gain matrix (eq. 31) is rank-deficient")
+            }
+        }
+    }
+}
+
+impl core::error::Error for ModalError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Self::Roots(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 /// Natural frequencies and damping ratios of n modes (eq. 30, generalised),
 /// sorted by ω ascending.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -55,6 +55,20 @@ pub enum PolyError {
     NoConvergence,
 }
 
+impl core::fmt::Display for PolyError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::InvalidDegree => {
+                write!(f, "invalid polynomial degree: must be 1..={MAX_ORDER}")
+            }
+            Self::NonFinite => f.write_str("polynomial coefficient is nan or infinite"),
+            Self::NoConvergence => f.write_str("root finder did not converge"),
+        }
+    }
+}
+
+impl core::error::Error for PolyError {}
+
 /// The roots of a degree-d polynomial, d ≤ [`MAX_ORDER`].
 ///
 /// Ordering: by ascending modulus (ties by ascending real part); a complex

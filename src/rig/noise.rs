@@ -35,6 +35,16 @@ pub enum NoiseError {
     StandardDeviation,
 }
 
+impl core::fmt::Display for NoiseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::StandardDeviation => "invalid noise standard deviation: must be finite and >= 0",
+        })
+    }
+}
+
+impl core::error::Error for NoiseError {}
+
 /// The xoshiro256++ generator of uniform 64-bit words (see the module
 /// documentation).
 #[derive(Debug, Clone, PartialEq, Eq)]

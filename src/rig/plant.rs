@@ -29,6 +29,25 @@ pub enum PlantError {
     Numerator,
 }
 
+impl core::fmt::Display for PlantError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Dimensions => write!(
+                f,
+                "invalid plant dimensions: mode count must be 1..={MAX_MODES} and the slice lengths must agree"
+            ),
+            Self::Value => f.write_str(
+                "invalid plant value: need omega_rad_s > 0, zeta >= 0, ts_s > 0, all finite",
+            ),
+            Self::Numerator => {
+                f.write_str("numerator cannot be expressed on these modes (repeated modes)")
+            }
+        }
+    }
+}
+
+impl core::error::Error for PlantError {}
+
 /// One mode's exact discretization and state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct DiscreteMode<T> {
