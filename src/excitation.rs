@@ -15,6 +15,7 @@ use crate::scalar::Real;
 
 /// Invalid excitation settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ExcitationError {
     /// Frequency must be positive and below half the sample rate.
     Frequency,

@@ -36,6 +36,7 @@ use crate::scalar::Real;
 
 /// How the sampled output y is interpolated between samples for the filter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum OutputHold {
     /// y held constant over the sample interval (biased: ~1.2% on ζ2).
     ZeroOrder,
@@ -99,6 +100,7 @@ const WINDOW: usize = 6;
 
 /// Signal scales: u and y enter the filters as u/U0 and y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SignalScales {
     /// U0, in the units of u (e.g. volts): typically the excitation amplitude.
     pub u_scale: f64,
@@ -117,6 +119,7 @@ impl Default for SignalScales {
 
 /// Errors in a filter-bank configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FilterConfigError {
     /// Ts must be positive and finite.
     SamplePeriod,
@@ -143,6 +146,7 @@ impl core::error::Error for FilterConfigError {}
 
 /// Configuration shared by the filter bank and the scaling of Θ.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FilterConfig {
     /// Sample period Ts in seconds.
     pub ts_s: f64,

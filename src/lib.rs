@@ -81,6 +81,38 @@ pub use rig::plant;
 
 pub use scalar::Real;
 
+/// Compile-time check (with `--features defmt`) that the types the firmware
+/// logs implement `defmt::Format`, for both scalar types where generic.
+#[cfg(feature = "defmt")]
+#[allow(dead_code)]
+fn defmt_formats() {
+    fn is_format<F: defmt::Format>() {}
+    is_format::<estimator::StepStatus>();
+    is_format::<estimator::Health>();
+    is_format::<estimator::LawError>();
+    is_format::<estimator::ConfigError>();
+    is_format::<estimator::AdaptiveConfig<7>>();
+    is_format::<estimator::GradientConfig<7>>();
+    is_format::<estimator::LeastSquaresConfig<7>>();
+    is_format::<filter_bank::FilterConfig>();
+    is_format::<filter_bank::FilterConfigError>();
+    is_format::<modal::ModalError>();
+    is_format::<modal::Modes<f32>>();
+    is_format::<modal::GainWeighting>();
+    is_format::<model::ModalParams<f32>>();
+    is_format::<model::ModalParams<f64>>();
+    is_format::<model::TransferFunction<f32>>();
+    is_format::<model::TransferFunction<f64>>();
+    is_format::<poly::PolyError>();
+    is_format::<poly::Complex<f32>>();
+    is_format::<rig::PlantError>();
+    is_format::<rig::NoiseError>();
+    is_format::<rig::Sample<f32>>();
+    is_format::<excitation::ExcitationError>();
+    is_format::<beam::BeamError>();
+    is_format::<beam::BeamOutput>();
+}
+
 #[cfg(test)]
 mod tests {
     use crate::beam::{BeamError, BeamParam};

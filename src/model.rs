@@ -34,6 +34,7 @@ pub fn default_output_weight(i: usize) -> f64 {
 
 /// Modal parameters of an `n`-mode model (eq. 23–24).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModalParams<T> {
     /// Number of modes `n` (1..=[`MAX_MODES`]).
     pub modes: usize,
@@ -50,6 +51,7 @@ pub struct ModalParams<T> {
 /// A strictly proper transfer function B(s)/A(s) of order 2n with monic
 /// denominator (eq. 25, generalised).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TransferFunction<T> {
     /// Number of modes `n`; the order is `2n`.
     pub modes: usize,

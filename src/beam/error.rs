@@ -6,6 +6,7 @@ use core::fmt;
 
 /// Names the parameter a [`BeamError`] is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BeamParam {
     /// [`BeamParams::density_kg_m3`](super::BeamParams::density_kg_m3).
     Density,
@@ -35,6 +36,7 @@ pub enum BeamParam {
 
 /// Errors of the beam computations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BeamError {
     /// The parameter is not finite or not strictly positive (for
     /// [`BeamParam::Damping`]: negative; for [`BeamParam::PiezoD31`]: zero).

@@ -16,6 +16,7 @@ use super::shape::{frequency_root, ModeShape};
 
 /// Which physical quantity the beam model outputs (row C_w of eq. 22).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BeamOutput {
     /// Deflection w(x_s, t) in metres: c_i = W_i(x_s). With x_s = L this is
     /// the tip deflection and c_i = W_i(L) = [−2, 2, −2] (eq. 24).

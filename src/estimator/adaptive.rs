@@ -59,6 +59,7 @@ use crate::scalar::Real;
 
 /// Gains of the proposed law, in scaled coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AdaptiveConfig<const NP: usize> {
     /// Learning gain Γ of eq. 41 (1/s).
     pub gain: f64,

@@ -17,6 +17,7 @@ use crate::scalar::Real;
 
 /// Gains of the gradient law, in scaled coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GradientConfig<const NP: usize> {
     /// Diagonal of Γ1 (scaled).
     pub gain_diag: [f64; NP],

@@ -17,6 +17,7 @@ use crate::scalar::Real;
 
 /// Gains of the least-squares law, in scaled coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LeastSquaresConfig<const NP: usize> {
     /// Diagonal of Γ2(0) (scaled).
     pub gain0_diag: [f64; NP],

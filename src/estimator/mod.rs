@@ -43,6 +43,7 @@ pub const QUARANTINE_TIME_CONSTANTS: f64 = 40.0;
 
 /// What one call to [`Estimator::step`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StepStatus {
     /// The law was updated with a new regressor.
     Updated,
@@ -58,6 +59,7 @@ pub enum StepStatus {
 
 /// Why a law could not apply an update. Θ is unchanged when this is returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LawError {
     /// The step matrix was not positive definite in working precision.
     Singular,
@@ -67,6 +69,7 @@ pub enum LawError {
 
 /// Invalid gain or rate settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {
     /// The filter-bank configuration is invalid.
     Filter(FilterConfigError),
@@ -118,6 +121,7 @@ impl core::error::Error for ConfigError {
 
 /// Counters describing how an estimator has been fed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Health {
     /// Samples pushed.
     pub samples: u64,

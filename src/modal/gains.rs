@@ -46,6 +46,7 @@ const MAX_NUM: usize = MAX_ORDER - 1;
 /// consistent with the poles); they differ when it does not (an estimate in
 /// transit, noise, or the rounded numerator of eq. 46).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum GainWeighting {
     /// Eq. 32 as printed: minimise the Euclidean norm of the residual in the
     /// unscaled coefficients b_k. The low-order coefficients (∝ ω^{2n−2})

@@ -46,6 +46,7 @@ use crate::scalar::Real;
 
 /// Why modal parameters could not be recovered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModalError {
     /// The number of modes is 0 or exceeds [`MAX_MODES`].
     InvalidModeCount,
@@ -106,6 +107,7 @@ impl core::error::Error for ModalError {
 /// Natural frequencies and damping ratios of n modes (eq. 30, generalised),
 /// sorted by ω ascending.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Modes<T> {
     /// Number of modes n (1..=[`MAX_MODES`]).
     pub count: usize,

@@ -7,6 +7,7 @@ use core::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A complex number, only as much as the root finder and modal recovery need.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Complex<T> {
     /// Real part.
     pub re: T,

@@ -45,6 +45,7 @@ pub const POLISH_STEPS: usize = 3;
 
 /// Why no roots could be returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PolyError {
     /// The degree (number of coefficients) is 0 or exceeds [`MAX_ORDER`].
     InvalidDegree,

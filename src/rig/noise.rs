@@ -30,6 +30,7 @@ const TWO_POW_M53: f64 = 1.0 / 9_007_199_254_740_992.0;
 
 /// Invalid noise settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NoiseError {
     /// The standard deviation is negative, NaN or infinite.
     StandardDeviation,

@@ -20,6 +20,7 @@ use crate::scalar::Real;
 
 /// Invalid plant description.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PlantError {
     /// Number of modes outside 1..=MAX_MODES or slice lengths disagree.
     Dimensions,

@@ -26,6 +26,7 @@ use crate::scalar::Real;
 
 /// One tick of the rig: what the firmware's sample path handles.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Sample<T> {
     /// Input u_k, held over [t_k, t_{k+1}) (input units, e.g. V).
     pub u: T,
