@@ -7,8 +7,11 @@
 //! paper's plant has cond(P) ≈ 9e5, so an error δ (relative to ‖P‖) in P, Q
 //! or in the evaluation of PΘ − Q moves Θ by ≈ cond(P)·δ. Plain `f32`
 //! (δ ≈ 6e-8 per operation, and far more after millions of recursive
-//! updates) therefore cannot reach 1e-4 — a straightforward `f32` port
-//! diverges after 12–16 s (DESIGN.md §3). Double-word arithmetic gives
+//! updates) therefore cannot reach 1e-4: a straightforward `f32` port of
+//! the paper's law gives no estimate at all, and the scaled law with plain
+//! `f32` sums ends 0.24 off after 20 s (docs/NUMERICS.md, rows 0–1; test
+//! `plain_f32_port_of_the_paper_law_fails_where_f64_succeeds` in
+//! `host-tests/tests/precision.rs`). Double-word arithmetic gives
 //! δ ≈ 1e-14 for about 3–8 extra flops per term, all in single precision,
 //! which fits a Cortex-M4F (no software `f64`).
 //!

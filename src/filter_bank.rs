@@ -19,9 +19,11 @@
 //!   [t_k, t_{k+1}] the filter is driven by the polynomial p through nearby
 //!   samples, integrated exactly: x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the
 //!   response to τ^m/m!. The taps are folded into one gain vector per
-//!   window sample at start-up. DESIGN.md §3 measured the floors this leaves
-//!   on ζ2 of the paper's plant: ZOH 1.2%, first-order hold 1.9e-4, cubic
-//!   (y_{k−1}..y_{k+2}) 1.3e-8. The cubic's error grows as (ωTs)⁴ and
+//!   window sample at start-up. The hold order sets the floor on ζ2 of the
+//!   paper's plant after 20 s (BENCHMARKS.md, `cargo run --release -p
+//!   host-tests --example accuracy_tables`): ZOH 1.2%, first-order hold
+//!   2.0e-4, cubic (y_{k−1}..y_{k+2}) 1.8e-8, quintic 2.9e-10; the unit test
+//!   `hold_order_sets_accuracy` pins the ordering. The cubic's error grows as (ωTs)⁴ and
 //!   reaches 1.2e-3 on a 1520 rad/s mode, so the default is the quintic
 //!   through y_{k−2}..y_{k+3} ([`OutputHold::Quintic`], (ωTs)⁶). The
 //!   look-ahead costs two samples of lag; the u channel is delayed to match,
@@ -40,9 +42,9 @@ use crate::scalar::Real;
 pub enum OutputHold {
     /// y held constant over the sample interval (biased: ~1.2% on ζ2).
     ZeroOrder,
-    /// Straight line from y_k to y_{k+1} (~1.9e-4 on ζ2).
+    /// Straight line from y_k to y_{k+1} (~2e-4 on ζ2).
     FirstOrder,
-    /// Cubic through y_{k−1}, y_k, y_{k+1}, y_{k+2} (~1e-8 on ζ2 for the
+    /// Cubic through y_{k−1}, y_k, y_{k+1}, y_{k+2} (~2e-8 on ζ2 for the
     /// paper's plant; error grows as (ωTs)⁴).
     Cubic,
     /// Quintic through y_{k−2} … y_{k+3} (error grows as (ωTs)⁶: needed

@@ -6,8 +6,10 @@ use beamest::model::{
 };
 use beamest::rig::{ModalPlant, PlantError};
 
-/// The paper's b̄ (eq. 32 applied to eq. 46's b with Table III's ω, ζ), as
-/// derived in DESIGN.md §3.
+/// The paper's b̄ (eq. 32 applied to eq. 46's b with Table III's ω, ζ),
+/// rounded to 5 significant digits; the core's test
+/// `modal::tests::paper_plant_eq46_numerator_gives_reference_bbar` derives
+/// it.
 pub const PAPER_BBAR: [f64; 2] = [9.6293, 16.1458];
 
 /// Default third mode used when `--modes 3` is asked without `--omega`:

@@ -18,9 +18,11 @@
 //!   rescaled by exactly 2. The matrices are then plain sums (no per-step
 //!   multiplication to round), which makes compensated summation cheap.
 //! * **H in information form.** We keep R = H⁻¹, whose exact update (39) is
-//!   R ← e^{−γTs}R + Ts·φφᵀ (lazy decay likewise), and never form H. Euler
-//!   of eq. 37 diverges at step 8 with the paper's H0; RK4 at 10× H0
-//!   (DESIGN.md §3). R stays positive definite by construction: a decayed
+//!   R ← e^{−γTs}R + Ts·φφᵀ (lazy decay likewise), and never form H. With
+//!   the paper's H0, explicit Euler and classical RK4 of eq. 37 make H
+//!   indefinite at the 5th sample and then overflow (test
+//!   `estimator::tests::explicit_riccati_steps_break_down_with_the_paper_gains`).
+//!   R stays positive definite by construction: a decayed
 //!   R(0) > 0 plus sums of φφᵀ ⪰ 0, accumulated exactly enough that
 //!   rounding cannot make it indefinite.
 //! * **θ by a backward-Euler step.** The explicit step

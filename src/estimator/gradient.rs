@@ -4,9 +4,8 @@
 //! With φ held over one sample the law is a linear ODE with rank-one
 //! dynamics: the prediction error obeys e' = −c·e with c = φᵀΓ1φ, so the
 //! exact step is θ⁺ = θ + Γ1φ·e·Ts·(1 − e^{−cTs})/(cTs). It is stable for any
-//! gain (an explicit Euler step needs TsΓ1|φ|² < 2, which the paper's Γ1
-//! violates by orders of magnitude in places). Γ1 is diagonal, as in the
-//! paper.
+//! gain (an explicit Euler step needs Ts·φᵀΓ1φ < 2). Γ1 is diagonal, as in
+//! the paper.
 
 use super::{
     all_finite_f64, all_positive, one_minus_exp_over_x, positive, ConfigError, LawError, UpdateLaw,

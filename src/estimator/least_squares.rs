@@ -6,8 +6,9 @@
 //! step is the "exact-sum" recursive least squares:
 //! Γ2⁺ = Γ2 − TsΓ2φφᵀΓ2/(1 + Tsφᵀ Γ2φ) (Sherman–Morrison of
 //! Γ2⁻¹ ← Γ2⁻¹ + Tsφφᵀ) and θ⁺ = θ + Ts·Γ2⁺φ·e. Unlike Euler or RK4 of (48),
-//! which diverge with the paper's Γ2(0), this never winds up (DESIGN.md §3);
-//! it is the honest version of the baseline. There is no forgetting, as in
+//! which make Γ2 indefinite at the 4th sample with the paper's Γ2(0) (test
+//! `estimator::tests::explicit_riccati_steps_break_down_with_the_paper_gains`),
+//! this never winds up; it is the honest version of the baseline. There is no forgetting, as in
 //! the paper.
 
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};

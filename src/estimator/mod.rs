@@ -377,3 +377,116 @@ pub(crate) fn all_finite_f64(xs: &[f64]) -> Result<(), ConfigError> {
         Err(ConfigError::Gain)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::excitation::SquareWave;
+    use crate::filter_bank::SignalScales;
+    use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+    use crate::rig::{ModalPlant, Rig};
+
+    const TS: f64 = 1e-4;
+
+    /// The first `N` physical-unit regressors Ψ (eq. 29) of the paper's
+    /// plant under its square wave: the core's filter bank with unit signal
+    /// scales, mapped back by E⁻¹ (as the paper's law would see them).
+    fn paper_regressors<const N: usize>() -> [[f64; 7]; N] {
+        let cfg = FilterConfig {
+            ts_s: TS,
+            lambda_rad_s: 100.0,
+            scales: SignalScales::default(),
+            ..FilterConfig::default()
+        };
+        let e = Scaling::<7>::new(&cfg).e;
+        let mut bank = FilterBank::<f64, 4, 7>::new(&cfg).unwrap();
+        let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS).unwrap();
+        let mut rig = Rig::new(plant, SquareWave::paper());
+        core::array::from_fn(|_| {
+            let s = rig.tick();
+            let reg = bank.push(s.u, s.y);
+            core::array::from_fn(|i| reg.phi[i] / e[i])
+        })
+    }
+
+    type Mat = [[f64; 7]; 7];
+
+    /// H' = γH − HΨΨᵀH (eq. 37; with γ = 0 it is eq. 48's Γ2').
+    fn riccati(h: &Mat, psi: &[f64; 7], gamma: f64) -> Mat {
+        let hp: [f64; 7] = core::array::from_fn(|i| (0..7).map(|j| h[i][j] * psi[j]).sum());
+        core::array::from_fn(|i| core::array::from_fn(|j| gamma * h[i][j] - hp[i] * hp[j]))
+    }
+
+    fn axpy(h: &Mat, d: &Mat, k: f64) -> Mat {
+        core::array::from_fn(|i| core::array::from_fn(|j| h[i][j] + k * d[i][j]))
+    }
+
+    #[derive(Clone, Copy)]
+    enum Step {
+        Euler,
+        Rk4,
+        /// The exact discrete solution (what eq. 39 and the laws' information
+        /// form amount to), as a Sherman–Morrison update of H.
+        Exact,
+    }
+
+    /// The first sample (1-based) after which H, started at diag(`h0`) and
+    /// advanced with `step`, has a diagonal entry that is not positive and
+    /// finite, i.e. is no longer positive definite; `None` if it stays so.
+    fn breakdown(h0: &[f64; 7], gamma: f64, step: Step, psi: &[[f64; 7]]) -> Option<usize> {
+        let mut h: Mat =
+            core::array::from_fn(|i| core::array::from_fn(|j| if i == j { h0[i] } else { 0.0 }));
+        for (k, p) in psi.iter().enumerate() {
+            h = match step {
+                Step::Euler => axpy(&h, &riccati(&h, p, gamma), TS),
+                Step::Rk4 => {
+                    let k1 = riccati(&h, p, gamma);
+                    let k2 = riccati(&axpy(&h, &k1, TS / 2.0), p, gamma);
+                    let k3 = riccati(&axpy(&h, &k2, TS / 2.0), p, gamma);
+                    let k4 = riccati(&axpy(&h, &k3, TS), p, gamma);
+                    let sum: Mat = core::array::from_fn(|i| {
+                        core::array::from_fn(|j| k1[i][j] + 2.0 * (k2[i][j] + k3[i][j]) + k4[i][j])
+                    });
+                    axpy(&h, &sum, TS / 6.0)
+                }
+                Step::Exact => {
+                    let g = libm::exp(gamma * TS);
+                    let c = TS * g;
+                    let hp: [f64; 7] =
+                        core::array::from_fn(|i| (0..7).map(|j| h[i][j] * p[j]).sum());
+                    let den = 1.0 + c * (0..7).map(|i| p[i] * hp[i]).sum::<f64>();
+                    core::array::from_fn(|i| {
+                        core::array::from_fn(|j| g * (h[i][j] - c * hp[i] * hp[j] / den))
+                    })
+                }
+            };
+            if (0..7).any(|i| !(h[i][i] > 0.0 && h[i][i].is_finite())) {
+                return Some(k + 1);
+            }
+        }
+        None
+    }
+
+    /// Why the laws never integrate H (eq. 37) or Γ2 (eq. 48) explicitly:
+    /// with the paper's H(0) and Γ2(0), Ts·ΨᵀHΨ is far above 1 as soon as
+    /// the filters respond, and explicit Euler or classical RK4 make H
+    /// indefinite at the 5th sample (Γ2: the 4th), after which it overflows
+    /// within a few samples more; the exact discrete update stays positive
+    /// definite on the same data.
+    #[test]
+    fn explicit_riccati_steps_break_down_with_the_paper_gains() {
+        let psi = paper_regressors::<2000>();
+        let h0 = AdaptiveConfig::<7>::PAPER_H0_2_MODES;
+        let g0 = LeastSquaresConfig::<7>::PAPER_GAIN0_2_MODES;
+        for (gain0, gamma) in [(h0, 0.1), (g0, 0.0)] {
+            for step in [Step::Euler, Step::Rk4] {
+                let k = breakdown(&gain0, gamma, step, &psi);
+                assert!(k.is_some_and(|k| k <= 5), "{k:?}");
+            }
+            assert_eq!(breakdown(&gain0, gamma, Step::Exact, &psi), None);
+        }
+        // The data is not the problem: with H(0) 100× smaller, RK4 holds.
+        let small = h0.map(|v| v * 1e-2);
+        assert_eq!(breakdown(&small, 0.1, Step::Rk4, &psi), None);
+    }
+}
