@@ -266,19 +266,14 @@ fn a_bad_output_crc_is_an_error_never_a_sample() {
 #[test]
 fn status_flags_and_format_mismatches_are_errors() {
     let f = RESET_FMT;
-    let cases: [(u16, fn(u16) -> bool); 5] = [
-        // CRC_ERR: the device refused our last command.
-        (0x1503, |w| w == 0x1503),
-        // F_RESYNC.
-        (0x4503, |w| w == 0x4503),
-        // WLENGTH says 32-bit: our 24-bit framing is wrong.
-        (0x0703, |w| w == 0x0703),
-        // LOCK set although the driver never locked.
-        (0x8503, |w| w == 0x8503),
-        // DRDY clear: a repeat of the last conversion.
-        (0x0501, |w| w == 0x0501),
+    let cases: [u16; 5] = [
+        0x1503, // CRC_ERR: the device refused our last command
+        0x4503, // F_RESYNC
+        0x0703, // WLENGTH says 32-bit: our 24-bit framing is wrong
+        0x8503, // LOCK set although the driver never locked
+        0x0501, // DRDY1 clear: a repeat of the last conversion
     ];
-    for (i, (word, _)) in cases.iter().enumerate() {
+    for (i, word) in cases.iter().enumerate() {
         let mut d = driver(&frame(f.din(0, &[]), f.dout(*word, 1, 2)));
         let e = d.read_frame().unwrap_err();
         let ok = match (i, e) {
