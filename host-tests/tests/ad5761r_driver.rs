@@ -13,8 +13,6 @@ use common::{frame, write};
 use embedded_hal::spi::{ErrorKind, ErrorType, Operation, SpiDevice};
 use embedded_hal_mock::eh1::spi::{Mock, Transaction};
 
-type Driver = Ad5761r<Mock<u8>>;
-
 /// The bytes `init` sends for control bits `ctrl`, and the readback the
 /// device answers with `readback` (24 bits).
 fn init_frames(ctrl: u16, readback: [u8; 3]) -> Vec<Transaction<u8>> {
