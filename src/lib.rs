@@ -60,6 +60,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
+pub mod chip_models;
 pub mod compensated;
 pub mod drivers;
 pub mod estimator;
