@@ -9,8 +9,8 @@ use beamest::drivers::ad5761r::{
     ScaleLevel,
 };
 use beamest::drivers::Rail;
-use common::{frame, write};
-use embedded_hal::spi::{ErrorKind, ErrorType, Operation, SpiDevice};
+use common::{frame, write, FailingSpi, DAC_SPANS};
+use embedded_hal::spi::ErrorKind;
 use embedded_hal_mock::eh1::spi::{Mock, Transaction};
 
 /// The bytes `init` sends for control bits `ctrl`, and the readback the
@@ -98,18 +98,6 @@ fn init_errors() {
     d.destroy().done();
 }
 
-/// (low, high) volts of each range, RA order (data sheet front page list).
-const SPANS: [(f64, f64); 8] = [
-    (-10.0, 10.0),
-    (0.0, 10.0),
-    (-5.0, 5.0),
-    (0.0, 5.0),
-    (-2.5, 7.5),
-    (-3.0, 3.0),
-    (0.0, 16.0),
-    (0.0, 20.0),
-];
-
 /// Independent volts → straight-binary code: the range's span is 2¹⁶ LSBs
 /// from its low end.
 fn expected_code(lo: f64, hi: f64, v: f64) -> u16 {
@@ -119,7 +107,7 @@ fn expected_code(lo: f64, hi: f64, v: f64) -> u16 {
 
 #[test]
 fn volts_to_code_for_every_range_and_coding_with_saturation() {
-    for (ra, (range, (lo, hi))) in OutputRange::ALL.iter().zip(SPANS).enumerate() {
+    for (ra, (range, (lo, hi))) in OutputRange::ALL.iter().zip(DAC_SPANS).enumerate() {
         for coding in [BipolarCoding::StraightBinary, BipolarCoding::TwosComplement] {
             let config = Config {
                 range: *range,
@@ -211,21 +199,9 @@ fn external_reference_scales_the_transfer_function() {
     d.destroy().done();
 }
 
-struct FailingSpi;
-
-impl ErrorType for FailingSpi {
-    type Error = ErrorKind;
-}
-
-impl SpiDevice for FailingSpi {
-    fn transaction(&mut self, _: &mut [Operation<'_, u8>]) -> Result<(), ErrorKind> {
-        Err(ErrorKind::Overrun)
-    }
-}
-
 #[test]
 fn spi_errors_are_reported() {
-    let mut d = Ad5761r::new(FailingSpi);
+    let mut d = Ad5761r::new(FailingSpi(ErrorKind::Overrun));
     assert_eq!(
         d.init(Config::default()),
         Err(Error::Spi(ErrorKind::Overrun))

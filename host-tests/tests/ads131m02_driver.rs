@@ -8,8 +8,8 @@ use beamest::drivers::ads131m02::{
     crc16, Ads131m02, Command, Config, CrcType, Error, PgaGain, Register, Response, WordLength,
 };
 use beamest::drivers::Rail;
-use common::{crc16_bitwise, frame, status, Fmt, ANSI, CCITT, RESET_FMT};
-use embedded_hal::spi::{ErrorKind, ErrorType, Operation, SpiDevice};
+use common::{crc16_bitwise, frame, status, FailingSpi, Fmt, ANSI, CCITT, RESET_FMT};
+use embedded_hal::spi::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as DelayTx};
 use embedded_hal_mock::eh1::spi::{Mock, Transaction};
 
@@ -343,21 +343,9 @@ fn a_response_that_does_not_answer_the_previous_command_is_an_error() {
     done(d);
 }
 
-struct FailingSpi;
-
-impl ErrorType for FailingSpi {
-    type Error = ErrorKind;
-}
-
-impl SpiDevice for FailingSpi {
-    fn transaction(&mut self, _: &mut [Operation<'_, u8>]) -> Result<(), ErrorKind> {
-        Err(ErrorKind::ModeFault)
-    }
-}
-
 #[test]
 fn spi_errors_are_reported() {
-    let mut d = Ads131m02::new(FailingSpi);
+    let mut d = Ads131m02::new(FailingSpi(ErrorKind::ModeFault));
     assert_eq!(d.read_frame(), Err(Error::Spi(ErrorKind::ModeFault)));
     assert_eq!(
         d.read_register(Register::Id),

@@ -13,7 +13,7 @@ use beamest::drivers::ads131m02::{
     self, Ads131m02, Command, Config, CrcType, Error, PgaGain, Register, WordLength,
 };
 use beamest::drivers::Rail;
-use common::{crc16_bitwise, CCITT};
+use common::{crc16_bitwise, CCITT, DAC_SPANS};
 use embedded_hal::spi::{Operation, SpiDevice};
 
 struct NoDelay;
@@ -292,20 +292,9 @@ fn dac<'a>(
     d
 }
 
-const SPANS: [(f64, f64); 8] = [
-    (-10.0, 10.0),
-    (0.0, 10.0),
-    (-5.0, 5.0),
-    (0.0, 5.0),
-    (-2.5, 7.5),
-    (-3.0, 3.0),
-    (0.0, 16.0),
-    (0.0, 20.0),
-];
-
 #[test]
 fn dac_codes_round_trip_to_the_model_voltage_within_one_lsb() {
-    for (range, (lo, hi)) in OutputRange::ALL.into_iter().zip(SPANS) {
+    for (range, (lo, hi)) in OutputRange::ALL.into_iter().zip(DAC_SPANS) {
         for coding in [BipolarCoding::StraightBinary, BipolarCoding::TwosComplement] {
             let model = RefCell::new(Ad5761rModel::new());
             assert!(model.borrow().is_clamped());

@@ -3,6 +3,7 @@
 //! (no table, no `crc` crate) and explicit byte layouts.
 #![allow(dead_code)]
 
+use embedded_hal::spi::{ErrorKind, ErrorType, Operation, SpiDevice};
 use embedded_hal_mock::eh1::spi::Transaction;
 
 /// CCITT polynomial x¹⁶+x¹²+x⁵+1 (ADS131M02 §8.3.12 Table 8-7).
@@ -134,4 +135,30 @@ pub fn write(tx: Vec<u8>) -> [Transaction<u8>; 3] {
 /// A STATUS word: RESET flag, word-length code, CRC type, both DRDY set.
 pub fn status(reset: bool, wlength: u16, ansi: bool) -> u16 {
     (u16::from(reset) << 10) | (wlength << 8) | (u16::from(ansi) << 11) | 0b11
+}
+
+/// (low, high) volts of each AD5761R range, in RA order (data sheet
+/// front page: 8 software-programmable output ranges).
+pub const DAC_SPANS: [(f64, f64); 8] = [
+    (-10.0, 10.0),
+    (0.0, 10.0),
+    (-5.0, 5.0),
+    (0.0, 5.0),
+    (-2.5, 7.5),
+    (-3.0, 3.0),
+    (0.0, 16.0),
+    (0.0, 20.0),
+];
+
+/// An SPI device whose every transaction fails with the given kind.
+pub struct FailingSpi(pub ErrorKind);
+
+impl ErrorType for FailingSpi {
+    type Error = ErrorKind;
+}
+
+impl SpiDevice for FailingSpi {
+    fn transaction(&mut self, _: &mut [Operation<'_, u8>]) -> Result<(), ErrorKind> {
+        Err(self.0)
+    }
 }

@@ -62,8 +62,9 @@ pub use registers::{
     WordLength,
 };
 
-/// SPI mode of the ADS131M02: CPOL 0, CPHA 1 (data change on SCLK rising
-/// edges, sampled on falling edges), MSB first.
+/// SPI mode of the ADS131M02: CPOL 0, CPHA 1, MSB first (SBAS853A §8.5.1
+/// Interface; TI application note SBAA858 states mode 1 for the ADS131M0x
+/// family).
 pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;
 
 /// t_REGACQ, register default acquisition time after a reset before the
@@ -251,9 +252,13 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// Returns the ID. The answer to whatever preceded the RESET frame, and
     /// that frame's CRC, are not checked: the device state is unknown.
     pub fn reset(&mut self, delay: &mut impl DelayNs) -> Result<u16, Error<SPI::Error>> {
-        let mut buf = [0u8; frame::MAX_FRAME_BYTES];
-        let n = self.format.frame_bytes();
-        let tx = buf.get_mut(..n).ok_or(Error::InvalidArgument)?;
+        // The RESET frame must be complete to be latched: as long as the
+        // answer to a multi-register read still owed, if there is one.
+        let words = frame::FRAME_WORDS.max(self.pending.response_register_words() + 2);
+        let mut buf = [0u8; LONG_FRAME_BYTES];
+        let tx = buf
+            .get_mut(..words * self.format.word_bytes())
+            .ok_or(Error::InvalidArgument)?;
         self.load_command(tx, Command::Reset, &[]);
         self.spi.transfer_in_place(tx)?;
         self.pending = Command::Reset;
@@ -311,7 +316,11 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// The sample path: one NULL frame. Returns both conversions, or an
     /// error if the CRC, the STATUS word, the DRDY bits (no new data) or
     /// the optional stuck-data check fail. Saturation is not an error here:
-    /// it is carried by each [`Conversion`].
+    /// it is carried by each [`Conversion`]. (After an error in the middle
+    /// of a register operation the frame may answer that operation instead
+    /// of NULL; its answer is checked the same way, DRDY is then unknown.)
+    /// After [`Error::UnexpectedReset`] or a failed [`Ads131m02::configure`],
+    /// call [`Ads131m02::reset`] and [`Ads131m02::configure`] again.
     pub fn read_frame(&mut self) -> Result<Frame, Error<SPI::Error>> {
         let (response, codes) = self.command(Command::Null, &[])?;
         if let Response::Status(s) = response {
