@@ -232,7 +232,7 @@ fn read_frame_decodes_both_channels() {
     ];
     let mut d = driver(&frame(vec![0; 12], rx));
     let f = d.read_frame().unwrap();
-    let s = f.status().unwrap();
+    let s = f.status;
     assert!(s.reset && s.drdy == [true, true]);
     assert_eq!(s.word_length, WordLength::Bits24);
     assert_eq!(f.channels[0].code(), 0x123456);

@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 use beamest::chip_models::ads131m02::quantize;
 use beamest::chip_models::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
@@ -14,7 +14,7 @@ use beamest::drivers::ads131m02::{
 };
 use beamest::drivers::Rail;
 use common::{crc16_bitwise, CCITT, DAC_SPANS};
-use embedded_hal::spi::{Operation, SpiDevice};
+use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 
 struct NoDelay;
 
@@ -32,8 +32,8 @@ fn adc<'a>(model: &'a RefCell<Ads131m02Model>, config: &Config) -> Adc<'a> {
 }
 
 /// One DRDY period of the simulated rig: set the inputs, convert, read.
-fn sample(
-    d: &mut Adc<'_>,
+fn sample<S: SpiDevice<Error = ModelBusError>>(
+    d: &mut Ads131m02<S>,
     model: &RefCell<Ads131m02Model>,
     volts: [f64; 2],
 ) -> Result<ads131m02::Frame, Error<ModelBusError>> {
@@ -221,6 +221,57 @@ fn injected_faults_are_driver_errors() {
     assert_eq!(d.reset(&mut NoDelay), Ok(0x2200));
     d.configure(&config).unwrap();
     assert!(sample(&mut d, &model, [0.07, 0.0]).is_ok());
+}
+
+/// The model behind a link that drops the transaction `fail_in` counts
+/// down to (1 = the next one); 0 = never.
+struct FlakyLink<'a> {
+    model: Shared<'a, Ads131m02Model>,
+    fail_in: &'a Cell<u32>,
+}
+
+impl ErrorType for FlakyLink<'_> {
+    type Error = ModelBusError;
+}
+
+impl SpiDevice for FlakyLink<'_> {
+    fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), ModelBusError> {
+        let n = self.fail_in.get();
+        self.fail_in.set(n.saturating_sub(1));
+        if n == 1 {
+            return Err(ModelBusError);
+        }
+        self.model.transaction(ops)
+    }
+}
+
+#[test]
+fn an_answer_owed_after_a_failed_operation_is_not_a_sample() {
+    let model = RefCell::new(Ads131m02Model::new());
+    let fail_in = Cell::new(0);
+    let link = FlakyLink {
+        model: Shared(&model),
+        fail_in: &fail_in,
+    };
+    let mut d = Ads131m02::new(link);
+    d.reset(&mut NoDelay).unwrap();
+    d.configure(&Config::default()).unwrap();
+    // The RREG frame goes through, the frame collecting its answer is lost.
+    fail_in.set(2);
+    let mut regs = [0u16; 4];
+    assert_eq!(
+        d.read_registers(Register::Mode, &mut regs),
+        Err(Error::Spi(ModelBusError))
+    );
+    let owed = Command::ReadRegisters { start: 2, count: 4 };
+    assert_eq!(d.pending(), owed);
+    model.borrow_mut().set_inputs([0.2, 0.1]);
+    model.borrow_mut().convert();
+    // The next frame is the long answer (no ADC data): an error, no sample.
+    assert_eq!(d.read_frame(), Err(Error::OwedResponse { command: owed }));
+    // Then back to normal.
+    let f = sample(&mut d, &model, [0.2, 0.1]).unwrap();
+    assert_eq!(f.channels[0].code(), quantize(0.2, 1));
 }
 
 #[test]

@@ -28,6 +28,12 @@ pub enum Error<E> {
         /// The word received.
         response: u16,
     },
+    /// The frame carried the (checked) answer to a command latched before a
+    /// failed operation, not STATUS: it holds no sample.
+    OwedResponse {
+        /// The command answered.
+        command: Command,
+    },
     /// The frame after RESET did not carry the reset reply FF22h.
     ResetReply(u16),
     /// The ID register's high byte is not 22h (reserved 2h, CHANCNT = 2):
@@ -86,6 +92,10 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
                 f,
                 "ADS131M02: response {response:04X}h does not answer {command:?} ({:04X}h)",
                 command.word()
+            ),
+            Error::OwedResponse { command } => write!(
+                f,
+                "ADS131M02: frame answered an earlier {command:?}, no sample"
             ),
             Error::ResetReply(w) => {
                 write!(f, "ADS131M02: reset reply {w:04X}h, expected FF22h")

@@ -177,21 +177,14 @@ impl Config {
     }
 }
 
-/// One data frame: the answer to the previous command and both channels.
+/// One data frame: the STATUS word that answered NULL and both channels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Frame {
-    /// First word, typed by the command it answers (normally STATUS).
-    pub response: Response,
+    /// The STATUS word (checked).
+    pub status: Status,
     /// Channel 0 and channel 1 conversions.
     pub channels: [Conversion; 2],
-}
-
-impl Frame {
-    /// The STATUS word, if the frame answered NULL.
-    pub const fn status(&self) -> Option<Status> {
-        self.response.status()
-    }
 }
 
 /// The ADS131M02 on an SPI device.
@@ -316,22 +309,25 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// The sample path: one NULL frame. Returns both conversions, or an
     /// error if the CRC, the STATUS word, the DRDY bits (no new data) or
     /// the optional stuck-data check fail. Saturation is not an error here:
-    /// it is carried by each [`Conversion`]. (After an error in the middle
-    /// of a register operation the frame may answer that operation instead
-    /// of NULL; its answer is checked the same way, DRDY is then unknown.)
+    /// it is carried by each [`Conversion`]. If an earlier register
+    /// operation failed after its command was latched, this frame carries
+    /// that command's (checked) answer instead of STATUS and no sample:
+    /// [`Error::OwedResponse`]; the next frame is normal again.
     /// After [`Error::UnexpectedReset`] or a failed [`Ads131m02::configure`],
     /// call [`Ads131m02::reset`] and [`Ads131m02::configure`] again.
     pub fn read_frame(&mut self) -> Result<Frame, Error<SPI::Error>> {
+        let answered = self.pending;
         let (response, codes) = self.command(Command::Null, &[])?;
-        if let Response::Status(s) = response {
-            let fresh = self
-                .enabled
-                .iter()
-                .zip(s.drdy.iter())
-                .all(|(&en, &ready)| !en || ready);
-            if !fresh {
-                return Err(Error::NoNewData(s));
-            }
+        let Response::Status(status) = response else {
+            return Err(Error::OwedResponse { command: answered });
+        };
+        let fresh = self
+            .enabled
+            .iter()
+            .zip(status.drdy.iter())
+            .all(|(&en, &ready)| !en || ready);
+        if !fresh {
+            return Err(Error::NoNewData(status));
         }
         if codes == self.last_codes {
             self.repeats = self.repeats.saturating_add(1);
@@ -347,7 +343,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         let [g0, g1] = self.gains;
         let [c0, c1] = codes;
         Ok(Frame {
-            response,
+            status,
             channels: [Conversion::new(c0, g0, wl), Conversion::new(c1, g1, wl)],
         })
     }
