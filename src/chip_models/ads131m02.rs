@@ -45,9 +45,11 @@ use crate::drivers::ads131m02::registers::{
 use crate::drivers::ads131m02::RESET_REPLY;
 use crate::drivers::Rail;
 
-/// Registers one RREG may ask for (7-bit count + 1).
-const MAX_REGISTERS: usize = 128;
-/// Bytes of the longest frame the model answers (ack, 128 registers, CRC).
+/// Registers the model answers one RREG with: the 6-bit address space. An
+/// RREG of more (the count field allows 128) gets a frame cut at this
+/// length (not modelled further).
+const MAX_REGISTERS: usize = 64;
+/// Bytes of the longest frame the model answers (ack, 64 registers, CRC).
 const BUF_BYTES: usize = (MAX_REGISTERS + 2) * MAX_WORD_BYTES;
 /// Writable bits of MODE, CLOCK, GAIN1 (Table 8-12).
 const MODE_MASK: u16 = 0x3F1F;
@@ -329,7 +331,7 @@ impl Ads131m02Model {
         out.fill(0);
         let words = match self.answer {
             Answer::Registers { start, count } => {
-                let n = usize::from(count);
+                let n = usize::from(count).min(MAX_REGISTERS);
                 let ack = 0xE000 | (u16::from(start & 0x3F) << 7) | u16::from(count - 1);
                 f.put_word16(out, 0, ack);
                 for i in 0..n {

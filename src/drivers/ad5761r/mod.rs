@@ -61,7 +61,9 @@ pub enum Reference {
     },
 }
 
-/// Everything [`Ad5761r::init`] sets.
+/// Everything [`Ad5761r::init`] sets. The control register has no
+/// short-circuit setting: SC (bit 12) only reports a detected short since
+/// the last control write, see [`ControlReadback`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
