@@ -5,8 +5,8 @@
 //! DB19:16 register address (command), DB15:0 data, MSB first (Table 14);
 //! the readback word shifted out of SDO during the *next* command, echoing
 //! the address in DB19:16 (Table 15); the control register layout SC (12),
-//! BO (11), CV[1:0] (10:9), OVR (8), B2C (7), ETS (6), IRO (5), PV[1:0]
-//! (4:3), RA[2:0] (2:0) (Table 15), SC and BO reset at every control write
+//! BO (11), `CV[1:0]` (10:9), OVR (8), B2C (7), ETS (6), IRO (5), `PV[1:0]`
+//! (4:3), `RA[2:0]` (2:0) (Table 15), SC and BO reset at every control write
 //! (Table 16); bipolar codes, straight binary 8000h = 0 V and two's
 //! complement 0000h = 0 V (Table 13). The command nibbles other than 1100
 //! (readback control), the RA and PV/CV encodings and the IRO polarity
@@ -70,7 +70,7 @@ impl Command {
     }
 }
 
-/// Output range, control register RA[2:0], with the transfer-function
+/// Output range, control register `RA[2:0]`, with the transfer-function
 /// constants M and C: V_OUT = V_REF·(M·D/2¹⁶ − C), D straight binary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -106,12 +106,12 @@ impl OutputRange {
         OutputRange::Unipolar20V,
     ];
 
-    /// RA[2:0].
+    /// `RA[2:0]`.
     pub const fn to_bits(self) -> u16 {
         self as u16
     }
 
-    /// Decode RA[2:0] (all eight codes are ranges).
+    /// Decode `RA[2:0]` (all eight codes are ranges).
     pub const fn from_bits(bits: u16) -> OutputRange {
         match bits & 0b111 {
             0 => OutputRange::Bipolar10V,
@@ -156,7 +156,7 @@ pub enum BipolarCoding {
     TwosComplement = 1,
 }
 
-/// Power-up (PV[1:0]) or clear (CV[1:0]) output level.
+/// Power-up (`PV[1:0]`) or clear (`CV[1:0]`) output level.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ScaleLevel {
@@ -193,16 +193,16 @@ impl ScaleLevel {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControlRegister {
-    /// RA[2:0]: output range.
+    /// `RA[2:0]`: output range.
     pub range: OutputRange,
     /// B2C: coding of the bipolar ranges (unipolar ranges are always
     /// straight binary).
     pub coding: BipolarCoding,
     /// OVR: 5 % overrange.
     pub overrange: bool,
-    /// CV[1:0]: output level while CLEAR is asserted.
+    /// `CV[1:0]`: output level while CLEAR is asserted.
     pub clear: ScaleLevel,
-    /// PV[1:0]: power-up output level.
+    /// `PV[1:0]`: power-up output level.
     pub power_up: ScaleLevel,
     /// ETS: thermal shutdown when the die overheats.
     pub thermal_shutdown: bool,

@@ -2,7 +2,7 @@
 //! wrapped.
 //!
 //! Transfer function V_OUT = V_REF·(M·D/2¹⁶ − C) with D the straight-binary
-//! code and (M, C) per range ([`OutputRange::m_c_tenths`]); in two's
+//! code and (M, C) per range ([`super::registers::OutputRange::m_c_tenths`]); in two's
 //! complement coding the code written is D XOR 8000h (Table 13). The 5 %
 //! overrange (OVR) is modelled as M and C both scaled by 1.05 (a span 5 %
 //! wider on each side of the range's own zero); that scaling is this

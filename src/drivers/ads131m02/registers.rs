@@ -25,7 +25,7 @@ pub enum Register {
     Cfg = 0x06,
     /// 07h THRSHLD_MSB, reset 0000h.
     ThresholdMsb = 0x07,
-    /// 08h THRSHLD_LSB (and DCBLOCK[3:0]), reset 0000h.
+    /// 08h THRSHLD_LSB (and `DCBLOCK[3:0]`), reset 0000h.
     ThresholdLsb = 0x08,
     /// 09h CH0_CFG (PHASE0, MUX0), reset 0000h.
     Ch0Cfg = 0x09,
@@ -107,7 +107,7 @@ impl Register {
 }
 
 /// Expected high byte of the ID register: reserved nibble 2h and
-/// CHANCNT[3:0] = 2 (Table 8-12, "22xxh").
+/// `CHANCNT[3:0]` = 2 (Table 8-12, "22xxh").
 pub const ID_HIGH_BYTE: u8 = 0x22;
 
 macro_rules! bit_enum {
@@ -139,7 +139,7 @@ macro_rules! bit_enum {
 }
 
 bit_enum! {
-    /// Word length, MODE/STATUS WLENGTH[1:0] (bits 9:8).
+    /// Word length, MODE/STATUS `WLENGTH[1:0]` (bits 9:8).
     WordLength: 0b11 {
         /// 16-bit words; conversion data truncated to the 16 MSBs.
         Bits16 = 0,
@@ -174,7 +174,7 @@ bit_enum! {
 }
 
 bit_enum! {
-    /// MODE DRDY_SEL[1:0] (bits 3:2): which channel's conversion drives DRDY.
+    /// MODE `DRDY_SEL[1:0]` (bits 3:2): which channel's conversion drives DRDY.
     DrdySelect: 0b11 {
         /// The most lagging enabled channel (reset default).
         MostLagging = 0,
@@ -198,7 +198,7 @@ bit_enum! {
 }
 
 bit_enum! {
-    /// CLOCK OSR[2:0] (bits 4:2). Output data rate f_DATA = f_CLKIN/(2·OSR)
+    /// CLOCK `OSR[2:0]` (bits 4:2). Output data rate f_DATA = f_CLKIN/(2·OSR)
     /// (f_MOD = f_CLKIN/2, §8.3.5/§8.3.7).
     Osr: 0b111 {
         /// OSR 128.
@@ -233,7 +233,7 @@ impl Osr {
 }
 
 bit_enum! {
-    /// CLOCK PWR[1:0] (bits 1:0), §8.3.5.
+    /// CLOCK `PWR[1:0]` (bits 1:0), §8.3.5.
     PowerMode: 0b11 {
         /// Very-low-power mode.
         VeryLowPower = 0,
@@ -247,7 +247,7 @@ bit_enum! {
 }
 
 bit_enum! {
-    /// GAIN1 PGAGAINn[2:0]: PGA gain 2ⁿ, §8.3.3. Full-scale range is
+    /// GAIN1 `PGAGAINn[2:0]`: PGA gain 2ⁿ, §8.3.3. Full-scale range is
     /// ±1.2 V / gain (Table 8-10).
     PgaGain: 0b111 {
         /// Gain 1 (reset default).
@@ -301,7 +301,7 @@ pub struct Status {
     pub crc_type: CrcType,
     /// RESET (bit 10): a reset occurred since MODE.RESET was last cleared.
     pub reset: bool,
-    /// WLENGTH[1:0] (bits 9:8).
+    /// `WLENGTH[1:0]` (bits 9:8).
     pub word_length: WordLength,
     /// DRDY1, DRDY0 (bits 1, 0): new data available on channel 1, 0.
     pub drdy: [bool; 2],
@@ -355,11 +355,11 @@ pub struct Mode {
     pub crc_type: CrcType,
     /// RESET (bit 10): write 0 to clear the reset flag.
     pub reset: bool,
-    /// WLENGTH[1:0] (bits 9:8).
+    /// `WLENGTH[1:0]` (bits 9:8).
     pub word_length: WordLength,
     /// TIMEOUT (bit 4): SPI timeout enabled (default 1).
     pub timeout: bool,
-    /// DRDY_SEL[1:0] (bits 3:2).
+    /// `DRDY_SEL[1:0]` (bits 3:2).
     pub drdy_select: DrdySelect,
     /// DRDY_HiZ (bit 1): DRDY high-impedance (instead of driven high) when
     /// no data are ready.
@@ -431,9 +431,9 @@ pub struct Clock {
     /// available when this driver was written; the driver always writes 0
     /// and keeps what it reads.
     pub turbo: bool,
-    /// OSR[2:0] (bits 4:2).
+    /// `OSR[2:0]` (bits 4:2).
     pub osr: Osr,
-    /// PWR[1:0] (bits 1:0).
+    /// `PWR[1:0]` (bits 1:0).
     pub power_mode: PowerMode,
 }
 
