@@ -66,6 +66,7 @@
 
 pub mod beam;
 pub(crate) mod compensated;
+pub mod drivers;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;

@@ -9,10 +9,12 @@
 //!   firmware's sample path sees the beam: the input u held over the coming
 //!   period and the output y sampled now (plus noise).
 //!
-//! Later scenario features (plant changes, excitation pauses, sensor
-//! faults) and the converter chip models belong here too; [`Rig::tick_with`]
-//! takes the input from outside (e.g. from a DAC model) for that.
+//! * [`chips`] — behavioural models of the converters (ADS131M02 ADC,
+//!   AD5761R DAC) behind `SpiDevice`, so the real drivers run against the
+//!   simulated beam; [`Rig::tick_with`] takes the input from outside (the DAC
+//!   model's held voltage) for that.
 
+pub mod chips;
 pub mod noise;
 pub mod plant;
 pub mod sim;

@@ -1,0 +1,516 @@
+//! Behavioural model of the TI ADS131M02 on its SPI interface.
+//!
+//! # What it does, as the chip does (SBAS853A)
+//! * Frames: the first DOUT word answers the command of the previous frame
+//!   (Table 8-11): STATUS for NULL and for anything invalid, FF22h after
+//!   RESET, the echo of STANDBY/WAKEUP/LOCK/UNLOCK, the register for a
+//!   single RREG, `111a aaaa annn nnnn` + the registers (no ADC data) for a
+//!   multi-register RREG, `010a aaaa annn nnnn` for WREG. Then one word per
+//!   channel and the output CRC (§8.3.12, never disabled).
+//! * Register file with the Table 8-12 reset values; ID 22xxh (revision
+//!   byte settable); STATUS built from MODE and the live flags; read-only
+//!   registers ignore writes. MODE's word length, CRC type and input CRC
+//!   apply from the frame after the WREG that sets them.
+//! * Input CRC (MODE.RX_CRC_EN): a command with a wrong CRC is not executed
+//!   except WREG, which always executes; CRC_ERR is set and the next answer
+//!   is STATUS; CRC_ERR clears when STATUS is output (§8.3.12).
+//! * A frame shorter than the command needs is not latched; an incomplete
+//!   RESET is answered by 0011h (the RESET command section).
+//! * LOCK leaves only NULL, UNLOCK and RREG valid. STANDBY stops
+//!   conversions until WAKEUP.
+//! * [`Ads131m02Model::convert`] is one DRDY period: each enabled channel's
+//!   input voltage is quantised ideally (Table 8-10): code =
+//!   round(V·gain/1.2 V·2²³), clipped to 800000h…7FFFFFh; DRDY bits set.
+//!   Outputting the data in a frame clears them.
+//!
+//! # What it does not model
+//! The digital filter (sinc³ settling after a reset, a channel enable or a
+//! gain change; group delay), phase calibration, offset/gain calibration
+//! registers (stored, not applied), global chop, current detection, the
+//! register-map CRC, noise and offset, the DRDY pin itself, the SPI timeout
+//! and SYNC/RESET pin timing, turbo mode. The framing helpers (word packing,
+//! CRC) are the driver's own [`FrameFormat`] methods, which the driver tests
+//! check byte for byte against the data sheet; the behaviour above is
+//! independent of the driver's state machine.
+
+use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
+
+use super::{clock_operations, ModelBusError};
+use crate::drivers::ads131m02::command::Command;
+use crate::drivers::ads131m02::conversion::{CODE_MAX, CODE_MIN, VREF_VOLTS};
+use crate::drivers::ads131m02::frame::{FrameFormat, MAX_WORD_BYTES};
+use crate::drivers::ads131m02::registers::{
+    pga_gain_of, word_length_of, CrcType, Register, Status,
+};
+use crate::drivers::ads131m02::RESET_REPLY;
+use crate::drivers::Rail;
+
+/// Registers the model answers one RREG with: the 6-bit address space. An
+/// RREG of more (the count field allows 128) gets a frame cut at this
+/// length (not modelled further).
+const MAX_REGISTERS: usize = 64;
+/// Bytes of the longest frame the model answers (ack, 64 registers, CRC).
+const BUF_BYTES: usize = (MAX_REGISTERS + 2) * MAX_WORD_BYTES;
+/// Writable bits of MODE, CLOCK, GAIN1 (Table 8-12).
+const MODE_MASK: u16 = 0x3F1F;
+const CLOCK_MASK: u16 = 0x033F;
+const GAIN_MASK: u16 = 0x0077;
+
+/// What the next frame's first word(s) will be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Answer {
+    Status,
+    Word(u16),
+    Registers { start: u8, count: u8 },
+}
+
+/// Counters for tests and the simulated rig.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModelStats {
+    /// Frames clocked (transactions without an injected bus fault).
+    pub frames: u64,
+    /// Conversions completed.
+    pub conversions: u64,
+    /// Commands refused for a bad input CRC.
+    pub input_crc_errors: u64,
+}
+
+/// The ADS131M02 model. See the module docs.
+#[derive(Clone, Debug)]
+pub struct Ads131m02Model {
+    /// The ID register (kept across resets).
+    id: u16,
+    regs: [u16; 64],
+    inputs_volts: [f64; 2],
+    codes: [i32; 2],
+    drdy: [bool; 2],
+    answer: Answer,
+    crc_error: bool,
+    standby: bool,
+    locked: bool,
+    // Faults.
+    bad_crc_frames: u32,
+    bad_crc_period: u32,
+    stuck: bool,
+    saturate: Option<Rail>,
+    dropped_conversions: u32,
+    bus_errors: u32,
+    stats: ModelStats,
+}
+
+impl Default for Ads131m02Model {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Ideal conversion of `volts` at PGA `gain` (Table 8-10): round to the
+/// nearest code, clip at full scale. NaN converts as 0 V.
+pub fn quantize(volts: f64, gain: u32) -> i32 {
+    let x = libm::round(volts * f64::from(gain) / VREF_VOLTS * 8_388_608.0);
+    // `as` saturates (±∞) and maps NaN to 0.
+    (x as i64).clamp(i64::from(CODE_MIN), i64::from(CODE_MAX)) as i32
+}
+
+impl Ads131m02Model {
+    /// A device just powered on: registers at reset values, inputs 0 V, no
+    /// conversion yet, the first frame answers with STATUS.
+    pub fn new() -> Self {
+        let mut m = Ads131m02Model {
+            id: Register::Id.reset_value(),
+            regs: [0; 64],
+            inputs_volts: [0.0; 2],
+            codes: [0; 2],
+            drdy: [false; 2],
+            answer: Answer::Status,
+            crc_error: false,
+            standby: false,
+            locked: false,
+            bad_crc_frames: 0,
+            bad_crc_period: 0,
+            stuck: false,
+            saturate: None,
+            dropped_conversions: 0,
+            bus_errors: 0,
+            stats: ModelStats::default(),
+        };
+        m.reset_registers();
+        m
+    }
+
+    fn reset_registers(&mut self) {
+        self.regs = [0; 64];
+        for r in Register::ALL {
+            if let Some(slot) = self.regs.get_mut(usize::from(r.addr())) {
+                *slot = r.reset_value();
+            }
+        }
+        self.codes = [0; 2];
+        self.drdy = [false; 2];
+        self.crc_error = false;
+        self.standby = false;
+        self.locked = false;
+    }
+
+    /// Set the ID register's revision byte (low byte of 22xxh).
+    pub fn set_revision(&mut self, revision: u8) {
+        self.id = (self.id & 0xFF00) | u16::from(revision);
+    }
+
+    /// Replace the whole ID register (to model another part).
+    pub fn set_id(&mut self, id: u16) {
+        self.id = id;
+    }
+
+    /// Analog input voltages (AINnP − AINnN) of channels 0 and 1, volts.
+    pub fn set_inputs(&mut self, volts: [f64; 2]) {
+        self.inputs_volts = volts;
+    }
+
+    /// The input voltages last set.
+    pub fn inputs(&self) -> [f64; 2] {
+        self.inputs_volts
+    }
+
+    /// One DRDY period: quantise the inputs into the data the next frame
+    /// returns and set DRDY. Nothing happens in standby or while a dropped
+    /// conversion is injected.
+    pub fn convert(&mut self) {
+        if self.standby {
+            return;
+        }
+        if self.dropped_conversions > 0 {
+            self.dropped_conversions -= 1;
+            return;
+        }
+        let clock = self.reg(Register::Clock);
+        let gain = self.reg(Register::Gain);
+        for ch in 0..2 {
+            let enabled = clock & (1 << (8 + ch)) != 0;
+            let g = pga_gain_of(gain >> (4 * ch)).factor();
+            let volts = self.inputs_volts.get(ch).copied().unwrap_or(0.0);
+            let code = match (enabled, self.stuck, self.saturate) {
+                (false, _, _) => 0,
+                (true, true, _) => self.codes.get(ch).copied().unwrap_or(0),
+                (true, false, Some(Rail::High)) => CODE_MAX,
+                (true, false, Some(Rail::Low)) => CODE_MIN,
+                (true, false, None) => quantize(volts, g),
+            };
+            if let Some(c) = self.codes.get_mut(ch) {
+                *c = code;
+            }
+            if let Some(d) = self.drdy.get_mut(ch) {
+                *d = enabled;
+            }
+        }
+        self.stats.conversions += 1;
+    }
+
+    /// The codes of the latest conversion (24-bit scale).
+    pub fn codes(&self) -> [i32; 2] {
+        self.codes
+    }
+
+    /// The register at `reg` (STATUS as it would be output now).
+    pub fn register(&self, reg: Register) -> u16 {
+        self.read_addr(reg.addr())
+    }
+
+    /// The frame format MODE currently sets.
+    pub fn format(&self) -> FrameFormat {
+        let mode = self.reg(Register::Mode);
+        FrameFormat {
+            word_length: word_length_of(mode >> 8),
+            crc_type: if mode & (1 << 11) != 0 {
+                CrcType::Ansi
+            } else {
+                CrcType::Ccitt
+            },
+            rx_crc: mode & (1 << 12) != 0,
+        }
+    }
+
+    /// Whether STANDBY is in force.
+    pub fn is_standby(&self) -> bool {
+        self.standby
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> ModelStats {
+        self.stats
+    }
+
+    /// Fault: corrupt one bit of the next `frames` frames after their CRC
+    /// was computed (a transmission error).
+    pub fn inject_bad_crc(&mut self, frames: u32) {
+        self.bad_crc_frames = frames;
+    }
+
+    /// Fault: corrupt every `period`-th frame (0: off).
+    pub fn set_bad_crc_period(&mut self, period: u32) {
+        self.bad_crc_period = period;
+    }
+
+    /// Fault: conversions repeat the last code (a stuck front end; DRDY
+    /// still toggles).
+    pub fn set_stuck(&mut self, stuck: bool) {
+        self.stuck = stuck;
+    }
+
+    /// Fault: conversions at the full-scale code of `rail`.
+    pub fn set_saturation(&mut self, rail: Option<Rail>) {
+        self.saturate = rail;
+    }
+
+    /// Fault: the next `n` conversions do not happen (dropped DRDY).
+    pub fn drop_conversions(&mut self, n: u32) {
+        self.dropped_conversions = n;
+    }
+
+    /// Fault: the next `n` transactions fail with [`ModelBusError`] and
+    /// have no effect.
+    pub fn inject_bus_errors(&mut self, n: u32) {
+        self.bus_errors = n;
+    }
+
+    /// Fault: a brown-out — the device resets without a command (registers
+    /// to defaults, STATUS.RESET set, next answer STATUS).
+    pub fn brown_out(&mut self) {
+        self.reset_registers();
+        self.answer = Answer::Status;
+    }
+
+    fn reg(&self, reg: Register) -> u16 {
+        self.regs.get(usize::from(reg.addr())).copied().unwrap_or(0)
+    }
+
+    fn status(&self) -> Status {
+        let f = self.format();
+        Status {
+            lock: self.locked,
+            resync_fault: false,
+            reg_map_changed: false,
+            crc_error: self.crc_error,
+            crc_type: f.crc_type,
+            reset: self.reg(Register::Mode) & (1 << 10) != 0,
+            word_length: f.word_length,
+            drdy: self.drdy,
+        }
+    }
+
+    fn read_addr(&self, addr: u8) -> u16 {
+        if addr == Register::Status.addr() {
+            self.status().to_bits()
+        } else if addr == Register::Id.addr() {
+            self.id
+        } else {
+            self.regs.get(usize::from(addr)).copied().unwrap_or(0)
+        }
+    }
+
+    fn write_addr(&mut self, addr: u8, value: u16) {
+        let Some(reg) = Register::from_addr(addr) else {
+            return;
+        };
+        let value = match reg {
+            _ if !reg.is_writable() => return,
+            Register::Mode => value & MODE_MASK,
+            Register::Clock => value & CLOCK_MASK,
+            Register::Gain => value & GAIN_MASK,
+            _ => value,
+        };
+        if let Some(slot) = self.regs.get_mut(usize::from(addr)) {
+            *slot = value;
+        }
+    }
+
+    /// Build DOUT for a frame starting now; returns its length in bytes.
+    fn begin_frame(&mut self, f: FrameFormat, out: &mut [u8]) -> usize {
+        let wb = f.word_bytes();
+        out.fill(0);
+        let words = match self.answer {
+            Answer::Registers { start, count } => {
+                let n = usize::from(count).min(MAX_REGISTERS);
+                let ack = 0xE000 | (u16::from(start & 0x3F) << 7) | u16::from(count - 1);
+                f.put_word16(out, 0, ack);
+                for i in 0..n {
+                    let v = self.read_addr(start.wrapping_add(i as u8));
+                    f.put_word16(out, 1 + i, v);
+                }
+                n + 2
+            }
+            answer => {
+                let first = match answer {
+                    Answer::Word(w) => w,
+                    _ => {
+                        let s = self.status().to_bits();
+                        // CRC_ERR clears once STATUS is output.
+                        self.crc_error = false;
+                        s
+                    }
+                };
+                f.put_word16(out, 0, first);
+                let [c0, c1] = self.codes;
+                f.put_data(out, 1, c0);
+                f.put_data(out, 2, c1);
+                // The data have been read.
+                self.drdy = [false; 2];
+                4
+            }
+        };
+        let len = words * wb;
+        let crc_at = (words - 1) * wb;
+        let crc = f.crc(out.get(..crc_at).unwrap_or(&[]));
+        f.put_word16(out, words - 1, crc);
+        let periodic = self.bad_crc_period > 0
+            && (self.stats.frames + 1) % u64::from(self.bad_crc_period) == 0;
+        if self.bad_crc_frames > 0 || periodic {
+            self.bad_crc_frames = self.bad_crc_frames.saturating_sub(1);
+            if let Some(b) = out.get_mut(crc_at - 1) {
+                *b ^= 0x01;
+            }
+        }
+        len
+    }
+
+    /// Latch the command of a frame whose DIN was `din` (clocked length).
+    fn end_frame(&mut self, f: FrameFormat, din: &[u8], out_words: usize) {
+        let wb = f.word_bytes();
+        let word = f.word16(din, 0);
+        let cmd = Command::from_word(word);
+        let data_words = cmd.map_or(0, Command::data_words);
+        let in_words = 1 + data_words + usize::from(f.rx_crc);
+        if din.len() < out_words.max(in_words) * wb {
+            self.answer = if cmd == Some(Command::Reset) {
+                Answer::Word(Command::Reset.word())
+            } else {
+                Answer::Status
+            };
+            return;
+        }
+        if f.rx_crc {
+            let covered = (1 + data_words) * wb;
+            let sent = f.word16(din, 1 + data_words);
+            if f.crc(din.get(..covered).unwrap_or(&[])) != sent {
+                self.crc_error = true;
+                self.stats.input_crc_errors += 1;
+                if !matches!(cmd, Some(Command::WriteRegisters { .. })) {
+                    self.answer = Answer::Status;
+                    return;
+                }
+            }
+        }
+        self.answer = match cmd {
+            Some(Command::Null) | None => Answer::Status,
+            Some(Command::Unlock) => {
+                self.locked = false;
+                Answer::Word(word)
+            }
+            Some(Command::ReadRegisters { start, count }) => {
+                if count == 1 {
+                    Answer::Word(self.read_addr(start))
+                } else {
+                    Answer::Registers { start, count }
+                }
+            }
+            Some(_) if self.locked => Answer::Status,
+            Some(Command::Reset) => {
+                self.reset_registers();
+                Answer::Word(RESET_REPLY)
+            }
+            Some(Command::Standby) => {
+                self.standby = true;
+                Answer::Word(word)
+            }
+            Some(Command::Wakeup) => {
+                self.standby = false;
+                Answer::Word(word)
+            }
+            Some(Command::Lock) => {
+                self.locked = true;
+                Answer::Word(word)
+            }
+            Some(Command::WriteRegisters { start, count }) => {
+                for i in 0..usize::from(count) {
+                    let v = f.word16(din, 1 + i);
+                    self.write_addr(start.wrapping_add(i as u8), v);
+                }
+                Answer::Word(0x4000 | (word & 0x1FFF))
+            }
+        };
+    }
+}
+
+impl ErrorType for Ads131m02Model {
+    type Error = ModelBusError;
+}
+
+impl SpiDevice for Ads131m02Model {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), ModelBusError> {
+        if self.bus_errors > 0 {
+            self.bus_errors -= 1;
+            return Err(ModelBusError);
+        }
+        // The format is the one in force when CS falls.
+        let f = self.format();
+        let mut out = [0u8; BUF_BYTES];
+        let out_len = self.begin_frame(f, &mut out);
+        let mut din = [0u8; BUF_BYTES];
+        let mut n = 0usize;
+        clock_operations(operations, |mosi| {
+            if let Some(slot) = din.get_mut(n) {
+                *slot = mosi;
+            }
+            let miso = if n < out_len {
+                out.get(n).copied().unwrap_or(0)
+            } else {
+                0
+            };
+            n += 1;
+            miso
+        });
+        self.stats.frames += 1;
+        let clocked = din.get(..n.min(BUF_BYTES)).unwrap_or(&[]);
+        self.end_frame(f, clocked, out_len / f.word_bytes());
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantisation_follows_table_8_10() {
+        let lsb = 1.2 / 8_388_608.0;
+        assert_eq!(quantize(0.0, 1), 0);
+        assert_eq!(quantize(lsb, 1), 1);
+        assert_eq!(quantize(-lsb, 1), -1);
+        assert_eq!(quantize(0.49 * lsb, 1), 0);
+        assert_eq!(quantize(1.2 * (8_388_607.0 / 8_388_608.0), 1), CODE_MAX);
+        assert_eq!(quantize(5.0, 1), CODE_MAX);
+        assert_eq!(quantize(-1.2, 1), CODE_MIN);
+        assert_eq!(quantize(-7.0, 128), CODE_MIN);
+        assert_eq!(quantize(0.15, 4), 1 << 22);
+        assert_eq!(quantize(f64::NAN, 1), 0);
+        assert_eq!(quantize(f64::INFINITY, 1), CODE_MAX);
+    }
+
+    #[test]
+    fn registers_start_at_reset_values() {
+        let mut m = Ads131m02Model::new();
+        assert_eq!(m.register(Register::Id), 0x2200);
+        assert_eq!(m.register(Register::Mode), 0x0510);
+        assert_eq!(m.register(Register::Clock), 0x030E);
+        assert_eq!(m.register(Register::Status), 0x0500);
+        m.set_revision(0x03);
+        m.brown_out();
+        assert_eq!(m.register(Register::Id), 0x2203);
+        m.write_addr(Register::Id.addr(), 0);
+        assert_eq!(m.register(Register::Id), 0x2203);
+        m.write_addr(Register::Gain.addr(), 0xFFFF);
+        assert_eq!(m.register(Register::Gain), 0x0077);
+    }
+}
