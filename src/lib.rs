@@ -12,7 +12,9 @@
 //!   excitation monitor of Lemma 1;
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`plant`] — an exact discrete simulator of the modal model (eq. 22);
-//! * [`scalar`] / [`linalg`] — the `f32`/`f64` abstraction and small matrices.
+//! * [`scalar`] / [`linalg`] — the `f32`/`f64` abstraction and small matrices;
+//! * [`protocol`] — the serial link: messages, framing and the stream decoder
+//!   shared by the firmware and the host (`docs/PROTOCOL.md`).
 //!
 //! # Example
 //!
@@ -69,6 +71,7 @@ pub mod modal;
 pub mod model;
 pub mod plant;
 pub mod poly;
+pub mod protocol;
 pub mod scalar;
 
 pub use scalar::Real;
