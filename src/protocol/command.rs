@@ -98,8 +98,9 @@ pub struct EstimatorSettings {
     /// squares, eq. 48); unused by the gradient law.
     pub initial_gain: f32,
     /// Filter pole λ of Λ(s) = (s + λ)^{2n} (rad/s), 0 < λ < π·f_s; `None`:
-    /// the firmware's automatic (truth-free) rule. In a [`Status`]
-    /// (super::Status) the λ in use (`None` until the rule has chosen).
+    /// the firmware's automatic (truth-free) rule. In a
+    /// [`Status`](super::Status), the λ in use (`None` until the rule has
+    /// chosen).
     pub lambda_rad_s: Option<f32>,
 }
 
@@ -201,13 +202,11 @@ pub enum RejectReason {
     Rate = 13,
     /// The telemetry rates would exceed the link budget.
     LinkBudget = 14,
-    /// The command frame carried another protocol version.
-    ProtocolVersion = 15,
 }
 
 impl RejectReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 15] = [
+    pub const ALL: [Self; 14] = [
         Self::NotFinite,
         Self::Amplitude,
         Self::SafeWindow,
@@ -222,7 +221,6 @@ impl RejectReason {
         Self::EstimatorUnavailable,
         Self::Rate,
         Self::LinkBudget,
-        Self::ProtocolVersion,
     ];
 
     /// The reason with this wire code, if any.
@@ -242,7 +240,6 @@ impl RejectReason {
             12 => Self::EstimatorUnavailable,
             13 => Self::Rate,
             14 => Self::LinkBudget,
-            15 => Self::ProtocolVersion,
             _ => return None,
         })
     }
@@ -264,7 +261,6 @@ impl RejectReason {
             Self::EstimatorUnavailable => "estimator not available in this firmware",
             Self::Rate => "telemetry rate negative or above the sample rate",
             Self::LinkBudget => "telemetry rates exceed the link budget",
-            Self::ProtocolVersion => "command sent with another protocol version",
         }
     }
 }
@@ -306,7 +302,7 @@ mod tests {
             assert_eq!(RejectReason::from_code(*r as u8), Some(*r));
         }
         assert_eq!(RejectReason::from_code(0), None);
-        assert_eq!(RejectReason::from_code(16), None);
+        assert_eq!(RejectReason::from_code(15), None);
         assert_eq!(RejectReason::from_code(255), None);
     }
 }

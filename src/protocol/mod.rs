@@ -71,6 +71,10 @@ pub mod frame;
 pub mod telemetry;
 pub mod validate;
 
+/// The `heapless` crate whose `Vec` the messages hold, so users build
+/// messages without depending on it themselves (and on the same version).
+pub use heapless;
+
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform};
 pub use decoder::{Decoder, Feed, LinkCounters};
