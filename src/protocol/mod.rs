@@ -35,14 +35,14 @@
 //!   inside a frame. Overhead: one byte per frame up to 254 bytes.
 //! * **CRC-32/ISO-HDLC** (the CRC of Ethernet, zlib and PNG) over the header
 //!   and the payload. The checked data is at most 534 bytes (4,272 bits,
-//!   [`MAX_FRAME_LEN`] less the CRC). Up to 91,607 data bits this polynomial
-//!   has Hamming distance 4, up to 2,974 bits (371 bytes: every frame but a
-//!   raw-sample block) distance 5 (P. Koopman, *32-Bit Cyclic Redundancy
-//!   Codes for Internet Applications*, DSN 2002): every error of up to 3 bits
-//!   (4 in the shorter frames) and every burst of up to 32 bits is detected,
-//!   and a random corruption passes with probability 2⁻³². A CRC-16 would let
-//!   one random corruption in 65,536 through: on a noisy link with hundreds
-//!   of corrupted frames a day, a wrong estimate delivered every few months.
+//!   [`MAX_FRAME_LEN`] less the CRC). This polynomial detects every error of
+//!   up to 3 bits in any of our frames, and of up to 4 bits in frames of up
+//!   to 2,974 data bits (every frame but a raw-sample block): Hamming
+//!   distance 4 and 5 (P. Koopman, *32-Bit Cyclic Redundancy Codes for
+//!   Internet Applications*, DSN 2002; both checked by host tests), and
+//!   every burst of up to 32 bits; a random corruption passes with
+//!   probability 2⁻³². A CRC-16 would pass one random corruption in 65,536:
+//!   at 300 corrupted frames a day, a wrong frame delivered every 218 days.
 //!   CRC-32/ISO-HDLC is also the CRC every language has built in
 //!   (`zlib.crc32`, `java.util.zip.CRC32`), which helps independent decoders.
 //! * **f32 on the wire.** The estimates are computed from 24-bit ADC data;
@@ -78,7 +78,9 @@ pub use heapless;
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform};
 pub use decoder::{Decoder, Feed, LinkCounters};
-pub use frame::{encode, encode_raw, parse_frame, DecodeError, EncodeError, Encoder, Header};
+pub use frame::{
+    encode, encode_raw, parse_frame, DecodeError, EncodeError, Encoder, Header, Payload,
+};
 pub use telemetry::{
     Ack, AckResult, DeviceCounters, Estimate, EstimatorKind, FirmwareVersion, ModeEstimate,
     RawSamples, Status, StatusFlags, UySample,

@@ -406,3 +406,56 @@ fn rejected_command_gets_a_negative_ack() {
         })
     );
 }
+
+/// x^n mod G(x) for n = 0..bits, G the CRC-32 polynomial 0x04C11DB7: an
+/// error pattern with bits at positions {n} of a codeword goes undetected
+/// iff the XOR of its remainders is 0 (init, reflection and xorout do not
+/// change which patterns a CRC of fixed-length frames misses).
+fn remainders(bits: usize) -> Vec<u32> {
+    let mut r = 1u32;
+    (0..bits)
+        .map(|_| {
+            let out = r;
+            r = (r << 1) ^ if r & 0x8000_0000 != 0 { 0x04C1_1DB7 } else { 0 };
+            out
+        })
+        .collect()
+}
+
+/// Every error of 1, 2 or 3 bits in the longest frame (538 bytes, CRC
+/// included) is detected: Hamming distance ≥ 4, as docs/PROTOCOL.md states.
+#[test]
+fn crc_detects_every_3_bit_error_in_the_longest_frame() {
+    let n = beamest::protocol::MAX_FRAME_LEN * 8;
+    let r = remainders(n);
+    let set: std::collections::HashSet<u32> = r.iter().copied().collect();
+    assert_eq!(set.len(), n, "2-bit errors: remainders distinct");
+    assert!(!set.contains(&0), "1-bit errors");
+    for i in 0..n {
+        for j in i + 1..n {
+            assert!(!set.contains(&(r[i] ^ r[j])), "3-bit error {i} {j}");
+        }
+    }
+}
+
+/// Every 4-bit error is detected up to 2,974 data bits (371 bytes: every
+/// frame but a raw-sample block), and not beyond: Koopman's figure for this
+/// polynomial, which docs/PROTOCOL.md quotes.
+#[test]
+fn crc_detects_every_4_bit_error_up_to_2974_data_bits() {
+    // An undetected 4-bit pattern {i, j, k, l} is two disjoint pairs with
+    // equal r_i ^ r_j; pairs sharing a bit cannot collide (distinct r).
+    let has_4_bit_blind_spot = |data_bits: usize| {
+        let r = remainders(data_bits + 32);
+        let mut x: Vec<u32> = Vec::with_capacity(r.len() * r.len() / 2);
+        for i in 0..r.len() {
+            for j in i + 1..r.len() {
+                x.push(r[i] ^ r[j]);
+            }
+        }
+        x.sort_unstable();
+        x.windows(2).any(|w| w[0] == w[1])
+    };
+    assert!(!has_4_bit_blind_spot(2974));
+    assert!(has_4_bit_blind_spot(2975));
+}
