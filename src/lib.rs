@@ -15,7 +15,9 @@
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
 //!   them with the excitation per sample;
 //! * [`excitation`] — the paper's square-wave drive (Section IV.A);
-//! * [`scalar`] — the `f32`/`f64` abstraction.
+//! * [`scalar`] — the `f32`/`f64` abstraction;
+//! * [`protocol`] — the serial link: messages, framing and the stream decoder
+//!   shared by the firmware and the host (`docs/PROTOCOL.md`).
 //!
 //! Internal helpers (`linalg`: small fixed-size matrices; `compensated`:
 //! double-word arithmetic for `f32`) are crate-private.
@@ -74,6 +76,7 @@ pub(crate) mod linalg;
 pub mod modal;
 pub mod model;
 pub mod poly;
+pub mod protocol;
 pub mod rig;
 pub mod scalar;
 

@@ -1,0 +1,232 @@
+//! Worst-case frame sizes and the link load they imply.
+//!
+//! Every size here is an upper bound that the encoder can reach (all
+//! varints at their longest, all vectors full, COBS at its worst); the unit
+//! tests in `frame` encode messages that reach each bound exactly. The
+//! device refuses telemetry rates whose worst-case load exceeds its link
+//! budget ([`RejectReason::LinkBudget`](super::RejectReason::LinkBudget)),
+//! so a accepted setting never overruns the link, whatever the values sent.
+
+use super::command::TelemetryRates;
+use super::{CRC_LEN, HEADER_LEN, MAX_MODES, MAX_RAW_SAMPLES};
+
+/// Longest postcard varint of a `u16` (⌈16/7⌉ bytes).
+const VARINT_U16: usize = 3;
+/// Longest postcard varint of a `u32` (⌈32/7⌉ bytes).
+const VARINT_U32: usize = 5;
+/// Longest postcard varint of a `u64` (⌈64/7⌉ bytes).
+const VARINT_U64: usize = 10;
+/// A sequence length ≤ 127 (every vector here): one varint byte.
+const SEQ_LEN: usize = 1;
+/// An enum tag < 128: one varint byte.
+const TAG: usize = 1;
+/// An `f32`: four bytes.
+const F32: usize = 4;
+/// An `Option<f32>`: tag byte and value.
+const OPTION_F32: usize = 1 + F32;
+
+/// Longest [`Estimate`](super::Estimate) payload for a model of `modes`
+/// modes: sample index, estimator, flags, modes (3 `f32` each), Θ
+/// (4·modes − 1 `f32`), excitation level. 73 bytes for 2 modes.
+pub const fn estimate_payload_max(modes: usize) -> usize {
+    VARINT_U64
+        + TAG
+        + VARINT_U16
+        + SEQ_LEN
+        + 3 * F32 * modes
+        + SEQ_LEN
+        + F32 * (4 * modes - 1)
+        + OPTION_F32
+}
+
+/// Longest [`RawSamples`](super::RawSamples) payload: first index,
+/// decimation, [`MAX_RAW_SAMPLES`] pairs of `f32` (526 bytes).
+pub const RAW_PAYLOAD_MAX: usize = VARINT_U64 + VARINT_U16 + SEQ_LEN + 2 * F32 * MAX_RAW_SAMPLES;
+
+/// Longest [`Excitation`](super::Excitation): tag, the chirp's three `f32`
+/// (the longest variant), amplitude, offset.
+const EXCITATION_MAX: usize = TAG + 3 * F32 + 2 * F32;
+/// Longest [`EstimatorSettings`](super::EstimatorSettings): kind, four
+/// `f32`, optional λ.
+const ESTIMATOR_SETTINGS_MAX: usize = TAG + 4 * F32 + OPTION_F32;
+/// Longest [`TelemetryRates`](super::TelemetryRates).
+const TELEMETRY_RATES_MAX: usize = F32 + VARINT_U16 + F32;
+/// Number of counters in [`DeviceCounters`](super::DeviceCounters).
+const DEVICE_COUNTERS: usize = 11;
+
+/// Longest [`Status`](super::Status) payload (128 bytes).
+pub const STATUS_PAYLOAD_MAX: usize = VARINT_U64
+    + F32
+    + 3
+    + 1
+    + DEVICE_COUNTERS * VARINT_U32
+    + 1
+    + EXCITATION_MAX
+    + ESTIMATOR_SETTINGS_MAX
+    + TELEMETRY_RATES_MAX;
+
+/// Longest [`Ack`](super::Ack) payload: sequence number and result byte.
+pub const ACK_PAYLOAD_MAX: usize = VARINT_U32 + 1;
+
+/// Longest [`Command`](super::Command) payload: tag and the longest
+/// argument (estimator settings).
+pub const COMMAND_PAYLOAD_MAX: usize = TAG
+    + max(
+        EXCITATION_MAX,
+        max(ESTIMATOR_SETTINGS_MAX, TELEMETRY_RATES_MAX),
+    );
+
+const fn max(a: usize, b: usize) -> usize {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Longest payload of any message: a full raw-sample block.
+pub const MAX_PAYLOAD_LEN: usize = max(
+    RAW_PAYLOAD_MAX,
+    max(
+        estimate_payload_max(MAX_MODES),
+        max(
+            STATUS_PAYLOAD_MAX,
+            max(ACK_PAYLOAD_MAX, COMMAND_PAYLOAD_MAX),
+        ),
+    ),
+);
+
+/// Longest frame before COBS: header, payload, CRC (538 bytes).
+pub const MAX_FRAME_LEN: usize = HEADER_LEN + MAX_PAYLOAD_LEN + CRC_LEN;
+
+/// Longest frame on the wire for a payload of at most `payload` bytes:
+/// COBS adds at most one byte per 254 started (⌈n/254⌉), then the
+/// delimiter.
+pub const fn encoded_len_max(payload: usize) -> usize {
+    let n = HEADER_LEN + payload + CRC_LEN;
+    cobs::max_encoding_length(n) + 1
+}
+
+/// Longest frame on the wire, delimiter included (542 bytes): the size of
+/// a buffer that holds any encoded frame.
+pub const MAX_ENCODED_LEN: usize = encoded_len_max(MAX_PAYLOAD_LEN);
+
+/// Longest command frame on the wire, delimiter included: a device that
+/// only receives commands can size its decoder with this.
+pub const MAX_COMMAND_ENCODED_LEN: usize = encoded_len_max(COMMAND_PAYLOAD_MAX);
+
+/// Bytes per second of a UART at `baud` with 8N1 framing (10 bits per
+/// byte: start, 8 data, stop). 921,600 baud → 92,160 B/s.
+pub const fn uart_bytes_per_s(baud: u32) -> u32 {
+    baud / 10
+}
+
+/// Worst-case link load of a telemetry setting (bytes per second on the
+/// wire), by stream. Acknowledgements (one per command, ≤ 10 bytes) are
+/// not included.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkLoad {
+    /// Estimate frames.
+    pub estimates_b_s: f32,
+    /// Raw-sample frames (full blocks of [`MAX_RAW_SAMPLES`]).
+    pub raw_b_s: f32,
+    /// Status frames.
+    pub status_b_s: f32,
+}
+
+impl LinkLoad {
+    /// The load of `rates` at `sample_rate_hz` for a model of `modes` modes
+    /// (clamped to 1..=[`MAX_MODES`]).
+    pub fn new(rates: &TelemetryRates, sample_rate_hz: f32, modes: usize) -> Self {
+        let modes = modes.clamp(1, MAX_MODES);
+        let raw_rate_hz = if rates.raw_decimation == 0 {
+            0.0
+        } else {
+            sample_rate_hz / f32::from(rates.raw_decimation)
+        };
+        Self {
+            estimates_b_s: rates.estimate_rate_hz
+                * bytes(encoded_len_max(estimate_payload_max(modes))),
+            raw_b_s: raw_rate_hz * raw_bytes_per_sample(),
+            status_b_s: rates.status_rate_hz * bytes(encoded_len_max(STATUS_PAYLOAD_MAX)),
+        }
+    }
+
+    /// Total bytes per second.
+    pub fn total_b_s(&self) -> f32 {
+        self.estimates_b_s + self.raw_b_s + self.status_b_s
+    }
+}
+
+/// Worst-case wire bytes per raw sample pair, sent in full blocks.
+pub fn raw_bytes_per_sample() -> f32 {
+    bytes(encoded_len_max(RAW_PAYLOAD_MAX)) / bytes(MAX_RAW_SAMPLES)
+}
+
+/// A small byte count as `f32` (exact below 2²⁴).
+fn bytes(n: usize) -> f32 {
+    // Every count here is below 2^16: the conversion is exact.
+    u16::try_from(n).map_or(f32::MAX, f32::from)
+}
+
+/// The smallest raw-sample decimation (the highest raw rate f_s/d) that
+/// fits in `link_b_s` next to the estimate and status rates of `rates`;
+/// `None` if none fits (or the others alone exceed the budget).
+pub fn min_raw_decimation(
+    rates: &TelemetryRates,
+    sample_rate_hz: f32,
+    modes: usize,
+    link_b_s: f32,
+) -> Option<u16> {
+    (1..=u16::MAX).find(|&d| {
+        let r = TelemetryRates {
+            raw_decimation: d,
+            ..*rates
+        };
+        LinkLoad::new(&r, sample_rate_hz, modes).total_b_s() <= link_b_s
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(estimate_payload_max(2), 73);
+        assert_eq!(estimate_payload_max(3), 101);
+        assert_eq!(RAW_PAYLOAD_MAX, 526);
+        assert_eq!(STATUS_PAYLOAD_MAX, 128);
+        assert_eq!(COMMAND_PAYLOAD_MAX, 23);
+        assert_eq!(MAX_PAYLOAD_LEN, RAW_PAYLOAD_MAX);
+        assert_eq!(MAX_FRAME_LEN, 538);
+        // 538 bytes: COBS adds ⌈538/254⌉ = 3, then the delimiter.
+        assert_eq!(MAX_ENCODED_LEN, 542);
+        // Short frames: one COBS byte and the delimiter.
+        assert_eq!(encoded_len_max(estimate_payload_max(2)), 8 + 73 + 4 + 2);
+        assert_eq!(MAX_COMMAND_ENCODED_LEN, 8 + 23 + 4 + 2);
+        assert_eq!(uart_bytes_per_s(921_600), 92_160);
+    }
+
+    #[test]
+    fn default_load_and_highest_raw_rate_at_921600_baud() {
+        let link = uart_bytes_per_s(921_600) as f32;
+        let rates = TelemetryRates::default();
+        let load = LinkLoad::new(&rates, 10_000.0, 2);
+        // 100 Hz · 87 B + 1 Hz · 142 B.
+        assert_eq!(load.total_b_s(), 8_842.0);
+        // Next to them, raw samples fit at 5 kHz (d = 2), not at 10 kHz:
+        // 10 kHz · 542/64 B = 84,688 B/s + 8,842 > 92,160.
+        assert_eq!(min_raw_decimation(&rates, 10_000.0, 2, link), Some(2));
+        // Alone (estimates and status off), 10 kHz raw fits.
+        let quiet = TelemetryRates {
+            estimate_rate_hz: 0.0,
+            raw_decimation: 0,
+            status_rate_hz: 0.0,
+        };
+        assert_eq!(min_raw_decimation(&quiet, 10_000.0, 2, link), Some(1));
+        // Budget smaller than the estimates alone: nothing fits.
+        assert_eq!(min_raw_decimation(&rates, 10_000.0, 2, 1_000.0), None);
+    }
+}

@@ -1,0 +1,308 @@
+//! Host → device commands and the settings they carry. Every command is
+//! checked by [`Command::validate`] against the device's [`Limits`] before
+//! anything changes (module [`validate`](super::validate)).
+
+use core::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use super::telemetry::EstimatorKind;
+#[cfg(doc)]
+use super::validate::Limits;
+
+/// The excitation waveform. Wire value of the variant: its index below
+/// (postcard enum tag), then its fields.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Waveform {
+    /// 0: no excitation; the output holds `offset_v`.
+    Off,
+    /// 1: square wave ±amplitude about the offset (the paper's excitation,
+    /// Section IV.A: 0.1 V at 7 Hz).
+    Square {
+        /// Frequency (Hz), 0 < f < f_s/2.
+        freq_hz: f32,
+    },
+    /// 2: a sum of `tones` sinusoids spread over [f_min, f_max], scaled so
+    /// that the peak stays within ±amplitude (spacing and phases are the
+    /// generator's).
+    Multisine {
+        /// Lowest tone (Hz), > 0.
+        f_min_hz: f32,
+        /// Highest tone (Hz), < f_s/2; > f_min unless `tones` = 1.
+        f_max_hz: f32,
+        /// Number of tones, 1..=[`Limits::max_multisine_tones`].
+        tones: u8,
+    },
+    /// 3: a maximal-length pseudo-random binary sequence, ±amplitude about
+    /// the offset.
+    Prbs {
+        /// Bit rate (Hz), 0 < rate ≤ f_s.
+        bit_rate_hz: f32,
+        /// Shift-register length n (period 2ⁿ − 1 bits), within
+        /// [`Limits::prbs_bits_min`]..=[`Limits::prbs_bits_max`].
+        register_bits: u8,
+    },
+    /// 4: a linear chirp from `f_start_hz` to `f_end_hz` over `sweep_s`,
+    /// repeated.
+    Chirp {
+        /// Start frequency (Hz), > 0.
+        f_start_hz: f32,
+        /// End frequency (Hz), f_start < f_end < f_s/2.
+        f_end_hz: f32,
+        /// Sweep duration (s): at least 2 samples, at most 2³¹ samples.
+        sweep_s: f32,
+    },
+}
+
+/// The excitation: waveform, peak amplitude and offset. The output stays in
+/// [offset − amplitude, offset + amplitude], which must lie inside the
+/// piezo's safe window ([`Limits::piezo_min_v`], [`Limits::piezo_max_v`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Excitation {
+    /// The waveform.
+    pub waveform: Waveform,
+    /// Peak deviation from the offset (V), ≥ 0 (ignored for `Off`).
+    pub amplitude_v: f32,
+    /// DC offset (V).
+    pub offset_v: f32,
+}
+
+impl Default for Excitation {
+    /// The paper's excitation (Section IV.A): 0.1 V square wave at 7 Hz.
+    fn default() -> Self {
+        Self {
+            waveform: Waveform::Square { freq_hz: 7.0 },
+            amplitude_v: 0.1,
+            offset_v: 0.0,
+        }
+    }
+}
+
+/// Estimator settings, in the scaled coordinates of `filter_bank::Scaling`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EstimatorSettings {
+    /// The update law.
+    pub kind: EstimatorKind,
+    /// Learning gain (1/s), > 0: Γ of eq. 41 (adaptive law), Γ1 = gain·I
+    /// of eq. 47 (gradient law); unused by least squares.
+    pub gain: f32,
+    /// Forgetting rate l of eq. 33 (1/s), > 0.
+    pub forgetting_p: f32,
+    /// Forgetting rate γ of eq. 37 (1/s), > 0.
+    pub forgetting_h: f32,
+    /// Initial gain, > 0: H(0) = initial_gain·I (adaptive law, so
+    /// R(0) = H(0)⁻¹ = I/initial_gain), Γ2(0) = initial_gain·I (least
+    /// squares, eq. 48); unused by the gradient law.
+    pub initial_gain: f32,
+    /// Filter pole λ of Λ(s) = (s + λ)^{2n} (rad/s), 0 < λ < π·f_s; `None`:
+    /// the firmware's automatic (truth-free) rule. In a
+    /// [`Status`](super::Status), the λ in use (`None` until the rule has
+    /// chosen).
+    pub lambda_rad_s: Option<f32>,
+}
+
+impl Default for EstimatorSettings {
+    /// The core's defaults (`AdaptiveConfig::default`): Γ = 1e4,
+    /// l = γ = 0.05 /s, R(0) = 1e-9·I, automatic λ.
+    fn default() -> Self {
+        Self {
+            kind: EstimatorKind::Adaptive,
+            gain: 1e4,
+            forgetting_p: 0.05,
+            forgetting_h: 0.05,
+            initial_gain: 1e9,
+            lambda_rad_s: None,
+        }
+    }
+}
+
+/// Telemetry rates.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TelemetryRates {
+    /// Estimates per second (Hz), 0 = off; sent every round(f_s/rate)
+    /// samples.
+    pub estimate_rate_hz: f32,
+    /// Raw samples: every `raw_decimation`-th sample; 0 = off.
+    pub raw_decimation: u16,
+    /// Status frames per second (Hz); 0 = only on request.
+    pub status_rate_hz: f32,
+}
+
+impl Default for TelemetryRates {
+    /// Estimates at 100 Hz, raw samples off, status at 1 Hz.
+    fn default() -> Self {
+        Self {
+            estimate_rate_hz: 100.0,
+            raw_decimation: 0,
+            status_rate_hz: 1.0,
+        }
+    }
+}
+
+/// A command from the host. Every command is answered by an
+/// [`Ack`](super::Ack) carrying the command frame's sequence number.
+/// Wire value of the variant: its index below (postcard enum tag).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Command {
+    /// 0: set the excitation.
+    SetExcitation(Excitation),
+    /// 1: set the estimator settings (the estimator restarts with them).
+    SetEstimator(EstimatorSettings),
+    /// 2: set the telemetry rates.
+    SetTelemetry(TelemetryRates),
+    /// 3: reset the estimator to its initial state (filters at rest,
+    /// initial Θ and gains); settings, counters and sample index are kept.
+    Reset,
+    /// 4: freeze adaptation (Θ held; the filters keep running).
+    Freeze,
+    /// 5: resume adaptation.
+    Resume,
+    /// 6: send a [`Status`](super::Status) now.
+    RequestStatus,
+}
+
+/// Why a command was refused. Stable wire codes (the byte in
+/// [`AckResult`](super::AckResult)); 0 means accepted and is not a reason.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum RejectReason {
+    /// A number is NaN or infinite.
+    NotFinite = 1,
+    /// The amplitude is negative.
+    Amplitude = 2,
+    /// offset ± amplitude leaves the piezo's safe window.
+    SafeWindow = 3,
+    /// A frequency is ≤ 0 or at/above the Nyquist frequency (for PRBS: the
+    /// bit rate above the sample rate).
+    Frequency = 4,
+    /// A band is empty or reversed (chirp f_start ≥ f_end; multisine
+    /// f_min > f_max, or f_min = f_max with several tones).
+    Band = 5,
+    /// The multisine tone count is 0 or above the limit.
+    ToneCount = 6,
+    /// The PRBS register length is outside the supported range.
+    PrbsLength = 7,
+    /// The chirp sweep is shorter than 2 samples or longer than 2³¹.
+    SweepTime = 8,
+    /// A gain (Γ or the initial gain) is ≤ 0.
+    Gain = 9,
+    /// A forgetting rate (l or γ) is ≤ 0.
+    Forgetting = 10,
+    /// λ is ≤ 0 or at/above π·f_s.
+    Lambda = 11,
+    /// This firmware has no such estimator.
+    EstimatorUnavailable = 12,
+    /// A telemetry rate is negative or above the sample rate.
+    Rate = 13,
+    /// The telemetry rates would exceed the link budget.
+    LinkBudget = 14,
+}
+
+impl RejectReason {
+    /// Every reason, in code order.
+    pub const ALL: [Self; 14] = [
+        Self::NotFinite,
+        Self::Amplitude,
+        Self::SafeWindow,
+        Self::Frequency,
+        Self::Band,
+        Self::ToneCount,
+        Self::PrbsLength,
+        Self::SweepTime,
+        Self::Gain,
+        Self::Forgetting,
+        Self::Lambda,
+        Self::EstimatorUnavailable,
+        Self::Rate,
+        Self::LinkBudget,
+    ];
+
+    /// The reason with this wire code, if any.
+    pub const fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            1 => Self::NotFinite,
+            2 => Self::Amplitude,
+            3 => Self::SafeWindow,
+            4 => Self::Frequency,
+            5 => Self::Band,
+            6 => Self::ToneCount,
+            7 => Self::PrbsLength,
+            8 => Self::SweepTime,
+            9 => Self::Gain,
+            10 => Self::Forgetting,
+            11 => Self::Lambda,
+            12 => Self::EstimatorUnavailable,
+            13 => Self::Rate,
+            14 => Self::LinkBudget,
+            _ => return None,
+        })
+    }
+
+    /// A short English description.
+    pub const fn describe(self) -> &'static str {
+        match self {
+            Self::NotFinite => "a value is NaN or infinite",
+            Self::Amplitude => "negative amplitude",
+            Self::SafeWindow => "offset ± amplitude outside the piezo's safe window",
+            Self::Frequency => "frequency not in (0, Nyquist)",
+            Self::Band => "empty or reversed frequency band",
+            Self::ToneCount => "multisine tone count out of range",
+            Self::PrbsLength => "PRBS register length out of range",
+            Self::SweepTime => "chirp sweep time out of range",
+            Self::Gain => "gain not positive",
+            Self::Forgetting => "forgetting rate not positive",
+            Self::Lambda => "filter pole λ not in (0, π·f_s)",
+            Self::EstimatorUnavailable => "estimator not available in this firmware",
+            Self::Rate => "telemetry rate negative or above the sample rate",
+            Self::LinkBudget => "telemetry rates exceed the link budget",
+        }
+    }
+}
+
+impl fmt::Display for RejectReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "rejected ({}): {}", *self as u8, self.describe())
+    }
+}
+
+impl core::error::Error for RejectReason {}
+
+impl Serialize for RejectReason {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(*self as u8)
+    }
+}
+
+impl<'de> Deserialize<'de> for RejectReason {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let code = u8::deserialize(d)?;
+        Self::from_code(code).ok_or_else(|| {
+            serde::de::Error::invalid_value(
+                serde::de::Unexpected::Unsigned(code.into()),
+                &"a reject reason code",
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reason_codes_are_stable_and_dense() {
+        for (i, r) in RejectReason::ALL.iter().enumerate() {
+            assert_eq!(*r as usize, i + 1);
+            assert_eq!(RejectReason::from_code(*r as u8), Some(*r));
+        }
+        assert_eq!(RejectReason::from_code(0), None);
+        assert_eq!(RejectReason::from_code(15), None);
+        assert_eq!(RejectReason::from_code(255), None);
+    }
+}

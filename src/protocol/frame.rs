@@ -1,0 +1,667 @@
+//! One frame ↔ bytes: the encoder (message → delimited COBS frame in the
+//! caller's buffer, in one pass, without a scratch buffer) and the frame
+//! parser (unstuffed bytes → checked [`Frame`]).
+//!
+//! The encoder streams the header, the postcard payload and the CRC through
+//! a COBS encoder straight into the output, updating the CRC on the way, so
+//! its only memory is the caller's buffer.
+
+use core::fmt;
+
+use cobs::CobsEncoder;
+use serde::Serialize;
+
+use super::budget::MAX_PAYLOAD_LEN;
+use super::{
+    Ack, Command, Estimate, Frame, Kind, Message, RawSamples, Status, CRC, CRC_LEN, DELIMITER,
+    HEADER_LEN, MAGIC, VERSION,
+};
+
+/// The fixed frame header (8 bytes, little-endian).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Header {
+    /// Bytes 0–1: [`MAGIC`].
+    pub magic: u16,
+    /// Byte 2: protocol version.
+    pub version: u8,
+    /// Byte 3: message kind ([`Kind`] as `u8`).
+    pub kind: u8,
+    /// Bytes 4–7: the sender's sequence number in this direction.
+    pub seq: u32,
+}
+
+impl Header {
+    /// This protocol's header for a message of `kind`.
+    pub const fn new(kind: Kind, seq: u32) -> Self {
+        Self {
+            magic: MAGIC,
+            version: VERSION,
+            kind: kind as u8,
+            seq,
+        }
+    }
+
+    /// The 8 header bytes.
+    pub const fn to_bytes(&self) -> [u8; HEADER_LEN] {
+        let m = self.magic.to_le_bytes();
+        let s = self.seq.to_le_bytes();
+        [m[0], m[1], self.version, self.kind, s[0], s[1], s[2], s[3]]
+    }
+
+    /// Read a header from the first 8 bytes.
+    pub const fn from_bytes(b: &[u8; HEADER_LEN]) -> Self {
+        Self {
+            magic: u16::from_le_bytes([b[0], b[1]]),
+            version: b[2],
+            kind: b[3],
+            seq: u32::from_le_bytes([b[4], b[5], b[6], b[7]]),
+        }
+    }
+}
+
+/// Why a message could not be encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EncodeError {
+    /// The output buffer is too small for the frame
+    /// ([`MAX_ENCODED_LEN`](super::MAX_ENCODED_LEN) always suffices).
+    BufferTooSmall,
+    /// The message breaks a structural rule that receivers check (an
+    /// [`Estimate`] whose Θ and mode counts disagree, a [`RawSamples`]
+    /// with decimation 0, a [`Status`] with a mode count outside 1..=3).
+    Malformed,
+    /// A raw payload longer than [`MAX_PAYLOAD_LEN`].
+    TooLarge,
+}
+
+impl fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::BufferTooSmall => "output buffer too small for the frame",
+            Self::Malformed => "message breaks a structural rule of the protocol",
+            Self::TooLarge => "payload longer than the protocol's maximum",
+        })
+    }
+}
+
+impl core::error::Error for EncodeError {}
+
+/// Why a frame was not delivered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DecodeError {
+    /// More bytes than the decoder's buffer before a delimiter.
+    Oversize,
+    /// Not valid COBS.
+    Cobs,
+    /// Shorter than a header and a CRC.
+    TooShort,
+    /// The CRC does not match: the frame was corrupted.
+    Crc,
+    /// CRC good but the magic number is wrong: not this protocol.
+    BadMagic(u16),
+    /// CRC and magic good, but another protocol version. The receiver must
+    /// not interpret the frame; a host should say so and stop.
+    VersionMismatch {
+        /// The version in the frame.
+        got: u8,
+        /// The version this build speaks ([`VERSION`]).
+        expected: u8,
+    },
+    /// CRC, magic and version good, but an unknown kind byte.
+    UnknownKind(u8),
+    /// The payload does not decode as its kind's message (bad varint,
+    /// unknown enum tag, too long a vector, trailing bytes, or a broken
+    /// structural rule).
+    Payload,
+}
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Oversize => f.write_str("frame longer than the receive buffer"),
+            Self::Cobs => f.write_str("invalid COBS encoding"),
+            Self::TooShort => f.write_str("frame shorter than header and CRC"),
+            Self::Crc => f.write_str("CRC mismatch (corrupted frame)"),
+            Self::BadMagic(m) => write!(f, "bad magic number {m:#06x}"),
+            Self::VersionMismatch { got, expected } => write!(
+                f,
+                "protocol version mismatch: the peer speaks version {got}, this build {expected}"
+            ),
+            Self::UnknownKind(k) => write!(f, "unknown message kind {k:#04x}"),
+            Self::Payload => f.write_str("payload does not decode"),
+        }
+    }
+}
+
+impl core::error::Error for DecodeError {}
+
+mod sealed {
+    pub trait Sealed {}
+}
+
+/// A message that can be sent as a frame: [`Message`] or any one message
+/// struct (so the firmware can encode an [`Estimate`] without wrapping it).
+pub trait Payload: Serialize + sealed::Sealed {
+    /// The header kind.
+    fn kind(&self) -> Kind;
+    /// The structural rules receivers check (see [`EncodeError::Malformed`]).
+    fn is_well_formed(&self) -> bool {
+        true
+    }
+}
+
+macro_rules! payload {
+    ($($ty:ident),*) => {$(
+        impl sealed::Sealed for $ty {}
+        impl Payload for $ty {
+            fn kind(&self) -> Kind {
+                Kind::$ty
+            }
+            fn is_well_formed(&self) -> bool {
+                well_formed::$ty(self)
+            }
+        }
+    )*};
+}
+payload!(Estimate, RawSamples, Status, Ack, Command);
+
+/// Structural rules per message, shared by the encoder and the parser.
+#[allow(non_snake_case)]
+mod well_formed {
+    use super::super::{Ack, Command, Estimate, RawSamples, Status, MAX_MODES};
+
+    pub fn Estimate(m: &Estimate) -> bool {
+        m.is_consistent()
+    }
+    pub fn RawSamples(m: &RawSamples) -> bool {
+        m.decimation >= 1
+    }
+    pub fn Status(m: &Status) -> bool {
+        (1..=MAX_MODES).contains(&usize::from(m.modes))
+    }
+    pub fn Ack(_: &Ack) -> bool {
+        true
+    }
+    pub fn Command(_: &Command) -> bool {
+        true
+    }
+}
+
+impl sealed::Sealed for Message {}
+impl Payload for Message {
+    fn kind(&self) -> Kind {
+        Message::kind(self)
+    }
+    fn is_well_formed(&self) -> bool {
+        match self {
+            Self::Estimate(m) => m.is_well_formed(),
+            Self::RawSamples(m) => m.is_well_formed(),
+            Self::Status(m) => m.is_well_formed(),
+            Self::Ack(m) => m.is_well_formed(),
+            Self::Command(m) => m.is_well_formed(),
+        }
+    }
+}
+
+/// A [`Message`] serializes as its content alone: on the wire the variant
+/// travels as the header's kind byte.
+impl Serialize for Message {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Estimate(m) => m.serialize(s),
+            Self::RawSamples(m) => m.serialize(s),
+            Self::Status(m) => m.serialize(s),
+            Self::Ack(m) => m.serialize(s),
+            Self::Command(m) => m.serialize(s),
+        }
+    }
+}
+
+/// A postcard flavor that feeds every byte to the CRC and to a COBS encoder
+/// writing into the output buffer.
+struct FrameWriter<'a> {
+    cobs: CobsEncoder<'a>,
+    digest: crc::Digest<'static, u32>,
+}
+
+impl<'a> FrameWriter<'a> {
+    fn new(out: &'a mut [u8]) -> Self {
+        Self {
+            cobs: CobsEncoder::new(out),
+            digest: CRC.digest(),
+        }
+    }
+
+    fn write(&mut self, data: &[u8]) -> Result<(), EncodeError> {
+        self.digest.update(data);
+        self.cobs
+            .push(data)
+            .map_err(|_| EncodeError::BufferTooSmall)
+    }
+
+    /// Append the CRC and close the COBS encoding: the encoded length,
+    /// delimiter not included.
+    fn finish(mut self) -> Result<usize, EncodeError> {
+        let crc = self.digest.finalize();
+        self.cobs
+            .push(&crc.to_le_bytes())
+            .map_err(|_| EncodeError::BufferTooSmall)?;
+        Ok(self.cobs.finalize())
+    }
+}
+
+impl postcard::ser_flavors::Flavor for FrameWriter<'_> {
+    type Output = Self;
+
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        self.try_extend(&[data])
+    }
+
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.write(data)
+            .map_err(|_| postcard::Error::SerializeBufferFull)
+    }
+
+    fn finalize(self) -> postcard::Result<Self> {
+        Ok(self)
+    }
+}
+
+/// Encode `msg` with sequence number `seq` as one complete frame, delimiter
+/// included, at the start of `out`; returns the number of bytes written.
+/// `out` of [`MAX_ENCODED_LEN`](super::MAX_ENCODED_LEN) bytes always
+/// suffices. Never allocates or panics.
+pub fn encode<M: Payload + ?Sized>(
+    msg: &M,
+    seq: u32,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    if !msg.is_well_formed() {
+        return Err(EncodeError::Malformed);
+    }
+    let n = {
+        let mut w = FrameWriter::new(out);
+        w.write(&Header::new(msg.kind(), seq).to_bytes())?;
+        let w = postcard::serialize_with_flavor(msg, w).map_err(|_| EncodeError::BufferTooSmall)?;
+        w.finish()?
+    };
+    terminate(out, n)
+}
+
+/// Encode a frame with an arbitrary header and payload bytes (for tests,
+/// tools and other protocol versions; [`encode`] is the normal path).
+pub fn encode_raw(header: &Header, payload: &[u8], out: &mut [u8]) -> Result<usize, EncodeError> {
+    if payload.len() > MAX_PAYLOAD_LEN {
+        return Err(EncodeError::TooLarge);
+    }
+    let n = {
+        let mut w = FrameWriter::new(out);
+        w.write(&header.to_bytes())?;
+        w.write(payload)?;
+        w.finish()?
+    };
+    terminate(out, n)
+}
+
+fn terminate(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
+    *out.get_mut(n).ok_or(EncodeError::BufferTooSmall)? = DELIMITER;
+    Ok(n + 1)
+}
+
+/// Keeps the sequence number of one direction: each successful
+/// [`Encoder::encode`] uses the next number (wrapping at 2³²).
+#[derive(Debug, Clone, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Encoder {
+    next_seq: u32,
+}
+
+impl Encoder {
+    /// Start at sequence number 0.
+    pub const fn new() -> Self {
+        Self { next_seq: 0 }
+    }
+
+    /// Start at `seq` (tests, or resuming a stream).
+    pub const fn starting_at(seq: u32) -> Self {
+        Self { next_seq: seq }
+    }
+
+    /// The number the next frame will carry.
+    pub const fn next_seq(&self) -> u32 {
+        self.next_seq
+    }
+
+    /// Encode `msg` into `out` (see [`encode`]); the sequence number
+    /// advances only if the frame was written.
+    pub fn encode<M: Payload + ?Sized>(
+        &mut self,
+        msg: &M,
+        out: &mut [u8],
+    ) -> Result<usize, EncodeError> {
+        let n = encode(msg, self.next_seq, out)?;
+        self.next_seq = self.next_seq.wrapping_add(1);
+        Ok(n)
+    }
+}
+
+/// Check and decode one frame given its COBS-decoded bytes (header,
+/// payload, CRC; no delimiter). The checks run in this order: length, CRC,
+/// magic, version, kind, payload; the first that fails is the error.
+pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
+    let body_len = raw
+        .len()
+        .checked_sub(CRC_LEN)
+        .filter(|&n| n >= HEADER_LEN)
+        .ok_or(DecodeError::TooShort)?;
+    let (body, crc) = raw
+        .split_at_checked(body_len)
+        .ok_or(DecodeError::TooShort)?;
+    let (header, payload) = body
+        .split_first_chunk::<HEADER_LEN>()
+        .ok_or(DecodeError::TooShort)?;
+    let crc: [u8; CRC_LEN] = crc.try_into().map_err(|_| DecodeError::TooShort)?;
+    if CRC.checksum(body) != u32::from_le_bytes(crc) {
+        return Err(DecodeError::Crc);
+    }
+    let h = Header::from_bytes(header);
+    if h.magic != MAGIC {
+        return Err(DecodeError::BadMagic(h.magic));
+    }
+    if h.version != VERSION {
+        return Err(DecodeError::VersionMismatch {
+            got: h.version,
+            expected: VERSION,
+        });
+    }
+    let kind = Kind::from_u8(h.kind).ok_or(DecodeError::UnknownKind(h.kind))?;
+    let message = match kind {
+        Kind::Estimate => Message::Estimate(payload_as(payload)?),
+        Kind::RawSamples => Message::RawSamples(payload_as(payload)?),
+        Kind::Status => Message::Status(payload_as(payload)?),
+        Kind::Ack => Message::Ack(payload_as(payload)?),
+        Kind::Command => Message::Command(payload_as(payload)?),
+    };
+    Ok(Frame {
+        seq: h.seq,
+        message,
+    })
+}
+
+/// Deserialize a whole payload as `T`: every byte used, rules kept.
+fn payload_as<T: Payload + serde::de::DeserializeOwned>(payload: &[u8]) -> Result<T, DecodeError> {
+    match postcard::take_from_bytes::<T>(payload) {
+        Ok((m, [])) if m.is_well_formed() => Ok(m),
+        _ => Err(DecodeError::Payload),
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::super::budget::{
+        encoded_len_max, estimate_payload_max, ACK_PAYLOAD_MAX, COMMAND_PAYLOAD_MAX,
+        RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
+    };
+    use super::super::{
+        AckResult, DeviceCounters, EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion,
+        ModeEstimate, RejectReason, StatusFlags, TelemetryRates, UySample, Waveform,
+        MAX_ENCODED_LEN, MAX_RAW_SAMPLES,
+    };
+    use super::*;
+
+    /// Encode, check the wire invariants, COBS-decode, parse.
+    fn round_trip(msg: &Message, seq: u32) -> (Frame, usize, usize) {
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(msg, seq, &mut out).unwrap();
+        assert_eq!(out[n - 1], 0, "ends with the delimiter");
+        assert!(!out[..n - 1].contains(&0), "no 0x00 inside a frame");
+        let raw_len = cobs::decode_in_place(&mut out[..n - 1]).unwrap();
+        (parse_frame(&out[..raw_len]).unwrap(), raw_len, n)
+    }
+
+    /// Every field at its longest encoding.
+    fn worst_estimate(modes: usize) -> Estimate {
+        Estimate {
+            sample_index: u64::MAX,
+            estimator: EstimatorKind::Robust,
+            flags: StatusFlags(u16::MAX),
+            modes: (0..modes).map(|_| ModeEstimate::default()).collect(),
+            theta: (0..4 * modes - 1).map(|i| i as f32).collect(),
+            excitation_level: Some(1.0),
+        }
+    }
+
+    fn worst_raw() -> RawSamples {
+        RawSamples {
+            first_sample_index: u64::MAX,
+            decimation: u16::MAX,
+            samples: (0..MAX_RAW_SAMPLES)
+                .map(|i| UySample {
+                    u_v: 1.0 + i as f32,
+                    y: -1.0,
+                })
+                .collect(),
+        }
+    }
+
+    fn worst_status() -> Status {
+        Status {
+            uptime_samples: u64::MAX,
+            sample_rate_hz: 1e4,
+            firmware: FirmwareVersion::default(),
+            modes: 3,
+            counters: DeviceCounters {
+                overruns: u32::MAX,
+                adc_crc_errors: u32::MAX,
+                adc_status_errors: u32::MAX,
+                adc_stuck: u32::MAX,
+                adc_saturations: u32::MAX,
+                dac_saturations: u32::MAX,
+                rejected_samples: u32::MAX,
+                telemetry_dropped: u32::MAX,
+                commands_accepted: u32::MAX,
+                commands_rejected: u32::MAX,
+                rx_frame_errors: u32::MAX,
+            },
+            adaptation_frozen: true,
+            excitation: Excitation {
+                waveform: Waveform::Chirp {
+                    f_start_hz: 1.0,
+                    f_end_hz: 2.0,
+                    sweep_s: 3.0,
+                },
+                ..Excitation::default()
+            },
+            estimator: EstimatorSettings {
+                lambda_rad_s: Some(100.0),
+                ..EstimatorSettings::default()
+            },
+            telemetry: TelemetryRates {
+                raw_decimation: u16::MAX,
+                ..TelemetryRates::default()
+            },
+        }
+    }
+
+    #[test]
+    fn crc_is_crc32_iso_hdlc() {
+        assert_eq!(CRC.checksum(b"123456789"), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn header_layout() {
+        let h = Header::new(Kind::Status, 0x0403_0201);
+        assert_eq!(
+            h.to_bytes(),
+            [0x57, 0xBE, VERSION, 0x03, 0x01, 0x02, 0x03, 0x04]
+        );
+        assert_eq!(Header::from_bytes(&h.to_bytes()), h);
+        for k in [
+            Kind::Estimate,
+            Kind::RawSamples,
+            Kind::Status,
+            Kind::Ack,
+            Kind::Command,
+        ] {
+            assert_eq!(Kind::from_u8(k as u8), Some(k));
+        }
+        assert_eq!(Kind::from_u8(0), None);
+    }
+
+    #[test]
+    fn worst_case_sizes_are_reached_exactly() {
+        let cases: [(Message, usize); 7] = [
+            (worst_estimate(1).into(), estimate_payload_max(1)),
+            (worst_estimate(2).into(), estimate_payload_max(2)),
+            (worst_estimate(3).into(), estimate_payload_max(3)),
+            (worst_raw().into(), RAW_PAYLOAD_MAX),
+            (worst_status().into(), STATUS_PAYLOAD_MAX),
+            (
+                Ack {
+                    command_seq: u32::MAX,
+                    result: AckResult::Rejected(RejectReason::LinkBudget),
+                }
+                .into(),
+                ACK_PAYLOAD_MAX,
+            ),
+            (
+                Command::SetEstimator(worst_status().estimator).into(),
+                COMMAND_PAYLOAD_MAX,
+            ),
+        ];
+        for (msg, payload_max) in cases {
+            let (frame, raw_len, wire_len) = round_trip(&msg, 7);
+            assert_eq!(frame.message, msg);
+            assert_eq!(
+                raw_len,
+                HEADER_LEN + payload_max + CRC_LEN,
+                "{:?}",
+                msg.kind()
+            );
+            assert!(wire_len <= encoded_len_max(payload_max));
+        }
+    }
+
+    #[test]
+    fn small_buffers_are_refused_not_overrun() {
+        let msg: Message = worst_raw().into();
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(&msg, 0, &mut out).unwrap();
+        for len in 0..n {
+            let mut small = [0u8; MAX_ENCODED_LEN];
+            assert_eq!(
+                encode(&msg, 0, &mut small[..len]),
+                Err(EncodeError::BufferTooSmall),
+                "len {len}"
+            );
+        }
+        let mut exact = [0u8; MAX_ENCODED_LEN];
+        assert_eq!(encode(&msg, 0, &mut exact[..n]), Ok(n));
+        assert_eq!(exact[..n], out[..n]);
+    }
+
+    #[test]
+    fn malformed_messages_are_refused() {
+        let mut e = worst_estimate(2);
+        e.modes.pop();
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        assert_eq!(encode(&e, 0, &mut out), Err(EncodeError::Malformed));
+        let mut r = worst_raw();
+        r.decimation = 0;
+        assert_eq!(encode(&r, 0, &mut out), Err(EncodeError::Malformed));
+        let mut s = worst_status();
+        s.modes = 0;
+        assert_eq!(encode(&s, 0, &mut out), Err(EncodeError::Malformed));
+        let long = [1u8; MAX_PAYLOAD_LEN + 1];
+        let h = Header::new(Kind::Ack, 0);
+        assert_eq!(encode_raw(&h, &long, &mut out), Err(EncodeError::TooLarge));
+    }
+
+    /// COBS's corner cases are runs of 254 non-zero bytes: every payload
+    /// length of non-zero bytes, up to the largest, survives the trip.
+    #[test]
+    fn cobs_runs_of_every_length() {
+        let payload = [0xA5u8; MAX_PAYLOAD_LEN];
+        for len in 0..=MAX_PAYLOAD_LEN {
+            let h = Header::new(Kind::Ack, 0x0101_0101);
+            let mut out = [0u8; MAX_ENCODED_LEN];
+            let n = encode_raw(&h, &payload[..len], &mut out).unwrap();
+            assert!(n <= encoded_len_max(len), "len {len}");
+            assert!(!out[..n - 1].contains(&0));
+            let m = cobs::decode_in_place(&mut out[..n - 1]).unwrap();
+            assert_eq!(m, HEADER_LEN + len + CRC_LEN);
+            assert_eq!(out[..HEADER_LEN], h.to_bytes());
+            assert_eq!(out[HEADER_LEN..HEADER_LEN + len], payload[..len]);
+            assert_eq!(CRC.checksum(&out[..m]), 0x2144_DF1C, "CRC-32 residue");
+        }
+    }
+
+    #[test]
+    fn parse_errors_in_check_order() {
+        let h = Header::new(Kind::Ack, 9);
+        let frame = |h: &Header, payload: &[u8]| {
+            let mut out = [0u8; MAX_ENCODED_LEN];
+            let n = encode_raw(h, payload, &mut out).unwrap();
+            let m = cobs::decode_in_place(&mut out[..n - 1]).unwrap();
+            out[..m].to_vec()
+        };
+        let good = frame(&h, &[9, 0]);
+        assert_eq!(
+            parse_frame(&good).unwrap().message,
+            Message::Ack(Ack {
+                command_seq: 9,
+                result: AckResult::Accepted
+            })
+        );
+        assert_eq!(parse_frame(&good[..11]), Err(DecodeError::TooShort));
+        assert_eq!(parse_frame(&[]), Err(DecodeError::TooShort));
+        let mut bad = good.clone();
+        bad[9] ^= 1;
+        assert_eq!(parse_frame(&bad), Err(DecodeError::Crc));
+        let other = Header { magic: 0x1234, ..h };
+        assert_eq!(
+            parse_frame(&frame(&other, &[9, 0])),
+            Err(DecodeError::BadMagic(0x1234))
+        );
+        let v2 = Header { version: 2, ..h };
+        assert_eq!(
+            parse_frame(&frame(&v2, &[])),
+            Err(DecodeError::VersionMismatch {
+                got: 2,
+                expected: VERSION
+            })
+        );
+        let k = Header { kind: 0x7F, ..h };
+        assert_eq!(
+            parse_frame(&frame(&k, &[])),
+            Err(DecodeError::UnknownKind(0x7F))
+        );
+        // Trailing byte, truncated payload, undefined result code.
+        for p in [&[9u8, 0, 0][..], &[9], &[9, 16]] {
+            assert_eq!(
+                parse_frame(&frame(&h, p)),
+                Err(DecodeError::Payload),
+                "{p:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn encoder_counts_only_written_frames() {
+        let mut enc = Encoder::starting_at(u32::MAX);
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let ack = Ack {
+            command_seq: 1,
+            result: AckResult::Accepted,
+        };
+        assert!(enc.encode(&ack, &mut out[..3]).is_err());
+        assert_eq!(enc.next_seq(), u32::MAX);
+        let n = enc.encode(&ack, &mut out).unwrap();
+        assert_eq!(enc.next_seq(), 0, "wraps");
+        let m = cobs::decode_in_place(&mut out[..n - 1]).unwrap();
+        assert_eq!(parse_frame(&out[..m]).unwrap().seq, u32::MAX);
+    }
+}

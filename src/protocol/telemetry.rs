@@ -1,0 +1,369 @@
+//! Device → host messages: estimates, raw samples, status and command
+//! acknowledgements. Field order here is wire order (postcard encodes a
+//! struct as its fields in declaration order); `docs/PROTOCOL.md` lists each
+//! field's bytes.
+
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use super::command::{EstimatorSettings, Excitation, RejectReason, TelemetryRates};
+use super::{MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA};
+
+/// Which update law produced an estimate. Wire value: the discriminant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum EstimatorKind {
+    /// The paper's proposed law, eqs. 33–41.
+    Adaptive = 0,
+    /// The gradient baseline, eq. 47.
+    Gradient = 1,
+    /// The least-squares baseline, eq. 48.
+    LeastSquares = 2,
+    /// A noise-robust (bias-compensated) law, where the firmware has one.
+    Robust = 3,
+}
+
+impl EstimatorKind {
+    /// Every kind, in wire order.
+    pub const ALL: [Self; 4] = [
+        Self::Adaptive,
+        Self::Gradient,
+        Self::LeastSquares,
+        Self::Robust,
+    ];
+
+    /// This kind's bit in [`Limits::estimators`](super::Limits::estimators).
+    pub const fn bit(self) -> u8 {
+        1 << (self as u8)
+    }
+}
+
+/// Status flags of an [`Estimate`]: a bit field, sent as a postcard `u16`
+/// (varint). Bits 10–15 are reserved: sent as 0, ignored by receivers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(transparent)]
+pub struct StatusFlags(pub u16);
+
+impl StatusFlags {
+    /// λmin(P) is above the firmware's excitation threshold (Lemma 1).
+    pub const EXCITED: Self = Self(1 << 0);
+    /// Adaptation is frozen by a [`Command::Freeze`](super::Command::Freeze).
+    pub const FROZEN_BY_COMMAND: Self = Self(1 << 1);
+    /// Adaptation is frozen by the firmware itself: quarantine after a
+    /// rejected sample, or too little excitation.
+    pub const FROZEN_AUTO: Self = Self(1 << 2);
+    /// The estimate has settled, by the firmware's convergence test.
+    pub const CONVERGED: Self = Self(1 << 3);
+    /// The modes were recovered and are physical: ω > 0, 0 < ζ < 1,
+    /// distinct modes. When clear, [`Estimate::modes`] may be empty.
+    pub const PHYSICALLY_VALID: Self = Self(1 << 4);
+    /// An ADC fault (CRC, status word, stuck data) since the last estimate.
+    pub const SENSOR_FAULT: Self = Self(1 << 5);
+    /// An ADC conversion saturated since the last estimate.
+    pub const ADC_SATURATED: Self = Self(1 << 6);
+    /// The DAC clipped the excitation since the last estimate.
+    pub const DAC_SATURATED: Self = Self(1 << 7);
+    /// Telemetry records were dropped (queue full) since the last estimate.
+    pub const TELEMETRY_DROPPED: Self = Self(1 << 8);
+    /// The estimator's internal state check failed (`Health::state_ok`).
+    pub const STATE_DEGRADED: Self = Self(1 << 9);
+
+    /// True if every bit of `other` is set.
+    pub const fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// `self` with the bits of `other` set.
+    #[must_use]
+    pub const fn with(self, other: Self) -> Self {
+        Self(self.0 | other.0)
+    }
+
+    /// Set or clear the bits of `other`.
+    pub fn set(&mut self, other: Self, on: bool) {
+        if on {
+            self.0 |= other.0;
+        } else {
+            self.0 &= !other.0;
+        }
+    }
+}
+
+/// One mode's parameters (eqs. 30–32).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModeEstimate {
+    /// Natural frequency ω̂_i (rad/s).
+    pub omega_rad_s: f32,
+    /// Damping ratio ζ̂_i (dimensionless).
+    pub zeta: f32,
+    /// Modal input gain b̂̄_i of eq. 32 (units of y per volt times s⁻²).
+    pub b_bar: f32,
+}
+
+/// The current estimate, sent at the estimate rate (default 100 Hz).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Index of the newest sample included, counted from 0 at start-up
+    /// (not reset by [`Command::Reset`](super::Command::Reset)); the time
+    /// is `sample_index / Status::sample_rate_hz`.
+    pub sample_index: u64,
+    /// The law that produced it.
+    pub estimator: EstimatorKind,
+    /// Status bits.
+    pub flags: StatusFlags,
+    /// ω̂, ζ̂, b̂̄ per mode, ascending ω; empty when recovery failed, else as
+    /// many modes as the model has (Θ has 4·modes − 1 entries).
+    pub modes: Vec<ModeEstimate, MAX_MODES>,
+    /// Θ̂ of eq. 29 in physical units, 4n − 1 entries for n modes (3, 7 or
+    /// 11): [b_{2n−2}, …, b_0, k_{2n−1} − a_{2n−1}, …, k_0 − a_0], with k_j
+    /// the coefficients of Λ(s) = (s + λ)^{2n} (λ as in [`Status`]).
+    pub theta: Vec<f32, MAX_THETA>,
+    /// The excitation level λmin(P) of the scaled information matrix
+    /// (Lemma 1); `None` for laws that keep no P.
+    pub excitation_level: Option<f32>,
+}
+
+impl Estimate {
+    /// The model's mode count n implied by Θ's length (4n − 1), if valid.
+    pub fn model_modes(&self) -> Option<usize> {
+        let n = self.theta.len().checked_add(1)? / 4;
+        (n >= 1 && 4 * n - 1 == self.theta.len()).then_some(n)
+    }
+
+    /// Θ has 4n − 1 entries (n = 1..=3) and the mode list is empty or has n
+    /// entries. The encoder refuses, and the decoder rejects, any other.
+    pub fn is_consistent(&self) -> bool {
+        self.model_modes()
+            .is_some_and(|n| self.modes.is_empty() || self.modes.len() == n)
+    }
+}
+
+/// One raw sample pair, exactly as the estimator received it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UySample {
+    /// Excitation u held over the sample period (V, at the DAC's input).
+    pub u_v: f32,
+    /// Measured output y in the estimator's units (the firmware's
+    /// conversion of the ADC channel).
+    pub y: f32,
+}
+
+/// A block of raw samples, for recording and replay. Sample i of the
+/// block has index `first_sample_index + i·decimation`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RawSamples {
+    /// Sample index of the first pair (same count as
+    /// [`Estimate::sample_index`]).
+    pub first_sample_index: u64,
+    /// Every `decimation`-th sample is sent (no anti-alias filter: the
+    /// pairs are the estimator's own inputs); ≥ 1.
+    pub decimation: u16,
+    /// Up to [`MAX_RAW_SAMPLES`] pairs.
+    pub samples: Vec<UySample, MAX_RAW_SAMPLES>,
+}
+
+/// The firmware's version.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FirmwareVersion {
+    /// Major version.
+    pub major: u8,
+    /// Minor version.
+    pub minor: u8,
+    /// Patch version.
+    pub patch: u8,
+}
+
+/// Device counters, all since start-up, saturating at 2³² − 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DeviceCounters {
+    /// Sample deadlines missed (the sample task overran).
+    pub overruns: u32,
+    /// ADC frames whose CRC failed.
+    pub adc_crc_errors: u32,
+    /// ADC frames with an unexpected status word.
+    pub adc_status_errors: u32,
+    /// Samples flagged as stuck sensor data.
+    pub adc_stuck: u32,
+    /// Saturated ADC conversions.
+    pub adc_saturations: u32,
+    /// Excitation samples clipped at the DAC's rails.
+    pub dac_saturations: u32,
+    /// Samples the estimator rejected (non-finite or out of range).
+    pub rejected_samples: u32,
+    /// Telemetry records dropped because the queue was full.
+    pub telemetry_dropped: u32,
+    /// Commands accepted and applied.
+    pub commands_accepted: u32,
+    /// Commands rejected (negative acknowledgement sent).
+    pub commands_rejected: u32,
+    /// Host → device frames that failed to decode (CRC, COBS, size,
+    /// payload or protocol version).
+    pub rx_frame_errors: u32,
+}
+
+/// Counters and the settings in force, sent on request and at the status
+/// rate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Status {
+    /// Samples since start-up (same count as [`Estimate::sample_index`]).
+    pub uptime_samples: u64,
+    /// The sample rate (Hz), e.g. 10,000.
+    pub sample_rate_hz: f32,
+    /// The firmware's version.
+    pub firmware: FirmwareVersion,
+    /// The estimator model's mode count n (1..=3).
+    pub modes: u8,
+    /// Device counters.
+    pub counters: DeviceCounters,
+    /// Adaptation frozen by command.
+    pub adaptation_frozen: bool,
+    /// The excitation in force.
+    pub excitation: Excitation,
+    /// The estimator settings in force.
+    pub estimator: EstimatorSettings,
+    /// The telemetry rates in force.
+    pub telemetry: TelemetryRates,
+}
+
+/// The outcome of a command. On the wire a single byte: 0 = accepted,
+/// otherwise the [`RejectReason`] code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AckResult {
+    /// Validated and applied.
+    Accepted,
+    /// Refused; nothing changed.
+    Rejected(RejectReason),
+}
+
+impl AckResult {
+    /// The wire byte.
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Accepted => 0,
+            Self::Rejected(r) => r as u8,
+        }
+    }
+
+    /// The result for a wire byte, if the byte is defined.
+    pub const fn from_code(code: u8) -> Option<Self> {
+        if code == 0 {
+            Some(Self::Accepted)
+        } else {
+            match RejectReason::from_code(code) {
+                Some(r) => Some(Self::Rejected(r)),
+                None => None,
+            }
+        }
+    }
+}
+
+impl From<Result<(), RejectReason>> for AckResult {
+    fn from(r: Result<(), RejectReason>) -> Self {
+        match r {
+            Ok(()) => Self::Accepted,
+            Err(e) => Self::Rejected(e),
+        }
+    }
+}
+
+impl Serialize for AckResult {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(self.code())
+    }
+}
+
+impl<'de> Deserialize<'de> for AckResult {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let code = u8::deserialize(d)?;
+        Self::from_code(code).ok_or_else(|| {
+            serde::de::Error::invalid_value(
+                serde::de::Unexpected::Unsigned(code.into()),
+                &"0 or a reject reason code",
+            )
+        })
+    }
+}
+
+/// The device's answer to one command frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Ack {
+    /// The sequence number of the command frame (host → device stream).
+    pub command_seq: u32,
+    /// Accepted, or why not.
+    pub result: AckResult,
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn estimate(theta_len: usize, modes: usize) -> Estimate {
+        Estimate {
+            sample_index: 0,
+            estimator: EstimatorKind::Adaptive,
+            flags: StatusFlags::default(),
+            modes: (0..modes).map(|_| ModeEstimate::default()).collect(),
+            theta: (0..theta_len).map(|i| i as f32).collect(),
+            excitation_level: None,
+        }
+    }
+
+    #[test]
+    fn estimate_consistency() {
+        for (theta, modes, ok) in [
+            (3, 0, true),
+            (3, 1, true),
+            (7, 2, true),
+            (7, 0, true),
+            (11, 3, true),
+            (7, 1, false),
+            (7, 3, false),
+            (11, 2, false),
+            (0, 0, false),
+            (4, 1, false),
+            (10, 0, false),
+        ] {
+            assert_eq!(
+                estimate(theta, modes).is_consistent(),
+                ok,
+                "{theta} {modes}"
+            );
+        }
+    }
+
+    #[test]
+    fn flags() {
+        let mut f = StatusFlags::EXCITED.with(StatusFlags::CONVERGED);
+        assert_eq!(f.0, 0b1001);
+        assert!(f.contains(StatusFlags::EXCITED));
+        assert!(!f.contains(StatusFlags::EXCITED.with(StatusFlags::SENSOR_FAULT)));
+        f.set(StatusFlags::EXCITED, false);
+        f.set(StatusFlags::STATE_DEGRADED, true);
+        assert_eq!(f.0, 0b10_0000_1000);
+    }
+
+    #[test]
+    fn ack_codes_round_trip() {
+        assert_eq!(AckResult::from_code(0), Some(AckResult::Accepted));
+        for code in 1..=u8::MAX {
+            match AckResult::from_code(code) {
+                Some(r) => assert_eq!(r.code(), code),
+                None => assert!(RejectReason::from_code(code).is_none()),
+            }
+        }
+        let r: AckResult = Err(RejectReason::LinkBudget).into();
+        assert_eq!(r, AckResult::Rejected(RejectReason::LinkBudget));
+    }
+}
