@@ -37,14 +37,14 @@ pub const EXPECTED_INSTRUCTIONS_PER_TICK: u32 = 40;
 pub const DITHER_STEPS: u32 = 40;
 
 /// Start SysTick as a free-running 24-bit down counter on the core clock.
+/// It takes `SYST` by value so nothing else can reconfigure it afterwards;
+/// the counter is then read through [`now`].
 pub fn start_systick(mut syst: SYST) {
     syst.disable_interrupt();
     syst.set_clock_source(SystClkSource::Core);
     syst.set_reload(SYST_MAX);
     syst.clear_current();
     syst.enable_counter();
-    // Keep SYST owned by nothing else: it is read through `now`.
-    core::mem::forget(syst);
 }
 
 /// Current SysTick value (counts down).

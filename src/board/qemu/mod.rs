@@ -22,7 +22,7 @@ pub mod timer;
 pub mod uart;
 pub mod vectors;
 
-use core::cell::RefCell;
+use core::cell::Cell;
 
 use cortex_m::peripheral::NVIC;
 use critical_section::Mutex;
@@ -104,23 +104,24 @@ impl Board {
 /// Move a value from thread mode into an interrupt handler once: thread
 /// mode [`put`](Handoff::put)s it, the handler [`take`](Handoff::take)s it
 /// into its own `static mut` state on its next run. Only that hand-off is
-/// a critical section; the handler then owns the value.
-pub struct Handoff<T>(Mutex<RefCell<Option<T>>>);
+/// a critical section; the handler then owns the value. A `Cell`, not a
+/// `RefCell`: moving in and out has no borrow flag and no panic path.
+pub struct Handoff<T>(Mutex<Cell<Option<T>>>);
 
 impl<T> Handoff<T> {
     /// An empty slot.
     pub const fn new() -> Self {
-        Self(Mutex::new(RefCell::new(None)))
+        Self(Mutex::new(Cell::new(None)))
     }
 
     /// Place `value` (replacing one not yet taken).
     pub fn put(&self, value: T) {
-        critical_section::with(|cs| *self.0.borrow_ref_mut(cs) = Some(value));
+        critical_section::with(|cs| self.0.borrow(cs).set(Some(value)));
     }
 
     /// Take the value, if one was placed.
     pub fn take(&self) -> Option<T> {
-        critical_section::with(|cs| self.0.borrow_ref_mut(cs).take())
+        critical_section::with(|cs| self.0.borrow(cs).take())
     }
 }
 

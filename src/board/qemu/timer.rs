@@ -83,3 +83,7 @@ impl SampleTimer {
 pub fn clear_interrupt() {
     INTCLEAR.write(1);
 }
+
+// 10 kHz: 2,500 cycles of the 25 MHz PCLK, RELOAD = 2,499.
+const _: () = assert!(matches!(reload_for(10_000), Some(2_499)));
+const _: () = assert!(reload_for(7).is_none() && reload_for(0).is_none());
