@@ -57,7 +57,16 @@
 //! assert!(est.excitation_level().unwrap() > 0.0);
 //! ```
 #![cfg_attr(not(test), no_std)]
-#![forbid(unsafe_code)]
+// No `unsafe` anywhere in the core. Firmware builds (a board feature) add
+// the board layer, which alone opts back in (`board/*/mod.rs`).
+#![cfg_attr(
+    not(any(feature = "board-qemu", feature = "board-nucleo")),
+    forbid(unsafe_code)
+)]
+#![cfg_attr(
+    any(feature = "board-qemu", feature = "board-nucleo"),
+    deny(unsafe_code)
+)]
 #![warn(missing_docs)]
 // Index loops are the clearest form of small dense matrix code (i, j, k
 // mirror the equations).
@@ -67,6 +76,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
+#[cfg(any(feature = "board-qemu", feature = "board-nucleo"))]
+pub mod board;
 pub(crate) mod compensated;
 pub mod drivers;
 pub mod estimator;

@@ -1,0 +1,108 @@
+//! Firmware link setup, per board feature (DESIGN: features, not crates,
+//! pick the board).
+//!
+//! Host builds (no board feature) do nothing here. With a board feature this
+//! script
+//! * refuses a second board or a non-Cortex-M target with a message that
+//!   says what to run instead;
+//! * copies that board's memory map (`src/board/nucleo/memory.x` for the
+//!   NUCLEO-H743ZI2, `src/board/qemu/memory.x` for QEMU `mps2-an386`) to
+//!   `$OUT_DIR/board-memory.x` and puts `$OUT_DIR` on the linker search
+//!   path, where the top-level `memory.x` (which cortex-m-rt's `link.x`
+//!   includes) includes it. The map cannot simply be a `memory.x` on the
+//!   search path: the linker resolves `INCLUDE` in its current directory
+//!   (the workspace root) first, so the top-level file always wins;
+//!   flip-link follows the same `INCLUDE` chain to find the RAM region;
+//! * for the QEMU board, also `device.x` (the weak aliases of the device
+//!   interrupt handlers that cortex-m-rt's `device` feature includes);
+//! * passes the link scripts to the firmware binaries only (`-Tlink.x`,
+//!   `-Tdefmt.x` where defmt is linked, `--nmagic`), so the library's unit
+//!   tests and host tools never see them.
+
+use std::env;
+use std::fs;
+use std::path::PathBuf;
+
+/// One firmware board: its feature, memory map and optional device vector.
+struct Board {
+    feature_env: &'static str,
+    name: &'static str,
+    memory_x: &'static str,
+    device_x: Option<&'static str>,
+    defmt: bool,
+}
+
+const BOARDS: [Board; 2] = [
+    Board {
+        feature_env: "CARGO_FEATURE_BOARD_QEMU",
+        name: "board-qemu",
+        memory_x: "src/board/qemu/memory.x",
+        device_x: Some("src/board/qemu/device.x"),
+        defmt: false,
+    },
+    Board {
+        feature_env: "CARGO_FEATURE_BOARD_NUCLEO",
+        name: "board-nucleo",
+        memory_x: "src/board/nucleo/memory.x",
+        device_x: None,
+        defmt: true,
+    },
+];
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=memory.x");
+    for b in &BOARDS {
+        println!("cargo:rerun-if-changed={}", b.memory_x);
+        if let Some(d) = b.device_x {
+            println!("cargo:rerun-if-changed={d}");
+        }
+    }
+
+    let enabled: Vec<&Board> = BOARDS
+        .iter()
+        .filter(|b| env::var_os(b.feature_env).is_some())
+        .collect();
+    let board = match enabled.as_slice() {
+        [] => return,
+        [one] => *one,
+        many => {
+            let names: Vec<&str> = many.iter().map(|b| b.name).collect();
+            panic!(
+                "features {} select different boards: enable exactly one \
+                 (`cargo xtask firmware` builds each board separately)",
+                names.join(" and ")
+            );
+        }
+    };
+
+    let target = env::var("TARGET").unwrap_or_default();
+    if !target.starts_with("thumbv7em-") {
+        panic!(
+            "feature `{}` builds firmware for thumbv7em-none-eabihf, not `{target}`: \
+             add `--target thumbv7em-none-eabihf`, or use `cargo xtask firmware` / \
+             `cargo xtask qemu`",
+            board.name
+        );
+    }
+
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    copy(board.memory_x, &out.join("board-memory.x"));
+    if let Some(d) = board.device_x {
+        copy(d, &out.join("device.x"));
+    }
+    println!("cargo:rustc-link-search={}", out.display());
+
+    // Link scripts for the firmware binaries only (the knurling app-template
+    // passes the same flags through rustflags; here they depend on the board).
+    println!("cargo:rustc-link-arg-bins=--nmagic");
+    println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    if board.defmt {
+        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}
+
+fn copy(from: &str, to: &PathBuf) {
+    let text = fs::read(from).unwrap_or_else(|e| panic!("reading {from}: {e}"));
+    fs::write(to, text).unwrap_or_else(|e| panic!("writing {}: {e}", to.display()));
+}

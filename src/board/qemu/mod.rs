@@ -1,0 +1,162 @@
+//! The emulated board: QEMU `mps2-an386` (ARM MPS2 with the AN386 FPGA
+//! image, Cortex-M4F with a single-precision FPU, 25 MHz SYSCLK).
+//!
+//! * [`vectors`] — the device interrupt vector (no PAC exists for MPS2);
+//! * [`timer`] — CMSDK APB timer 0 at exactly 10 kHz, standing in for DRDY;
+//! * [`uart`] — CMSDK UART0, interrupt-driven rings, never blocking;
+//! * [`cycles`] — SysTick instruction counting under `-icount shift=0`;
+//! * [`Handoff`] — move a value from thread mode into an interrupt handler.
+//!
+//! Priorities ([`priority`]): the sample interrupt (timer 0) is the highest;
+//! the UART interrupts run below it; thread mode (telemetry, modal recovery,
+//! semihosting logs) below everything. Semihosting is for thread mode only:
+//! a semihosting call stops the emulated CPU for a host round trip.
+//!
+//! Memory map: `src/board/qemu/memory.x` (selected by `build.rs`).
+
+#![allow(unsafe_code)]
+
+pub mod cycles;
+mod mmio;
+pub mod timer;
+pub mod uart;
+pub mod vectors;
+
+use core::cell::Cell;
+
+use cortex_m::peripheral::NVIC;
+use critical_section::Mutex;
+
+/// `#[interrupt]` handler attribute (cortex-m-rt); the handler name must be
+/// a variant of [`Interrupt`], which is also exported as `interrupt` in the
+/// type namespace for that check, as peripheral access crates do.
+pub use cortex_m_rt::interrupt;
+pub use vectors::{interrupt, Interrupt};
+
+/// NVIC priorities (upper bits of the 8-bit field; lower = more urgent; the
+/// AN386 Cortex-M4 implements 3 priority bits, so these are levels 0 and 2).
+pub mod priority {
+    /// The sample interrupt: preempts everything else.
+    pub const SAMPLE: u8 = 0x00;
+    /// UART TX/RX interrupts.
+    pub const SERIAL: u8 = 0x40;
+}
+
+/// Sample rate of the rig, Hz (the paper's Ts = 0.1 ms).
+pub const SAMPLE_RATE_HZ: u32 = 10_000;
+
+/// Timer reload for [`SAMPLE_RATE_HZ`]: 25 MHz / 10 kHz = 2,500 cycles per
+/// period, RELOAD = 2,499 (see [`timer`]).
+pub const SAMPLE_RELOAD: u32 = match timer::reload_for(SAMPLE_RATE_HZ) {
+    Some(r) => r,
+    None => panic!("the sample rate must divide the 25 MHz timer clock"),
+};
+
+/// UART0 line rate (bits/s). QEMU transmits at host speed whatever the
+/// divisor; a real UART at this rate carries 11.5 kB/s.
+pub const UART_BAUD: u32 = 115_200;
+
+/// The board's peripherals, taken once at boot.
+pub struct Board {
+    /// Timer 0, the sample tick.
+    pub timer: timer::SampleTimer,
+    /// UART0 (split it into the four ring ends).
+    pub uart0: uart::Uart0,
+    /// The interrupt controller.
+    pub nvic: NVIC,
+}
+
+impl Board {
+    /// Take the core and device peripherals, start SysTick as the
+    /// instruction counter, set the interrupt priorities. Interrupts stay
+    /// masked in the NVIC until [`Board::unmask`]. `None` if called twice.
+    pub fn take() -> Option<Self> {
+        let cp = cortex_m::Peripherals::take()?;
+        cycles::start_systick(cp.SYST);
+        let mut nvic = cp.NVIC;
+        // SAFETY: set before any of these interrupts is unmasked, so no
+        // priority-based critical section can be running.
+        unsafe {
+            nvic.set_priority(Interrupt::TIMER0, priority::SAMPLE);
+            nvic.set_priority(Interrupt::UART0TX, priority::SERIAL);
+            nvic.set_priority(Interrupt::UART0RX, priority::SERIAL);
+        }
+        Some(Self {
+            timer: timer::SampleTimer::new(),
+            uart0: uart::Uart0::new(),
+            nvic,
+        })
+    }
+
+    /// Unmask the sample and UART interrupts in the NVIC. Call after their
+    /// handlers' state has been placed in its [`Handoff`]s.
+    pub fn unmask() {
+        // SAFETY: the firmware uses no mask-based critical sections that
+        // these interrupts could break (critical sections use PRIMASK).
+        unsafe {
+            NVIC::unmask(Interrupt::UART0TX);
+            NVIC::unmask(Interrupt::UART0RX);
+            NVIC::unmask(Interrupt::TIMER0);
+        }
+    }
+}
+
+/// Move a value from thread mode into an interrupt handler once: thread
+/// mode [`put`](Handoff::put)s it, the handler [`take`](Handoff::take)s it
+/// into its own `static mut` state on its next run. Only that hand-off is
+/// a critical section; the handler then owns the value. A `Cell`, not a
+/// `RefCell`: moving in and out has no borrow flag and no panic path.
+pub struct Handoff<T>(Mutex<Cell<Option<T>>>);
+
+impl<T> Handoff<T> {
+    /// An empty slot.
+    pub const fn new() -> Self {
+        Self(Mutex::new(Cell::new(None)))
+    }
+
+    /// Place `value` (replacing one not yet taken).
+    pub fn put(&self, value: T) {
+        critical_section::with(|cs| self.0.borrow(cs).set(Some(value)));
+    }
+
+    /// Take the value, if one was placed.
+    pub fn take(&self) -> Option<T> {
+        critical_section::with(|cs| self.0.borrow(cs).take())
+    }
+}
+
+impl<T> Default for Handoff<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Thread-mode idle step: burn ~2,000 instructions (20 µs at the 1 ns per
+/// instruction of `-icount shift=0`) in straight-line blocks, cheap for
+/// QEMU to emulate.
+///
+/// Never `wfi` on this board: with `-icount shift=0,sleep=off`, QEMU 7.2
+/// advances virtual time to the next timer deadline while the CPU sleeps
+/// and can do so again before the timer's interrupt wakes it, so most
+/// sample interrupts arrived 200 µs apart (measured with SysTick over 1,000
+/// periods: 4,972.5 ticks per period instead of 2,500); with this idle the
+/// same measurement reads 2,500.000.
+#[inline]
+pub fn idle() {
+    cycles::idle_block(8);
+}
+
+/// End the emulation through semihosting: QEMU exits with status 0 for
+/// `success`, 1 otherwise. Thread mode only.
+pub fn exit(success: bool) -> ! {
+    use cortex_m_semihosting::debug;
+    debug::exit(if success {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    // Not reached under QEMU; on a debugger without semihosting exit, park.
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

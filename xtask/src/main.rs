@@ -1,0 +1,294 @@
+//! `cargo xtask <command>`: firmware chores that plain cargo cannot express
+//! (the cargo-xtask convention; the alias is in `.cargo/config.toml`).
+//!
+//! * `firmware` — build every firmware image (release, thumbv7em-none-eabihf),
+//!   print flash and static RAM of each, and check each vector table against
+//!   its board's memory map (initial SP inside RAM, reset vector a thumb
+//!   address inside flash).
+//! * `qemu [--timeout S] [--uart0 PATH]` — build the QEMU image and run it in
+//!   `qemu-system-arm -machine mps2-an386` with deterministic instruction
+//!   counting; exit with QEMU's status (the firmware's verdict).
+
+mod image;
+mod memory_map;
+
+use std::env;
+use std::fs;
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// The firmware target triple (Cortex-M4F/M7, hard float).
+const TARGET: &str = "thumbv7em-none-eabihf";
+
+/// One firmware image: which feature and binary build it, and the board's
+/// memory map (the file `build.rs` hands to the linker).
+struct Image {
+    board: &'static str,
+    feature: &'static str,
+    bin: &'static str,
+    memory_x: &'static str,
+    /// Flash and static RAM targets to report against (bytes), if any.
+    budget: Option<(u64, u64)>,
+}
+
+/// Every firmware image. The reference board gets its entry with its
+/// bring-up binary.
+const IMAGES: &[Image] = &[Image {
+    board: "qemu mps2-an386 (Cortex-M4F)",
+    feature: "board-qemu",
+    bin: "qemu-rig",
+    memory_x: "src/board/qemu/memory.x",
+    // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
+    budget: Some((64 * 1024, 16 * 1024)),
+}];
+
+/// QEMU's image for `cargo xtask qemu`.
+const QEMU_IMAGE: &str = "qemu-rig";
+const QEMU: &str = "qemu-system-arm";
+/// Default wall-clock limit for one emulated run, s.
+const QEMU_TIMEOUT_S: u64 = 300;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("firmware") => firmware(),
+        Some("qemu") => qemu(&args[1..]),
+        Some("help" | "-h" | "--help") | None => {
+            print!("{}", USAGE);
+            Ok(())
+        }
+        Some(other) => Err(format!("unknown command `{other}`\n\n{USAGE}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+const USAGE: &str = "\
+usage: cargo xtask <command>
+
+  firmware                 build every firmware image (release, thumbv7em-none-eabihf),
+                           print flash / static RAM, check the vector tables
+  qemu [--timeout S] [--uart0 PATH]
+                           build and run the QEMU image (mps2-an386, -icount shift=0);
+                           UART0 goes to PATH (default target/qemu/uart0.txt); exits
+                           with the firmware's status
+";
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// `cargo build --release` of one image; returns the ELF path.
+fn build(image: &Image) -> Result<PathBuf, String> {
+    require_tool(
+        "flip-link",
+        &["--version"],
+        "flip-link (the firmware linker, see .cargo/config.toml) is not installed:\n  \
+         cargo install flip-link --locked",
+    )?;
+    let root = workspace_root();
+    let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(cargo)
+        .current_dir(&root)
+        .args(["build", "--release", "-p", "beamest", "--target", TARGET])
+        .args(["--features", image.feature, "--bin", image.bin])
+        .status()
+        .map_err(|e| format!("running cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!("building {} failed ({status})", image.bin));
+    }
+    let target_dir = env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target"));
+    Ok(target_dir.join(TARGET).join("release").join(image.bin))
+}
+
+fn firmware() -> Result<(), String> {
+    let root = workspace_root();
+    let mut failures = Vec::new();
+    for image in IMAGES {
+        let elf_path = build(image)?;
+        println!("\n{} — {} ({})", image.bin, image.board, elf_path.display());
+        match check(image, &root, &elf_path) {
+            Ok(()) => {}
+            Err(e) => {
+                println!("  FAIL: {e}");
+                failures.push(format!("{}: {e}", image.bin));
+            }
+        }
+    }
+    if failures.is_empty() {
+        println!("\nall {} firmware image(s) OK", IMAGES.len());
+        Ok(())
+    } else {
+        Err(format!(
+            "firmware check failed:\n  {}",
+            failures.join("\n  ")
+        ))
+    }
+}
+
+/// Measure one built image and check it against its board's map.
+fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
+    let map_text = fs::read_to_string(root.join(image.memory_x))
+        .map_err(|e| format!("reading {}: {e}", image.memory_x))?;
+    let regions = memory_map::parse(&map_text).map_err(|e| format!("{}: {e}", image.memory_x))?;
+    let flash = memory_map::region(&regions, "FLASH").map_err(|e| e.to_string())?;
+    let ram = memory_map::region(&regions, "RAM").map_err(|e| e.to_string())?;
+    let elf = fs::read(elf_path).map_err(|e| format!("reading {}: {e}", elf_path.display()))?;
+    let fp = image::inspect(&elf, flash, ram).map_err(|e| e.to_string())?;
+
+    for (name, addr, size) in &fp.sections {
+        println!("  {name:<16} {addr:#010x} {size:>8} B");
+    }
+    println!(
+        "  flash {} B ({:.1} KiB of {} KiB), static RAM {} B ({:.1} KiB of {} KiB, stack excluded)",
+        fp.flash,
+        fp.flash as f64 / 1024.0,
+        flash.length / 1024,
+        fp.ram,
+        fp.ram as f64 / 1024.0,
+        ram.length / 1024
+    );
+    println!(
+        "  vector table: initial SP {:#010x} in RAM [{:#010x}, {:#010x}], reset {:#010x} \
+         (thumb) in FLASH [{:#010x}, {:#010x}): OK",
+        fp.initial_sp,
+        ram.origin,
+        ram.end(),
+        fp.reset,
+        flash.origin,
+        flash.end()
+    );
+    if let Some((flash_max, ram_max)) = image.budget {
+        // A target to report against, not a build failure: the layout and
+        // vector checks above are the hard errors.
+        let verdict = |used: u64, max: u64| if used <= max { "met" } else { "NOT MET" };
+        println!(
+            "  target flash ≤ {} KiB: {}; target static RAM ≤ {} KiB: {}",
+            flash_max / 1024,
+            verdict(fp.flash, flash_max),
+            ram_max / 1024,
+            verdict(fp.ram, ram_max)
+        );
+    }
+    Ok(())
+}
+
+fn qemu(args: &[String]) -> Result<(), String> {
+    let mut timeout = Duration::from_secs(QEMU_TIMEOUT_S);
+    let mut uart0 = workspace_root().join("target/qemu/uart0.txt");
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--timeout" => {
+                let v = it.next().ok_or("--timeout needs seconds")?;
+                let s: u64 = v
+                    .parse()
+                    .map_err(|_| format!("--timeout: bad number `{v}`"))?;
+                timeout = Duration::from_secs(s);
+            }
+            "--uart0" => {
+                uart0 = PathBuf::from(it.next().ok_or("--uart0 needs a path")?);
+            }
+            other => return Err(format!("qemu: unknown option `{other}`\n\n{USAGE}")),
+        }
+    }
+    require_tool(
+        QEMU,
+        &["--version"],
+        "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
+    )?;
+    let image = IMAGES
+        .iter()
+        .find(|i| i.bin == QEMU_IMAGE)
+        .ok_or("no QEMU image in the image table")?;
+    let elf = build(image)?;
+    if let Some(dir) = uart0.parent() {
+        fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    }
+
+    let mut cmd = Command::new(QEMU);
+    cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
+        .args(["-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=0,sleep=off"])
+        .arg("-serial")
+        .arg(format!("file:{}", uart0.display()))
+        .arg("-kernel")
+        .arg(&elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    println!("running: {cmd:?}");
+    println!("UART0 → {}", uart0.display());
+    let start = Instant::now();
+    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
+    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
+    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
+    let status = loop {
+        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
+            break status;
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!(
+                "{QEMU} still running after {} s: killed",
+                timeout.as_secs()
+            ));
+        }
+        thread::sleep(Duration::from_millis(20));
+    };
+    for t in [out, err].into_iter().flatten() {
+        let _ = t.join();
+    }
+    println!(
+        "{QEMU} exited with {status} after {:.2} s wall time",
+        start.elapsed().as_secs_f64()
+    );
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("the emulated firmware failed ({status})"))
+    }
+}
+
+/// Copy a child's output to ours as it arrives.
+fn stream<R: Read + Send + 'static, W: Write + Send + 'static>(
+    mut from: R,
+    mut to: W,
+) -> thread::JoinHandle<()> {
+    thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = from.read(&mut buf) {
+            if n == 0 || to.write_all(&buf[..n]).and_then(|()| to.flush()).is_err() {
+                break;
+            }
+        }
+    })
+}
+
+/// Fail with `help` unless `tool args…` runs.
+fn require_tool(tool: &str, args: &[&str], help: &str) -> Result<(), String> {
+    match Command::new(tool)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+    {
+        Ok(_) => Ok(()),
+        Err(_) => Err(help.to_string()),
+    }
+}
