@@ -12,6 +12,10 @@
 //!   excitation monitor of Lemma 1;
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`plant`] — an exact discrete simulator of the modal model (eq. 22);
+//! * [`excitation`] — square wave, multisine, PRBS and chirp for the piezo,
+//!   inside a safe voltage window;
+//! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,
+//!   estimator step, telemetry records for the low-priority task;
 //! * [`scalar`] / [`linalg`] — the `f32`/`f64` abstraction and small matrices.
 //!
 //! # Example
@@ -67,6 +71,7 @@ pub mod filter_bank;
 pub mod linalg;
 pub mod modal;
 pub mod model;
+pub mod pipeline;
 pub mod plant;
 pub mod poly;
 pub mod scalar;

@@ -161,9 +161,9 @@ impl Chirp {
         next.step_q32 = next
             .step0_q32
             .wrapping_add_signed(next.dstep_q32.wrapping_mul(i64::from(target)));
-        next.step_f =
-            (f64::from(next.step0_f) * libm::pow(1.0 + f64::from(next.ratio_m1), f64::from(target)))
-                as f32;
+        next.step_f = (f64::from(next.step0_f)
+            * libm::pow(1.0 + f64::from(next.ratio_m1), f64::from(target)))
+            as f32;
         *self = next;
         Ok(())
     }
@@ -242,17 +242,26 @@ mod tests {
             c.next_raw();
         }
         let phase = c.phase;
-        let wider = ChirpSpec { f1_hz: 100.0, ..spec };
+        let wider = ChirpSpec {
+            f1_hz: 100.0,
+            ..spec
+        };
         c.retune(&wider, 1e4).unwrap();
         assert_eq!(c.phase, phase);
         assert_eq!(c.n, 5_000);
-        let bad = ChirpSpec { f1_hz: 6000.0, ..spec };
+        let bad = ChirpSpec {
+            f1_hz: 6000.0,
+            ..spec
+        };
         assert_eq!(c.retune(&bad, 1e4), Err(ExcitationError::Frequency));
         assert_eq!(c.phase, phase);
         let short = ChirpSpec {
             period_s: 1e-4,
             ..spec
         };
-        assert_eq!(Chirp::new(&short, 1e4).unwrap_err(), ExcitationError::Period);
+        assert_eq!(
+            Chirp::new(&short, 1e4).unwrap_err(),
+            ExcitationError::Period
+        );
     }
 }

@@ -285,8 +285,7 @@ impl Waveform {
             }
             Generator::Chirp(c) => {
                 let s = c.spec();
-                libm::round((s.f1_hz - s.f0_hz).abs() * f64::from(c.period_samples()) / fs)
-                    .max(1.0)
+                libm::round((s.f1_hz - s.f0_hz).abs() * f64::from(c.period_samples()) / fs).max(1.0)
             }
         };
         if lines >= f64::from(u32::MAX) {

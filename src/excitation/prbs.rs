@@ -76,7 +76,11 @@ impl Prbs {
         let k = u32::from(order);
         let width = (1u32 << k) - 1;
         let mask = taps.iter().fold(0u32, |m, &t| m | 1 << (k - u32::from(t)));
-        let seed = if seed & width == 0 { width } else { seed & width };
+        let seed = if seed & width == 0 {
+            width
+        } else {
+            seed & width
+        };
         Ok(Self {
             state: seed,
             seed,

@@ -114,7 +114,10 @@ mod tests {
             p = p.wrapping_add(3_904_819);
         }
         assert!(worst < 4.8e-6, "{worst}");
-        assert!(worst > 3.0e-6, "{worst}: the bound should be nearly reached");
+        assert!(
+            worst > 3.0e-6,
+            "{worst}: the bound should be nearly reached"
+        );
         // Exact at the quadrant points, odd symmetry, cos = shifted sin.
         assert_eq!(sin_q30(0), 0);
         assert_eq!(sin_q30(1 << 30), ONE_Q30);

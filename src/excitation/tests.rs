@@ -112,7 +112,10 @@ fn square_and_prbs_spectra() {
     .unwrap();
     let x = take(&mut e, 64 * 16);
     let a1 = goertzel(&x, 16);
-    assert!((a1 / (4.0 / core::f64::consts::PI) - 1.0).abs() < 2e-3, "{a1}");
+    assert!(
+        (a1 / (4.0 / core::f64::consts::PI) - 1.0).abs() < 2e-3,
+        "{a1}"
+    );
     assert!(goertzel(&x, 32) < 1e-12);
     assert!(goertzel(&x, 48) > 0.4);
     assert_eq!(e.waveform().spectral_lines(), 16);
@@ -151,7 +154,10 @@ fn chirp_energy_stays_in_its_band() {
     let x = take(&mut e, 4096);
     // Bin spacing fs/4096 = 2.44 Hz: band = bins 41..123.
     let inband: f64 = (45..120).map(|k| goertzel(&x, k).powi(2)).sum();
-    let outband: f64 = (1..25).chain(145..400).map(|k| goertzel(&x, k).powi(2)).sum();
+    let outband: f64 = (1..25)
+        .chain(145..400)
+        .map(|k| goertzel(&x, k).powi(2))
+        .sum();
     assert!(outband < 0.02 * inband, "{outband} vs {inband}");
     assert_eq!(e.waveform().spectral_lines(), 82);
 }
@@ -171,8 +177,14 @@ fn level_changes_are_checked_against_the_window() {
     assert_eq!(e.set_amplitude(f64::NAN), Err(ExcitationError::Amplitude));
     assert_eq!(e.set_offset(f64::INFINITY), Err(ExcitationError::Offset));
     assert_eq!(e.set_offset(-1.0), Err(ExcitationError::OutsideWindow));
-    assert_eq!(e.set_window(window(-10.0, 10.0)), Err(ExcitationError::OutsideWindow));
-    assert_eq!(e.set_window(window(1.0, -1.0)), Err(ExcitationError::Window));
+    assert_eq!(
+        e.set_window(window(-10.0, 10.0)),
+        Err(ExcitationError::OutsideWindow)
+    );
+    assert_eq!(
+        e.set_window(window(1.0, -1.0)),
+        Err(ExcitationError::Window)
+    );
     assert_eq!(e.set_frequency(6000.0), Err(ExcitationError::Frequency));
     assert_eq!(e.set_band(1.0, 2.0), Err(ExcitationError::Unsupported));
     assert_eq!(e, before, "rejected requests change nothing");
