@@ -9,6 +9,7 @@
 pub mod naive;
 pub mod runner;
 pub mod scenario;
+pub mod sim_rig;
 
 pub use runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};
 pub use scenario::{PlantSpec, Truth};

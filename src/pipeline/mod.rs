@@ -12,8 +12,10 @@
 //!    depend on the estimator's cost (a variable delay would be a variable
 //!    phase on u).
 //! 3. **Screen the conversion:** converter errors by kind, full-scale codes
-//!    (saturation), a bridge code that has not changed for
-//!    `stuck_after` samples (stuck), a non-finite conversion.
+//!    (saturation), a bridge code repeated `stuck_after` times (stuck: the
+//!    whole run, through a delay line of `stuck_after` + 1 samples: the
+//!    run's early samples would otherwise reach the estimator and corrupt
+//!    P and Q for as long as they are remembered), a non-finite conversion.
 //! 4. **Convert** codes → volts → strain → y ([`convert`]: quarter bridge,
 //!    optionally eq. 17's deflection), monitor code → actuator volts.
 //! 5. **Pair u with y** as the estimator's contract requires ([`Estimator::step`]:
@@ -88,6 +90,7 @@
 
 pub mod convert;
 pub mod converters;
+mod delay;
 pub mod prefilter;
 pub mod telemetry;
 
@@ -108,6 +111,8 @@ pub use telemetry::{
 use crate::estimator::{Estimator, StepStatus};
 use crate::excitation::{Excitation, ExcitationKind};
 use crate::scalar::Real;
+use delay::DelayLine;
+pub use delay::MAX_DELAY;
 
 /// Where the estimator's u comes from (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -143,6 +148,8 @@ pub enum PipelineError {
     TelemetryRate,
     /// λ not positive and finite.
     Lambda,
+    /// `stuck_after` ≥ [`MAX_DELAY`].
+    StuckAfter,
 }
 
 impl core::fmt::Display for PipelineError {
@@ -153,6 +160,7 @@ impl core::fmt::Display for PipelineError {
             Self::AmplifierGain => f.write_str("amplifier gain zero or not finite"),
             Self::TelemetryRate => f.write_str("telemetry interval must be at least 1 sample"),
             Self::Lambda => f.write_str("filter pole lambda not positive and finite"),
+            Self::StuckAfter => f.write_str("stuck_after exceeds the delay line"),
         }
     }
 }
@@ -190,9 +198,11 @@ pub struct PipelineConfig {
     pub telemetry_every: u32,
     /// A raw (u, y) pair every this many samples; 0 = no raw blocks.
     pub raw_decimation: u16,
-    /// A bridge code unchanged for this many consecutive samples is stuck
-    /// (0 = no check). A live 24-bit bridge never repeats that long; a
-    /// noise-free simulation at rest does.
+    /// A bridge code repeated this many more times is stuck, and so is the
+    /// whole run of identical codes: 0 = no check, at most [`MAX_DELAY`] − 1.
+    /// The estimator then lags by `stuck_after + 1` samples (a delay line,
+    /// so the run's first samples are rejected too). A live 24-bit bridge
+    /// never repeats for long; a noise-free simulation at rest does.
     pub stuck_after: u16,
     /// The estimator's filter pole λ (rad/s), copied into each record.
     pub lambda_rad_s: f64,
@@ -238,6 +248,7 @@ pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
     stuck_after: u16,
     last_code: i32,
     repeats: u16,
+    delay: DelayLine<T>,
     lambda_rad_s: f64,
     next_index: u64,
     frozen: bool,
@@ -292,6 +303,9 @@ where
         if !(config.lambda_rad_s > 0.0 && config.lambda_rad_s.is_finite()) {
             return Err(PipelineError::Lambda);
         }
+        if usize::from(config.stuck_after) >= MAX_DELAY {
+            return Err(PipelineError::StuckAfter);
+        }
         Ok(Self {
             estimator,
             adc,
@@ -315,6 +329,7 @@ where
             stuck_after: config.stuck_after,
             last_code: 0,
             repeats: 0,
+            delay: DelayLine::new(usize::from(config.stuck_after) + 1, T::ZERO),
             lambda_rad_s: config.lambda_rad_s,
             next_index: 0,
             frozen: false,
@@ -361,7 +376,7 @@ where
         };
 
         // 3.–4. Screen and convert.
-        let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
+        let (y, y_ok, u_mon, mon_ok, stuck_started) = self.screen(reading);
 
         // 5. The pair for step(u held over the coming period, y now).
         let pair = match self.input {
@@ -373,12 +388,23 @@ where
         };
         let Some((u, y, ok)) = pair else {
             // Start-up: nothing held yet to pair with.
-            return Tick {
-                sample_index: index,
-                commanded_v,
-                fed: None,
-                step: None,
-            };
+            return self.idle(index, commanded_v);
+        };
+        // The delay line lets a stuck run be rejected from its first sample.
+        let (u, y, ok, fed_index) = if self.stuck_after > 0 {
+            let out = self.delay.push((u, y, ok, index));
+            if stuck_started {
+                let flipped = self
+                    .delay
+                    .invalidate_recent(usize::from(self.stuck_after) + 1);
+                self.counters.stuck = self.counters.stuck.saturating_add(flipped);
+            }
+            match out {
+                Some(e) => e,
+                None => return self.idle(index, commanded_v),
+            }
+        } else {
+            (u, y, ok, index)
         };
 
         // 6. Prefilter (fed the last good values across a bad sample).
@@ -419,11 +445,11 @@ where
         self.last_fed = fed;
 
         // 8. Raw block and telemetry record.
-        self.record_raw(index, fed);
+        self.record_raw(fed_index, fed);
         self.since_record += 1;
         if self.since_record >= self.telemetry_every {
             self.since_record = 0;
-            self.emit_record(index);
+            self.emit_record(fed_index);
         }
         Tick {
             sample_index: index,
@@ -433,14 +459,24 @@ where
         }
     }
 
-    /// Classify a conversion and convert it: (y, y valid, u_mon, u_mon valid).
-    fn screen(&mut self, reading: Result<AdcReading, A::Error>) -> (T, bool, T, bool) {
+    fn idle(&self, index: u64, commanded_v: T) -> Tick<T> {
+        Tick {
+            sample_index: index,
+            commanded_v,
+            fed: None,
+            step: None,
+        }
+    }
+
+    /// Classify a conversion and convert it: (y, y valid, u_mon, u_mon
+    /// valid, a stuck run was recognised at this sample).
+    fn screen(&mut self, reading: Result<AdcReading, A::Error>) -> (T, bool, T, bool, bool) {
         let r = match reading {
             Ok(r) if !r.flags.stale => r,
             Ok(_) => {
                 bump(&mut self.counters.adc_other);
                 self.flags.set(StatusFlags::ADC_FAULT, true);
-                return (T::ZERO, false, T::ZERO, false);
+                return (T::ZERO, false, T::ZERO, false, false);
             }
             Err(e) => {
                 let c = &mut self.counters;
@@ -451,12 +487,13 @@ where
                     FaultKind::Other => &mut c.adc_other,
                 });
                 self.flags.set(StatusFlags::ADC_FAULT, true);
-                return (T::ZERO, false, T::ZERO, false);
+                return (T::ZERO, false, T::ZERO, false, false);
             }
         };
         let at_rail = |c: i32| c >= ADC_CODE_MAX || c <= ADC_CODE_MIN;
         let y = self.conv.y_from_code(r.bridge);
         let mut y_ok = true;
+        let mut stuck_started = false;
         if r.flags.bridge_saturated || at_rail(r.bridge) || !y.is_finite() {
             bump(&mut self.counters.bridge_saturated);
             y_ok = false;
@@ -468,6 +505,9 @@ where
                 self.last_code = r.bridge;
             }
             if self.stuck_after > 0 && self.repeats >= self.stuck_after {
+                // The run's earlier samples are flipped in the delay line
+                // (and counted there) when it is first recognised.
+                stuck_started = self.repeats == self.stuck_after;
                 bump(&mut self.counters.stuck);
                 y_ok = false;
             }
@@ -481,7 +521,7 @@ where
         if !y_ok || relevant_mon_bad {
             self.flags.set(StatusFlags::ADC_FAULT, true);
         }
-        (y, y_ok, u_mon, mon_ok)
+        (y, y_ok, u_mon, mon_ok, stuck_started)
     }
 
     fn record_raw(&mut self, index: u64, fed: (T, T)) {
@@ -619,6 +659,7 @@ where
         self.last_good = (T::ZERO, T::ZERO);
         self.requarantine = false;
         self.repeats = 0;
+        self.delay.clear();
     }
 
     /// Counters back to zero (the excitation's clamp counter is read
