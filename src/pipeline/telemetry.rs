@@ -101,7 +101,7 @@ impl StatusFlags {
     pub const ADC_FAULT: u16 = 1 << 4;
     /// A DAC write failed or saturated.
     pub const DAC_FAULT: u16 = 1 << 5;
-    /// The excitation clamp acted.
+    /// The excitation clamp has acted (cumulative: its counter is non-zero).
     pub const EXCITATION_CLAMPED: u16 = 1 << 6;
     /// An overrun was reported.
     pub const OVERRUN: u16 = 1 << 7;
