@@ -234,7 +234,12 @@ fn run<T: Real>(mode: &str) {
     // Build every generator in every mode (the multisine scan is set-up).
     let mut gens: Vec<(&str, Excitation<T>)> = shapes
         .iter()
-        .map(|(n, s)| (*n, Excitation::new(s, T::ONE, T::ZERO, window, 1e4).expect("shape")))
+        .map(|(n, s)| {
+            (
+                *n,
+                Excitation::new(s, T::ONE, T::ZERO, window, 1e4).expect("shape"),
+            )
+        })
         .collect();
     match mode {
         "none" => {}
