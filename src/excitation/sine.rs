@@ -5,10 +5,12 @@
 //! A quarter-wave table of [`QUARTER`] + 1 entries (1 KiB of flash) with
 //! linear interpolation on the next 16 phase bits: 1,024 segments per
 //! cycle, so the interpolation error is at most (2π/1024)²/8 = 4.7e-6 of
-//! full scale (−107 dB), measured 4.7e-6 by the unit test. Per call: two
-//! table reads, one 32×32→64 multiply, a few shifts and a sign flip — no
-//! floating point, so the f32 and f64 builds produce identical waveforms.
-//! `libm::sinf` costs several times more per call (see `BENCHMARKS.md`).
+//! full scale (−107 dB; the unit test's worst case lies between 3e-6 and
+//! 4.8e-6). Per call: two table reads, one 32×32→64 multiply, a few shifts
+//! and a sign flip — no floating point, so the f32 and f64 builds produce
+//! identical waveforms. `libm::sinf` evaluates its kernel in `f64`, which
+//! is software on a single-precision FPU such as the Cortex-M4F's (x86
+//! instruction counts of both in `BENCHMARKS.md`).
 //!
 //! The table is computed at compile time by a `const fn` Taylor series in
 //! `f64` (error < 1e-16 on [0, π/2]), so no literal table is checked in.

@@ -158,8 +158,8 @@ pub struct TelemetryRecord<T, const NP: usize, const NS: usize> {
     /// Θ̂ of eq. 29 in physical units.
     pub theta: [T; NP],
     /// The scaled information matrix P (eq. 33), upper triangle packed
-    /// row by row (P₀₀, P₀₁, …, P₀,NP−1, P₁₁, …); all zero if the law keeps
-    /// no P ([`StatusFlags`] then says nothing about it: see `has_information`).
+    /// row by row (P₀₀, P₀₁, …, P₀,NP−1, P₁₁, …); all zero when
+    /// `has_information` is false (a law that keeps no P).
     pub information: [T; NS],
     /// Whether `information` holds P.
     pub has_information: bool,
