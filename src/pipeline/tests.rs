@@ -1,7 +1,7 @@
 //! Unit tests with scripted converters and a recording estimator.
 
 use super::*;
-use crate::estimator::Health;
+use crate::estimator::{Health, StepStatus};
 use crate::excitation::{SafeWindow, Shape};
 use crate::model::TransferFunction;
 use heapless::spsc::Queue;
