@@ -14,7 +14,10 @@
 //! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
 //!   them with the excitation per sample;
-//! * [`excitation`] — the paper's square-wave drive (Section IV.A);
+//! * [`excitation`] — square wave (the paper's, Section IV.A), multisine,
+//!   PRBS and chirp for the piezo, inside a safe voltage window;
+//! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,
+//!   estimator step, telemetry records for the low-priority task;
 //! * [`scalar`] — the `f32`/`f64` abstraction;
 //! * [`protocol`] — the serial link: messages, framing and the stream decoder
 //!   shared by the firmware and the host (`docs/PROTOCOL.md`).
@@ -86,6 +89,7 @@ pub mod filter_bank;
 pub(crate) mod linalg;
 pub mod modal;
 pub mod model;
+pub mod pipeline;
 pub mod poly;
 pub mod protocol;
 pub mod rig;

@@ -54,6 +54,10 @@ pub trait Real:
     fn from_f64(x: f64) -> Self;
     /// Widen to `f64`.
     fn to_f64(self) -> f64;
+    /// Exact for |n| ≤ 2^24 in `f32` (every 24-bit ADC code), always in
+    /// `f64`; a single integer-to-float instruction on an FPU (no detour
+    /// through `f64`, which is software on a single-precision FPU).
+    fn from_i32(n: i32) -> Self;
     /// Convert a small count.
     fn from_usize(n: usize) -> Self {
         Self::from_f64(n as f64)
@@ -133,6 +137,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn to_f64(self) -> f64 {
                 self as f64
+            }
+            #[inline(always)]
+            fn from_i32(n: i32) -> Self {
+                n as $t
             }
             #[inline(always)]
             fn sqrt(self) -> Self {

@@ -11,6 +11,7 @@
 
 pub mod naive;
 pub mod scenario;
+pub mod sim_rig;
 
 pub use beamctl::runner;
 pub use beamctl::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};

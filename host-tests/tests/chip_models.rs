@@ -6,13 +6,13 @@ mod common;
 
 use std::cell::{Cell, RefCell};
 
-use beamest::rig::chips::ads131m02::quantize;
-use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
 use beamest::drivers::ad5761r::{self, Ad5761r, BipolarCoding, OutputRange, Reference, ScaleLevel};
 use beamest::drivers::ads131m02::{
     self, Ads131m02, Command, Config, CrcType, Error, PgaGain, Register, WordLength,
 };
 use beamest::drivers::Rail;
+use beamest::rig::chips::ads131m02::quantize;
+use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
 use common::{crc16_bitwise, CCITT, DAC_SPANS};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 

@@ -174,6 +174,13 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn excitation_level(&self) -> Option<T>;
     /// Input-screening and update counters.
     fn health(&self) -> Health;
+    /// A copy of the scaled information matrix P (eq. 33) whose λmin is
+    /// [`Estimator::excitation_level`], `None` for laws that keep no P.
+    /// Cheap (a copy, no decomposition): the sample path snapshots it into
+    /// telemetry and the eigenvalues are computed elsewhere.
+    fn information(&self) -> Option<[[T; NP]; NP]> {
+        None
+    }
 }
 
 /// A filter bank and an update law: a complete estimator.
@@ -300,6 +307,10 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
 
     fn excitation_level(&self) -> Option<T> {
         self.law.information().map(|p| excitation_min_eig(&p))
+    }
+
+    fn information(&self) -> Option<[[T; NP]; NP]> {
+        self.law.information()
     }
 
     fn health(&self) -> Health {

@@ -83,7 +83,7 @@ pub struct RigPipeline {
     u_held: f32,
     estimator: Option<&'static mut Adaptive2<f32>>,
     estimator_slot: &'static Handoff<&'static mut Adaptive2<f32>>,
-    telemetry: Producer<'static, Record, TELEMETRY_QUEUE>,
+    telemetry: Producer<'static, Record>,
     sample: u32,
     y_square_sum: f32,
     not_updated: u32,
@@ -95,7 +95,7 @@ impl RigPipeline {
     /// The paper's plant at rest, the paper's excitation, no estimator yet.
     pub fn new(
         estimator_slot: &'static Handoff<&'static mut Adaptive2<f32>>,
-        telemetry: Producer<'static, Record, TELEMETRY_QUEUE>,
+        telemetry: Producer<'static, Record>,
     ) -> Result<Self, PlantError> {
         Ok(Self {
             plant: ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS_S)?,

@@ -106,7 +106,7 @@ impl Uart0 {
 
 /// The sending end (thread mode or a low-priority task).
 pub struct UartTx {
-    ring: Producer<'static, u8, TX_RING>,
+    ring: Producer<'static, u8>,
 }
 
 impl UartTx {
@@ -140,7 +140,7 @@ impl UartTx {
 
     /// True once every queued byte has been handed to the UART.
     pub fn is_drained(&self) -> bool {
-        self.ring.len() == 0
+        self.ring.is_empty()
     }
 }
 
@@ -159,7 +159,7 @@ impl core::fmt::Write for UartTx {
 
 /// The TX interrupt's end: owned by the `UART0TX` handler.
 pub struct TxDrain {
-    ring: Consumer<'static, u8, TX_RING>,
+    ring: Consumer<'static, u8>,
 }
 
 impl TxDrain {
@@ -179,7 +179,7 @@ impl TxDrain {
 
 /// The RX interrupt's end: owned by the `UART0RX` handler.
 pub struct RxFill {
-    ring: Producer<'static, u8, RX_RING>,
+    ring: Producer<'static, u8>,
 }
 
 impl RxFill {
@@ -199,7 +199,7 @@ impl RxFill {
 
 /// The receiving end (thread mode or a low-priority task).
 pub struct UartRx {
-    ring: Consumer<'static, u8, RX_RING>,
+    ring: Consumer<'static, u8>,
 }
 
 impl UartRx {

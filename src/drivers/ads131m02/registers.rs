@@ -592,7 +592,7 @@ mod tests {
         for (&osr, &r) in Osr::ALL.iter().zip(ratios.iter()) {
             assert_eq!(osr.ratio(), r);
         }
-        // DESIGN: 5.12 MHz CLKIN with OSR 256 gives exactly 10 kSPS.
+        // The rig (docs/RIG.md): 5.12 MHz CLKIN with OSR 256 gives exactly 10 kSPS.
         assert_eq!(Osr::Osr256.data_rate_hz(5.12e6), 10_000.0);
         // Data sheet default: 8.192 MHz, OSR 1024 → 4 kSPS.
         assert_eq!(Osr::Osr1024.data_rate_hz(8.192e6), 4_000.0);

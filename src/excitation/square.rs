@@ -1,40 +1,15 @@
-//! Excitation signals for the piezo drive, generated sample by sample.
-//!
-//! Lemma 1 needs a persistently exciting Ψ: for 2n modes the input must
-//! contain at least n distinct frequencies (2n−1 parameters of the
-//! numerator and 2n of the denominator). The paper uses a 0.1-amplitude 7 Hz
-//! square wave (Section IV.A), whose odd harmonics provide them.
+//! The paper's square wave (Section IV.A: 0.1·square(7 Hz)), generated
+//! sample by sample.
 //!
 //! # Design
 //! The phase is a 32-bit integer accumulator (direct digital synthesis), so
 //! the waveform never drifts, whatever the float type or run length: at
 //! 10 kHz the frequency resolution is 2.3 µHz and the phase error is bounded
-//! forever.
+//! forever. Its odd harmonics give Lemma 1 as many frequencies as any model
+//! order needs.
 
+use super::ExcitationError;
 use crate::scalar::Real;
-
-/// Invalid excitation settings.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ExcitationError {
-    /// Frequency must be positive and below half the sample rate.
-    Frequency,
-    /// Amplitude must be finite and non-negative.
-    Amplitude,
-}
-
-impl core::fmt::Display for ExcitationError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Self::Frequency => {
-                "invalid excitation frequency: must be positive and below half the sample rate"
-            }
-            Self::Amplitude => "invalid excitation amplitude: must be finite and >= 0",
-        })
-    }
-}
-
-impl core::error::Error for ExcitationError {}
 
 /// A square wave ±amplitude, starting at +amplitude at t = 0.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,6 +82,7 @@ impl<T: Real> Iterator for SquareWave<T> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
 

@@ -1,0 +1,287 @@
+//! Deterministic per-sample cost of the pipeline and the excitation
+//! generators, as instruction counts under valgrind (wall-clock timing on a
+//! shared VM is too noisy to resolve the pipeline's overhead).
+//!
+//! Every mode does the same set-up (record the codes, build and warm up
+//! both an estimator and a pipeline for 1 s); only the measured loop of
+//! `N` samples differs, so
+//! instructions per sample = (Ir(mode) − Ir(none)) / N:
+//!
+//! ```sh
+//! cargo build --release -p host-tests --example pipeline_cost
+//! for m in none bare tick tick_prefilter; do for t in f32 f64; do
+//!   valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
+//!     target/release/examples/pipeline_cost $m $t 2>&1 | grep 'I *refs'
+//! done; done
+//! ```
+//! Excitation modes (f32): `square`, `multisine1`, `multisine8`, `prbs`,
+//! `chirp_lin`, `chirp_log`, and `sinf` (a float phase and `libm::sinf`).
+
+use std::hint::black_box;
+
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+use beamest::excitation::{
+    ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
+};
+use beamest::filter_bank::{FilterConfig, SignalScales};
+use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use beamest::pipeline::{
+    AdcFlags, AdcReading, AdcScale, BridgeConfig, ConversionConfig, DacLatch, DacOutcome, Eq17,
+    FaultKind, InputSource, Linearisation, NoSink, OutputQuantity, PiezoDac, Pipeline,
+    PipelineConfig, PrefilterConfig, Sink, StrainAdc, ADS131M02_VREF_V,
+};
+use beamest::plant::ModalPlant;
+use beamest::Real;
+
+/// Samples in the measured loop.
+const N: usize = 100_000;
+const WARMUP: usize = 10_000;
+
+fn conversion() -> ConversionConfig {
+    ConversionConfig {
+        bridge_adc: AdcScale {
+            vref_v: ADS131M02_VREF_V,
+            pga_gain: 128,
+        },
+        bridge: BridgeConfig {
+            excitation_v: 5.0,
+            gauge_factor: 2.1,
+            amplifier_gain: 1.0,
+            null_offset_v: 0.0,
+            linearisation: Linearisation::Exact,
+            invert: false,
+        },
+        output: OutputQuantity::Deflection(Eq17 {
+            length_m: 0.36,
+            gauge_lever_arm_m: 0.34,
+            thickness_m: 1e-3,
+        }),
+        monitor_adc: AdcScale {
+            vref_v: ADS131M02_VREF_V,
+            pga_gain: 1,
+        },
+        monitor_v_per_v: 0.01,
+    }
+}
+
+struct Replay {
+    codes: std::rc::Rc<Vec<i32>>,
+    at: usize,
+}
+
+impl StrainAdc for Replay {
+    type Error = FaultKind;
+    #[inline]
+    fn read(&mut self) -> Result<AdcReading, FaultKind> {
+        let c = self.codes.get(self.at).copied().unwrap_or(0);
+        self.at += 1;
+        Ok(AdcReading {
+            bridge: c,
+            monitor: 0,
+            flags: AdcFlags::default(),
+        })
+    }
+}
+
+struct Hold;
+
+impl<T: Real> PiezoDac<T> for Hold {
+    type Error = FaultKind;
+    #[inline]
+    fn write_volts(&mut self, v: T) -> Result<DacOutcome<T>, FaultKind> {
+        Ok(DacOutcome {
+            held_v: v,
+            saturated: false,
+        })
+    }
+}
+
+struct Accept;
+
+impl<M> Sink<M> for Accept {
+    #[inline]
+    fn try_push(&mut self, m: M) -> Result<(), M> {
+        black_box(&m);
+        Ok(())
+    }
+}
+
+fn run<T: Real>(mode: &str) {
+    let cfg = conversion();
+    let mut plant = ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4)
+        .expect("plant");
+    let mut sq = SquareWave::<f64>::paper();
+    let codes: Vec<i32> = (0..WARMUP + N)
+        .map(|_| {
+            let c = cfg.bridge_code_for(plant.output()).expect("finite");
+            plant.advance(sq.next_sample());
+            c
+        })
+        .collect();
+    let codes = std::rc::Rc::new(codes);
+    let conv = cfg.compile::<T>().expect("conversion");
+    let mut sq = SquareWave::<T>::paper();
+    let pairs: Vec<(T, T)> = codes
+        .iter()
+        .map(|&k| (sq.next_sample(), conv.y_from_code(k)))
+        .collect();
+    let filter = FilterConfig {
+        ts_s: 1e-4,
+        lambda_rad_s: 100.0,
+        scales: SignalScales {
+            u_scale: 0.1,
+            y_scale: 1e-3,
+        },
+        ..FilterConfig::default()
+    };
+    let mut est = Adaptive2::<T>::new(&filter, &AdaptiveConfig::default()).expect("estimator");
+    for &(u, y) in &pairs[..WARMUP] {
+        est.step(u, y);
+    }
+    let pcfg = PipelineConfig {
+        conversion: cfg,
+        input: InputSource::Commanded,
+        amplifier_gain: 1.0,
+        dac_latch: DacLatch::Immediate,
+        prefilter: (mode == "tick_prefilter").then_some(PrefilterConfig {
+            order: 4,
+            cutoff_hz: 1000.0,
+            sample_rate_hz: 1e4,
+        }),
+        telemetry_every: 100,
+        raw_decimation: 0,
+        stuck_after: 0,
+        lambda_rad_s: 100.0,
+    };
+    let window = SafeWindow {
+        min_v: T::from_f64(-10.0),
+        max_v: T::from_f64(10.0),
+    };
+    let exc = Excitation::new(
+        &Shape::Square { frequency_hz: 7.0 },
+        T::from_f64(0.1),
+        T::ZERO,
+        window,
+        1e4,
+    )
+    .expect("excitation");
+    let adc = Replay {
+        codes: codes.clone(),
+        at: 0,
+    };
+    let mut p = Pipeline::<T, _, _, _, _, NoSink, 7, 28>::new(
+        &pcfg,
+        Adaptive2::<T>::new(&filter, &AdaptiveConfig::default()).expect("estimator"),
+        exc,
+        adc,
+        Hold,
+        Accept,
+        NoSink,
+    )
+    .expect("pipeline");
+    for _ in 0..WARMUP {
+        p.tick();
+    }
+    let shapes = [
+        ("square", Shape::Square { frequency_hz: 7.0 }),
+        (
+            "multisine1",
+            Shape::Multisine(MultisineSpec {
+                f_min_hz: 7.0,
+                f_max_hz: 7.0,
+                tones: 1,
+                period_log2: 14,
+                phases: Phases::Schroeder,
+            }),
+        ),
+        (
+            "multisine8",
+            Shape::Multisine(MultisineSpec {
+                f_min_hz: 2.0,
+                f_max_hz: 80.0,
+                tones: 8,
+                period_log2: 14,
+                phases: Phases::Schroeder,
+            }),
+        ),
+        (
+            "prbs",
+            Shape::Prbs {
+                order: 12,
+                bit_rate_hz: 500.0,
+                seed: 1,
+            },
+        ),
+        (
+            "chirp_lin",
+            Shape::Chirp(ChirpSpec {
+                f0_hz: 2.0,
+                f1_hz: 80.0,
+                period_s: 10.0,
+                sweep: Sweep::Linear,
+            }),
+        ),
+        (
+            "chirp_log",
+            Shape::Chirp(ChirpSpec {
+                f0_hz: 2.0,
+                f1_hz: 80.0,
+                period_s: 10.0,
+                sweep: Sweep::Logarithmic,
+            }),
+        ),
+    ];
+    // Build every generator in every mode (the multisine scan is set-up).
+    let mut gens: Vec<(&str, Excitation<T>)> = shapes
+        .iter()
+        .map(|(n, s)| {
+            (
+                *n,
+                Excitation::new(s, T::ONE, T::ZERO, window, 1e4).expect("shape"),
+            )
+        })
+        .collect();
+    match mode {
+        "none" => {}
+        "bare" => {
+            for &(u, y) in &pairs[WARMUP..] {
+                black_box(est.step(black_box(u), black_box(y)));
+            }
+        }
+        "tick" | "tick_prefilter" => {
+            for _ in 0..N {
+                black_box(p.tick());
+            }
+        }
+        "sinf" => {
+            let mut phase = 0.0f32;
+            let step = 2.0 * std::f32::consts::PI * 7.0 / 1e4;
+            for _ in 0..N {
+                black_box(libm::sinf(black_box(phase)));
+                phase += step;
+                if phase > std::f32::consts::PI {
+                    phase -= 2.0 * std::f32::consts::PI;
+                }
+            }
+        }
+        other => {
+            let Some((_, g)) = gens.iter_mut().find(|(n, _)| *n == other) else {
+                eprintln!("unknown mode {other}");
+                std::process::exit(2);
+            };
+            for _ in 0..N {
+                black_box(g.next_sample());
+            }
+        }
+    }
+    black_box((&est, &p, &gens));
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let mode = args.get(1).map_or("none", |s| s.as_str());
+    match args.get(2).map_or("f32", |s| s.as_str()) {
+        "f64" => run::<f64>(mode),
+        _ => run::<f32>(mode),
+    }
+}

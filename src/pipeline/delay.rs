@@ -1,0 +1,100 @@
+//! A short delay line between screening and the estimator, so a fault that
+//! is recognised only after several samples (a stuck sensor: the code must
+//! repeat `stuck_after` times) can still be kept out of the estimator: the
+//! samples already screened are marked invalid before they leave the line.
+//! The estimate lags by the delay (at most [`MAX_DELAY`] samples, 3.1 ms
+//! at 10 kHz); the DAC and the excitation do not.
+
+/// Longest delay (samples); the ring holds one more.
+pub const MAX_DELAY: usize = 31;
+const RING: usize = MAX_DELAY + 1;
+
+/// One screened pair: (u, y, valid, sample index).
+pub(crate) type Entry<T> = (T, T, bool, u64);
+
+/// The ring.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DelayLine<T> {
+    buf: [Entry<T>; RING],
+    head: usize,
+    filled: usize,
+    delay: usize,
+}
+
+impl<T: Copy> DelayLine<T> {
+    /// A line of `delay` ≤ [`MAX_DELAY`] samples (longer is clamped).
+    pub(crate) fn new(delay: usize, zero: T) -> Self {
+        Self {
+            buf: [(zero, zero, false, 0); RING],
+            head: 0,
+            filled: 0,
+            delay: delay.min(MAX_DELAY),
+        }
+    }
+
+    /// Store `e`; return the entry stored `delay` pushes ago, once there is
+    /// one.
+    #[inline]
+    pub(crate) fn push(&mut self, e: Entry<T>) -> Option<Entry<T>> {
+        let out = if self.filled >= self.delay {
+            self.buf
+                .get((self.head + RING - self.delay) % RING)
+                .copied()
+        } else {
+            self.filled += 1;
+            None
+        };
+        if let Some(slot) = self.buf.get_mut(self.head) {
+            *slot = e;
+        }
+        self.head = (self.head + 1) % RING;
+        out
+    }
+
+    /// Mark the `n` most recent entries (still in the line) invalid;
+    /// returns how many were valid.
+    pub(crate) fn invalidate_recent(&mut self, n: usize) -> u32 {
+        let mut flipped = 0;
+        for back in 1..=n.min(self.filled) {
+            let i = (self.head + RING - back) % RING;
+            if let Some(e) = self.buf.get_mut(i) {
+                if e.2 {
+                    e.2 = false;
+                    flipped += 1;
+                }
+            }
+        }
+        flipped
+    }
+
+    /// Empty the line.
+    pub(crate) fn clear(&mut self) {
+        self.filled = 0;
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delays_and_invalidates_what_is_still_inside() {
+        let mut d = DelayLine::new(3, 0.0f64);
+        let out: Vec<_> = (0..6u64)
+            .map(|k| d.push((k as f64, 0.0, true, k)).map(|e| e.3))
+            .collect();
+        assert_eq!(out, [None, None, None, Some(0), Some(1), Some(2)]);
+        // Entries 3, 4, 5 are inside: invalidate the last two.
+        assert_eq!(d.invalidate_recent(2), 2);
+        assert_eq!(d.invalidate_recent(2), 0);
+        let e = d.push((6.0, 0.0, true, 6)).unwrap();
+        assert_eq!((e.3, e.2), (3, true));
+        assert!(!d.push((7.0, 0.0, true, 7)).unwrap().2);
+        assert!(!d.push((8.0, 0.0, true, 8)).unwrap().2);
+        assert!(d.push((9.0, 0.0, true, 9)).unwrap().2);
+        d.clear();
+        assert_eq!(d.push((1.0, 0.0, true, 10)), None);
+        assert_eq!(DelayLine::new(99, 0.0f32).delay, MAX_DELAY);
+    }
+}

@@ -1,0 +1,642 @@
+//! The per-sample pipeline: one ADC conversion in, one DAC value out, the
+//! estimator stepped in between, telemetry every K samples — the whole
+//! 10 kHz sample task, hardware-free and generic over the converters
+//! ([`StrainAdc`], [`PiezoDac`]), the estimator ([`Estimator`]) and the
+//! scalar type.
+//!
+//! # One tick, in order ([`Pipeline::tick`], called on each data-ready)
+//! 1. **Read the conversion** of both channels: y at t_k (bridge) and the
+//!    amplifier monitor.
+//! 2. **Next excitation value → DAC write.** Done before any arithmetic, so
+//!    the delay from data-ready to the DAC update is short and does not
+//!    depend on the estimator's cost (a variable delay would be a variable
+//!    phase on u).
+//! 3. **Screen the conversion:** converter errors by kind, full-scale codes
+//!    (saturation), a bridge code repeated `stuck_after` times (stuck: the
+//!    whole run, through a delay line of `stuck_after` + 1 samples: the
+//!    run's early samples would otherwise reach the estimator and corrupt
+//!    P and Q for as long as they are remembered), a non-finite conversion.
+//! 4. **Convert** codes → volts → strain → y ([`convert`]: quarter bridge,
+//!    optionally eq. 17's deflection), monitor code → actuator volts.
+//! 5. **Pair u with y** as the estimator's contract requires ([`Estimator::step`]:
+//!    u held over the coming period, y sampled now) — see *Alignment*.
+//! 6. **Prefilter** u and y identically (optional, [`prefilter`]).
+//! 7. **Estimator step**; an invalid sample is passed as NaN (see *Bad
+//!    samples*).
+//! 8. **Raw block** of the (u, y) pairs (optional, decimated) and, every K
+//!    samples, a **telemetry record** — both pushed into bounded
+//!    single-producer queues ([`Sink`]); a full queue drops and counts,
+//!    nothing waits.
+//!
+//! # Alignment
+//! The host reference loop (`host-tests` runner) does `u = excitation();
+//! y = plant.sample(u); est.step(u, y)`: y(t_k) is read *before* u_k is
+//! applied, and u_k is held over [t_k, t_{k+1}). At tick k the conversion
+//! gives y(t_k); with [`DacLatch::Immediate`] the value written now is u_k,
+//! so the estimator gets `step(u_k, y_k)`. With [`DacLatch::NextTick`] (the
+//! DAC's latch is pulsed by the next data-ready, e.g. AD5761R LDAC, so
+//! the update instant is exact) the value written now is u_{k+1} and the
+//! value written at the previous tick is u_k. With
+//! [`InputSource::Monitored`] the monitor sampled at t_k measures the
+//! voltage held over [t_{k−1}, t_k), so it is paired with y_{k−1}: the
+//! estimator runs one sample behind. Host test: the pipeline over the
+//! simulated plant reproduces the directly fed estimator bit for bit.
+//!
+//! # Which u
+//! [`InputSource::Commanded`] (default): the voltage the DAC holds (its
+//! reported, quantised value) times the amplifier gain. It is exactly what
+//! the estimator's zero-order-hold model assumes (a piecewise-constant
+//! input, eq. 28–29 filtered exactly) and carries no measurement noise.
+//! The amplifier's own dynamics and gain error then become part of the
+//! identified plant: a gain error scales b̄ only (ω, ζ are unaffected), and
+//! a piezo amplifier's bandwidth (kHz) is far above the beam's modes.
+//! [`InputSource::Monitored`] uses the monitor channel instead (as the
+//! paper monitored the amplified signal): it removes the amplifier from the
+//! model but brings ADC noise onto u (errors in variables) and a waveform
+//! that is no longer exactly held between samples.
+//!
+//! # Bad samples
+//! A sample with a converter error, a saturated, stuck or non-finite
+//! bridge conversion (with `Monitored`: also a bad monitor conversion), or
+//! a failed DAC write (with `Commanded`: the held value is unknown) is
+//! *invalid*. The estimator is then stepped with NaN: it keeps its time
+//! base, substitutes its last good sample into the filters and freezes its
+//! law for 40 filter time constants (the quarantine of
+//! [`crate::estimator`]), so nothing of the bad sample ever reaches Θ̂.
+//! Skipping the step instead would shift the filters' time base by one
+//! sample. The prefilter is fed the last good values. After a reported
+//! overrun ([`Pipeline::note_overrun`]) or a resume from freeze, one
+//! deliberate NaN step restarts the quarantine, since the filters then
+//! lack real samples.
+//!
+//! # Concurrency (RTIC-like)
+//! The sample task (data-ready interrupt, highest priority) owns the
+//! pipeline and calls [`Pipeline::tick`]. The low-priority task owns the
+//! consumer ends of the queues and calls [`telemetry::recover`], and
+//! changes settings through the `set_*`/`freeze`/`reset_*`/
+//! `replace_estimator` methods while holding the pipeline's lock (the
+//! sample interrupt masked for the few hundred cycles a setter takes): a
+//! change is therefore always applied between two ticks and takes effect at
+//! the next one. Everything expensive — a multisine's construction, a new
+//! estimator (its matrix exponentials), modal recovery, λmin(P) — is done
+//! in the low-priority task *outside* the lock and handed over by value.
+
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+mod config;
+pub mod convert;
+pub mod converters;
+mod delay;
+pub mod prefilter;
+pub mod telemetry;
+
+pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
+pub use convert::{
+    AdcScale, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17, Linearisation,
+    OutputQuantity, ADS131M02_VREF_V,
+};
+pub use converters::{
+    AdcFlags, AdcReading, DacOutcome, Fault, FaultKind, PiezoDac, StrainAdc, ADC_CODE_MAX,
+    ADC_CODE_MIN,
+};
+pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
+pub use telemetry::{
+    recover, Counters, NoSink, RawBlock, Recovered, Sink, StatusFlags, StepCounts, TelemetryRecord,
+    RAW_BLOCK_LEN,
+};
+
+use crate::estimator::Estimator;
+use crate::excitation::{Excitation, ExcitationKind};
+use crate::scalar::Real;
+use delay::DelayLine;
+pub use delay::MAX_DELAY;
+
+/// The sample task's state: converters, excitation, estimator, telemetry.
+///
+/// `NP` = 4n − 1 parameters, `NS` = NP(NP + 1)/2; `S` receives telemetry
+/// records, `R` raw blocks.
+pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
+    estimator: E,
+    adc: A,
+    dac: D,
+    telemetry: S,
+    raw: R,
+    excitation: Excitation<T>,
+    conv: Conversion<T>,
+    prefilter: Option<Prefilter<T>>,
+    pf_u: PrefilterState<T>,
+    pf_y: PrefilterState<T>,
+    input: InputSource,
+    latch: DacLatch,
+    dac_per_actuator: T,
+    actuator_per_dac: T,
+    telemetry_every: u32,
+    since_record: u32,
+    raw_decimation: u16,
+    raw_phase: u16,
+    raw_block: RawBlock<T>,
+    stuck_after: u16,
+    last_code: i32,
+    repeats: u16,
+    delay: DelayLine<T>,
+    lambda_rad_s: f64,
+    next_index: u64,
+    frozen: bool,
+    requarantine: bool,
+    /// NextTick: the held u the DAC latches at this tick, and whether valid.
+    pending: Option<(T, bool)>,
+    /// Monitored: the previous y and whether it was valid.
+    prev_y: Option<(T, bool)>,
+    last_good: (T, T),
+    counters: Counters,
+    flags: StatusFlags,
+    steps: StepCounts,
+    last_fed: (T, T),
+}
+
+fn bump(c: &mut u32) {
+    *c = c.saturating_add(1);
+}
+
+impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Pipeline<T, E, A, D, S, R, NP, NS>
+where
+    T: Real,
+    E: Estimator<T, NP>,
+    A: StrainAdc,
+    D: PiezoDac<T>,
+    S: Sink<TelemetryRecord<T, NP, NS>>,
+    R: Sink<RawBlock<T>>,
+{
+    /// Assemble a pipeline (validates `config`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        config: &PipelineConfig,
+        estimator: E,
+        excitation: Excitation<T>,
+        adc: A,
+        dac: D,
+        telemetry: S,
+        raw: R,
+    ) -> Result<Self, PipelineError> {
+        let conv = config.conversion.compile::<T>()?;
+        let prefilter = match &config.prefilter {
+            Some(c) => Some(Prefilter::new(c)?),
+            None => None,
+        };
+        let g = config.amplifier_gain;
+        if !(g != 0.0 && g.is_finite()) {
+            return Err(PipelineError::AmplifierGain);
+        }
+        if config.telemetry_every == 0 {
+            return Err(PipelineError::TelemetryRate);
+        }
+        if !(config.lambda_rad_s > 0.0 && config.lambda_rad_s.is_finite()) {
+            return Err(PipelineError::Lambda);
+        }
+        if usize::from(config.stuck_after) >= MAX_DELAY {
+            return Err(PipelineError::StuckAfter);
+        }
+        Ok(Self {
+            estimator,
+            adc,
+            dac,
+            telemetry,
+            raw,
+            excitation,
+            conv,
+            prefilter,
+            pf_u: PrefilterState::default(),
+            pf_y: PrefilterState::default(),
+            input: config.input,
+            latch: config.dac_latch,
+            dac_per_actuator: T::from_f64(1.0 / g),
+            actuator_per_dac: T::from_f64(g),
+            telemetry_every: config.telemetry_every,
+            since_record: 0,
+            raw_decimation: config.raw_decimation,
+            raw_phase: 0,
+            raw_block: empty_block(0, config.raw_decimation),
+            stuck_after: config.stuck_after,
+            last_code: 0,
+            repeats: 0,
+            delay: DelayLine::new(usize::from(config.stuck_after) + 1, T::ZERO),
+            lambda_rad_s: config.lambda_rad_s,
+            next_index: 0,
+            frozen: false,
+            requarantine: false,
+            pending: None,
+            prev_y: None,
+            last_good: (T::ZERO, T::ZERO),
+            counters: Counters::default(),
+            flags: StatusFlags::default(),
+            steps: StepCounts::default(),
+            last_fed: (T::ZERO, T::ZERO),
+        })
+    }
+
+    /// One sample period's work (see the module doc). Never panics, never
+    /// blocks beyond the converters' own transactions.
+    pub fn tick(&mut self) -> Tick<T> {
+        let index = self.next_index;
+        self.next_index = self.next_index.wrapping_add(1);
+
+        // 1. The conversion that just completed.
+        let reading = self.adc.read();
+
+        // 2. Next excitation value → DAC (actuator volts → DAC volts).
+        let commanded_v = self.excitation.next_sample();
+        let written = match self.dac.write_volts(commanded_v * self.dac_per_actuator) {
+            Ok(out) => {
+                if out.saturated {
+                    bump(&mut self.counters.dac_saturated);
+                    self.flags.set(StatusFlags::DAC_FAULT, true);
+                }
+                (out.held_v * self.actuator_per_dac, true)
+            }
+            Err(_) => {
+                bump(&mut self.counters.dac_errors);
+                self.flags.set(StatusFlags::DAC_FAULT, true);
+                (T::ZERO, false)
+            }
+        };
+        // The u held from now until the next tick.
+        let held_now = match self.latch {
+            DacLatch::Immediate => Some(written),
+            DacLatch::NextTick => self.pending.replace(written),
+        };
+
+        // 3.–4. Screen and convert.
+        let (y, y_ok, u_mon, mon_ok, stuck_started) = self.screen(reading);
+
+        // 5. The pair for step(u held over the coming period, y now).
+        let pair = match self.input {
+            InputSource::Commanded => held_now.map(|(u, u_ok)| (u, y, u_ok && y_ok)),
+            InputSource::Monitored => self
+                .prev_y
+                .replace((y, y_ok))
+                .map(|(py, py_ok)| (u_mon, py, mon_ok && py_ok)),
+        };
+        let Some((u, y, ok)) = pair else {
+            // Start-up: nothing held yet to pair with.
+            return self.idle(index, commanded_v);
+        };
+        // The delay line lets a stuck run be rejected from its first sample.
+        let (u, y, ok, fed_index) = if self.stuck_after > 0 {
+            let out = self.delay.push((u, y, ok, index));
+            if stuck_started {
+                let flipped = self
+                    .delay
+                    .invalidate_recent(usize::from(self.stuck_after) + 1);
+                self.counters.stuck = self.counters.stuck.saturating_add(flipped);
+            }
+            match out {
+                Some(e) => e,
+                None => return self.idle(index, commanded_v),
+            }
+        } else {
+            (u, y, ok, index)
+        };
+
+        // 6. Prefilter (fed the last good values across a bad sample).
+        let (u_in, y_in) = if ok {
+            self.last_good = (u, y);
+            (u, y)
+        } else {
+            self.last_good
+        };
+        let (u_f, y_f) = match &self.prefilter {
+            Some(p) => (
+                p.process(&mut self.pf_u, u_in),
+                p.process(&mut self.pf_y, y_in),
+            ),
+            None => (u_in, y_in),
+        };
+
+        // 7. Estimator.
+        let nan = T::from_f64(f64::NAN);
+        let valid = ok && !self.requarantine;
+        if !ok {
+            bump(&mut self.counters.rejected);
+            self.flags.set(StatusFlags::REJECTED, true);
+        }
+        let step = if self.frozen {
+            None
+        } else {
+            let s = if valid {
+                self.estimator.step(u_f, y_f)
+            } else {
+                self.requarantine = false;
+                self.estimator.step(nan, nan)
+            };
+            self.steps.count(s);
+            Some(s)
+        };
+        let fed = if ok { (u, y) } else { (nan, nan) };
+        self.last_fed = fed;
+
+        // 8. Raw block and telemetry record.
+        self.record_raw(fed_index, fed);
+        self.since_record += 1;
+        if self.since_record >= self.telemetry_every {
+            self.since_record = 0;
+            self.emit_record(fed_index);
+        }
+        Tick {
+            sample_index: index,
+            commanded_v,
+            fed: Some(fed),
+            step,
+        }
+    }
+
+    fn idle(&self, index: u64, commanded_v: T) -> Tick<T> {
+        Tick {
+            sample_index: index,
+            commanded_v,
+            fed: None,
+            step: None,
+        }
+    }
+
+    /// Classify a conversion and convert it: (y, y valid, u_mon, u_mon
+    /// valid, a stuck run was recognised at this sample).
+    fn screen(&mut self, reading: Result<AdcReading, A::Error>) -> (T, bool, T, bool, bool) {
+        let r = match reading {
+            Ok(r) if !r.flags.stale => r,
+            Ok(_) => {
+                bump(&mut self.counters.adc_other);
+                self.flags.set(StatusFlags::ADC_FAULT, true);
+                return (T::ZERO, false, T::ZERO, false, false);
+            }
+            Err(e) => {
+                let c = &mut self.counters;
+                bump(match e.kind() {
+                    FaultKind::Crc => &mut c.adc_crc,
+                    FaultKind::Status => &mut c.adc_status,
+                    FaultKind::Bus => &mut c.adc_bus,
+                    FaultKind::Other => &mut c.adc_other,
+                });
+                self.flags.set(StatusFlags::ADC_FAULT, true);
+                return (T::ZERO, false, T::ZERO, false, false);
+            }
+        };
+        let at_rail = |c: i32| c >= ADC_CODE_MAX || c <= ADC_CODE_MIN;
+        let y = self.conv.y_from_code(r.bridge);
+        let mut y_ok = true;
+        let mut stuck_started = false;
+        if r.flags.bridge_saturated || at_rail(r.bridge) || !y.is_finite() {
+            bump(&mut self.counters.bridge_saturated);
+            y_ok = false;
+        } else {
+            if r.bridge == self.last_code {
+                self.repeats = self.repeats.saturating_add(1);
+            } else {
+                self.repeats = 0;
+                self.last_code = r.bridge;
+            }
+            if self.stuck_after > 0 && self.repeats >= self.stuck_after {
+                // The run's earlier samples are flipped in the delay line
+                // (and counted there) when it is first recognised.
+                stuck_started = self.repeats == self.stuck_after;
+                bump(&mut self.counters.stuck);
+                y_ok = false;
+            }
+        }
+        let u_mon = self.conv.u_from_monitor(r.monitor);
+        let mon_ok = !(r.flags.monitor_saturated || at_rail(r.monitor));
+        if !mon_ok {
+            bump(&mut self.counters.monitor_saturated);
+        }
+        let relevant_mon_bad = !mon_ok && self.input == InputSource::Monitored;
+        if !y_ok || relevant_mon_bad {
+            self.flags.set(StatusFlags::ADC_FAULT, true);
+        }
+        (y, y_ok, u_mon, mon_ok, stuck_started)
+    }
+
+    fn record_raw(&mut self, index: u64, fed: (T, T)) {
+        if self.raw_decimation == 0 {
+            return;
+        }
+        if self.raw_phase > 0 {
+            self.raw_phase -= 1;
+            return;
+        }
+        self.raw_phase = self.raw_decimation - 1;
+        let b = &mut self.raw_block;
+        if b.len == 0 {
+            b.first_index = index;
+        }
+        let i = usize::from(b.len);
+        if let (Some(u), Some(y)) = (b.u_v.get_mut(i), b.y.get_mut(i)) {
+            *u = fed.0;
+            *y = fed.1;
+            b.len += 1;
+        }
+        if usize::from(b.len) >= RAW_BLOCK_LEN {
+            self.flush_raw();
+        }
+    }
+
+    fn flush_raw(&mut self) {
+        if self.raw_block.len == 0 {
+            return;
+        }
+        let block = self.raw_block;
+        self.raw_block = empty_block(0, self.raw_decimation);
+        if self.raw.try_push(block).is_err() {
+            bump(&mut self.counters.dropped_raw_blocks);
+        }
+    }
+
+    fn emit_record(&mut self, index: u64) {
+        let mut flags = self.flags;
+        flags.set(StatusFlags::FROZEN, self.frozen);
+        flags.set(StatusFlags::QUARANTINE, self.steps.frozen > 0);
+        flags.set(StatusFlags::SKIPPED, self.steps.skipped > 0);
+        flags.set(
+            StatusFlags::EXCITATION_OFF,
+            self.excitation.kind() == ExcitationKind::Off,
+        );
+        flags.set(StatusFlags::STATE_BAD, !self.estimator.health().state_ok);
+        let counters = self.counters();
+        flags.set(
+            StatusFlags::EXCITATION_CLAMPED,
+            counters.excitation_clamped > 0,
+        );
+        let mut information = [T::ZERO; NS];
+        let p = self.estimator.information();
+        if let Some(p) = &p {
+            telemetry::pack_symmetric(p, &mut information);
+        }
+        let record = TelemetryRecord {
+            sample_index: index,
+            theta: self.estimator.theta(),
+            information,
+            has_information: p.is_some(),
+            lambda_rad_s: self.lambda_rad_s,
+            u_v: self.last_fed.0,
+            y: self.last_fed.1,
+            flags,
+            steps: self.steps,
+            counters,
+        };
+        if self.telemetry.try_push(record).is_ok() {
+            self.flags = StatusFlags::default();
+        } else {
+            bump(&mut self.counters.dropped_records);
+            // Keep this block's events for the next record that gets through.
+            self.flags.set(StatusFlags::RECORDS_DROPPED, true);
+        }
+        self.steps = StepCounts::default();
+    }
+
+    // ----- Between samples (low-priority task, sample interrupt masked) -----
+
+    /// A late interrupt: `missed_ticks` conversions were lost. Counted; the
+    /// sample index skips them, and the next sample restarts the estimator's
+    /// quarantine (its filters did not see those samples).
+    pub fn note_overrun(&mut self, missed_ticks: u32) {
+        bump(&mut self.counters.overruns);
+        self.counters.missed_ticks = self.counters.missed_ticks.saturating_add(missed_ticks);
+        self.next_index = self.next_index.wrapping_add(u64::from(missed_ticks));
+        self.flags.set(StatusFlags::OVERRUN, true);
+        self.requarantine = true;
+    }
+
+    /// Stop adapting: the estimator is no longer stepped (Θ̂ and P hold);
+    /// the excitation, DAC and telemetry keep running.
+    pub fn freeze(&mut self) {
+        self.frozen = true;
+    }
+
+    /// Adapt again; the first sample restarts the quarantine (the filters
+    /// missed the frozen interval).
+    pub fn resume(&mut self) {
+        if self.frozen {
+            self.frozen = false;
+            self.requarantine = true;
+        }
+    }
+
+    /// Whether adaptation is frozen.
+    pub fn is_frozen(&self) -> bool {
+        self.frozen
+    }
+
+    /// Estimator and prefilter back to their initial state; the next tick
+    /// starts a new time series (counters and excitation are kept).
+    pub fn reset_estimator(&mut self) {
+        self.estimator.reset();
+        self.restart_series();
+    }
+
+    /// Swap in a new estimator (built outside the lock), with its λ; the
+    /// old one is returned. Starts a new time series.
+    pub fn replace_estimator(&mut self, estimator: E, lambda_rad_s: f64) -> Result<E, E> {
+        if !(lambda_rad_s > 0.0 && lambda_rad_s.is_finite()) {
+            return Err(estimator);
+        }
+        self.lambda_rad_s = lambda_rad_s;
+        self.restart_series();
+        Ok(core::mem::replace(&mut self.estimator, estimator))
+    }
+
+    fn restart_series(&mut self) {
+        self.pf_u = PrefilterState::default();
+        self.pf_y = PrefilterState::default();
+        self.prev_y = None;
+        self.last_good = (T::ZERO, T::ZERO);
+        self.requarantine = false;
+        self.repeats = 0;
+        self.delay.clear();
+    }
+
+    /// Counters back to zero (the excitation's clamp counter is read
+    /// through, not reset).
+    pub fn reset_counters(&mut self) {
+        self.counters = Counters::default();
+    }
+
+    /// A telemetry record every `every` samples (≥ 1).
+    pub fn set_telemetry_every(&mut self, every: u32) -> Result<(), PipelineError> {
+        if every == 0 {
+            return Err(PipelineError::TelemetryRate);
+        }
+        self.telemetry_every = every;
+        self.since_record = self.since_record.min(every - 1);
+        Ok(())
+    }
+
+    /// A raw pair every `decimation` samples (0 = off). A partly filled
+    /// block is sent first.
+    pub fn set_raw_decimation(&mut self, decimation: u16) {
+        self.flush_raw();
+        self.raw_decimation = decimation;
+        self.raw_phase = 0;
+        self.raw_block = empty_block(0, decimation);
+    }
+
+    /// The excitation (read).
+    pub fn excitation(&self) -> &Excitation<T> {
+        &self.excitation
+    }
+
+    /// The excitation, to change its level, frequency, window or waveform
+    /// (each setter validates and changes nothing on error).
+    pub fn excitation_mut(&mut self) -> &mut Excitation<T> {
+        &mut self.excitation
+    }
+
+    /// The estimator (read).
+    pub fn estimator(&self) -> &E {
+        &self.estimator
+    }
+
+    /// The counters now.
+    pub fn counters(&self) -> Counters {
+        Counters {
+            excitation_clamped: self.excitation.clamped_samples(),
+            ..self.counters
+        }
+    }
+
+    /// Index the next tick will carry.
+    pub fn next_sample_index(&self) -> u64 {
+        self.next_index
+    }
+
+    /// The converters, e.g. to reconfigure them between samples.
+    pub fn converters_mut(&mut self) -> (&mut A, &mut D) {
+        (&mut self.adc, &mut self.dac)
+    }
+
+    /// Take the pipeline apart.
+    pub fn into_parts(self) -> (E, A, D, S, R) {
+        (self.estimator, self.adc, self.dac, self.telemetry, self.raw)
+    }
+}
+
+fn empty_block<T: Real>(first_index: u64, decimation: u16) -> RawBlock<T> {
+    RawBlock {
+        first_index,
+        decimation,
+        len: 0,
+        u_v: [T::ZERO; RAW_BLOCK_LEN],
+        y: [T::ZERO; RAW_BLOCK_LEN],
+    }
+}
+
+#[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    clippy::expect_used
+)]
+mod tests;

@@ -1,0 +1,275 @@
+//! What the sample task hands to the low-priority task, and what the
+//! low-priority task makes of it.
+//!
+//! * [`TelemetryRecord`] — every K samples: Θ̂ (physical units, eq. 29), a
+//!   packed copy of the scaled information matrix P (eq. 33), the last
+//!   sample, status flags and a snapshot of every counter. Copying costs a
+//!   few hundred instructions per record; the expensive parts — the roots of
+//!   the estimated denominator (eq. 30), b̄ (eq. 31–32) and λmin(P)
+//!   (Lemma 1) — are left to [`recover`], in the low-priority task.
+//! * [`RawBlock`] — optional blocks of the (u, y) pairs fed to the
+//!   estimator, decimated, for recording and replay; a rejected sample is
+//!   recorded as NaN so a replay rejects it the same way.
+//! * [`Sink`] — where records go: a `heapless::spsc::Producer` (never
+//!   blocks: a full queue returns the record, which is counted as dropped).
+
+use crate::estimator::StepStatus;
+use crate::modal::{excitation_min_eig, modal_from_tf, ModalError};
+use crate::model::{ModalParams, TransferFunction};
+use crate::scalar::Real;
+
+/// Samples per [`RawBlock`].
+pub const RAW_BLOCK_LEN: usize = 32;
+
+/// A bounded, non-blocking destination for messages from the sample task.
+pub trait Sink<M> {
+    /// Hand over `message`, or give it back if there is no room.
+    fn try_push(&mut self, message: M) -> Result<(), M>;
+}
+
+impl<M> Sink<M> for heapless::spsc::Producer<'_, M> {
+    #[inline]
+    fn try_push(&mut self, message: M) -> Result<(), M> {
+        self.enqueue(message)
+    }
+}
+
+/// A sink that accepts nothing (raw recording not wired up): every push is
+/// refused, so enabling raw blocks without a queue shows up as drops.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoSink;
+
+impl<M> Sink<M> for NoSink {
+    fn try_push(&mut self, message: M) -> Result<(), M> {
+        Err(message)
+    }
+}
+
+/// Saturating event counters of the sample path (all since the last
+/// [`super::Pipeline::reset_counters`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Counters {
+    /// Late interrupts reported by the board ([`super::Pipeline::note_overrun`]).
+    pub overruns: u32,
+    /// Sample ticks lost in those overruns.
+    pub missed_ticks: u32,
+    /// ADC frames with a CRC mismatch.
+    pub adc_crc: u32,
+    /// ADC frames with a bad status word or response.
+    pub adc_status: u32,
+    /// ADC bus errors.
+    pub adc_bus: u32,
+    /// Other ADC errors, and conversions the ADC marked stale.
+    pub adc_other: u32,
+    /// Bridge conversions at a full-scale code (or flagged over range).
+    pub bridge_saturated: u32,
+    /// Monitor conversions at a full-scale code (or flagged over range).
+    pub monitor_saturated: u32,
+    /// Bridge conversions rejected as stuck (identical code for too long).
+    pub stuck: u32,
+    /// DAC writes that failed.
+    pub dac_errors: u32,
+    /// DAC writes limited at a rail.
+    pub dac_saturated: u32,
+    /// Excitation samples the safe-window clamp limited.
+    pub excitation_clamped: u32,
+    /// Samples found invalid and given to the estimator as NaN (it
+    /// substitutes them and freezes its law, see [`crate::estimator`]);
+    /// the deliberate NaN step after an overrun or resume is not counted.
+    pub rejected: u32,
+    /// Telemetry records dropped on a full queue.
+    pub dropped_records: u32,
+    /// Raw blocks dropped on a full queue.
+    pub dropped_raw_blocks: u32,
+}
+
+/// Status bits of a [`TelemetryRecord`] (about the samples since the
+/// previous record unless noted).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StatusFlags(pub u16);
+
+impl StatusFlags {
+    /// Adaptation is frozen by command (state at the record).
+    pub const FROZEN: u16 = 1 << 0;
+    /// At least one sample was rejected.
+    pub const REJECTED: u16 = 1 << 1;
+    /// The estimator's law was in quarantine after a rejected sample.
+    pub const QUARANTINE: u16 = 1 << 2;
+    /// The law skipped an update (singular step).
+    pub const SKIPPED: u16 = 1 << 3;
+    /// An ADC error or bad conversion occurred.
+    pub const ADC_FAULT: u16 = 1 << 4;
+    /// A DAC write failed or saturated.
+    pub const DAC_FAULT: u16 = 1 << 5;
+    /// The excitation clamp has acted (cumulative: its counter is non-zero).
+    pub const EXCITATION_CLAMPED: u16 = 1 << 6;
+    /// An overrun was reported.
+    pub const OVERRUN: u16 = 1 << 7;
+    /// Records were dropped since the previous one that got through.
+    pub const RECORDS_DROPPED: u16 = 1 << 8;
+    /// The excitation is off (state at the record).
+    pub const EXCITATION_OFF: u16 = 1 << 9;
+    /// The estimator's integrity check failed (state at the record).
+    pub const STATE_BAD: u16 = 1 << 10;
+
+    /// Whether `bit` (one of the constants) is set.
+    pub fn has(self, bit: u16) -> bool {
+        self.0 & bit != 0
+    }
+
+    pub(crate) fn set(&mut self, bit: u16, on: bool) {
+        if on {
+            self.0 |= bit;
+        }
+    }
+}
+
+/// How the estimator's steps went since the previous record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StepCounts {
+    /// [`StepStatus::Updated`].
+    pub updated: u16,
+    /// [`StepStatus::Frozen`] (quarantine).
+    pub frozen: u16,
+    /// [`StepStatus::Rejected`].
+    pub rejected: u16,
+    /// [`StepStatus::Skipped`].
+    pub skipped: u16,
+}
+
+impl StepCounts {
+    pub(crate) fn count(&mut self, s: StepStatus) {
+        let c = match s {
+            StepStatus::Updated => &mut self.updated,
+            StepStatus::Frozen => &mut self.frozen,
+            StepStatus::Rejected => &mut self.rejected,
+            StepStatus::Skipped => &mut self.skipped,
+        };
+        *c = c.saturating_add(1);
+    }
+}
+
+/// One telemetry record (`NP` = 4n − 1 parameters, `NS` = NP(NP+1)/2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TelemetryRecord<T, const NP: usize, const NS: usize> {
+    /// Index of the newest sample (ticks since start, missed ticks
+    /// included: time = index·Ts).
+    pub sample_index: u64,
+    /// Θ̂ of eq. 29 in physical units.
+    pub theta: [T; NP],
+    /// The scaled information matrix P (eq. 33), upper triangle packed
+    /// row by row (P₀₀, P₀₁, …, P₀,NP−1, P₁₁, …); all zero when
+    /// `has_information` is false (a law that keeps no P).
+    pub information: [T; NS],
+    /// Whether `information` holds P.
+    pub has_information: bool,
+    /// λ of the estimator's filter Λ(s) = (s + λ)^{2n} (rad/s), to map Θ̂
+    /// to the transfer function (eq. 28–29).
+    pub lambda_rad_s: f64,
+    /// u fed to the estimator at the newest sample (V).
+    pub u_v: T,
+    /// y fed to the estimator at the newest sample (strain or m).
+    pub y: T,
+    /// Status bits.
+    pub flags: StatusFlags,
+    /// Estimator steps since the previous record.
+    pub steps: StepCounts,
+    /// Counters at the newest sample.
+    pub counters: Counters,
+}
+
+/// Up to [`RAW_BLOCK_LEN`] decimated (u, y) pairs as fed to the estimator
+/// (before the prefilter); NaN marks a rejected sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawBlock<T> {
+    /// Sample index of `u[0]`, `y[0]`.
+    pub first_index: u64,
+    /// One pair every `decimation` samples.
+    pub decimation: u16,
+    /// Valid entries (the last block before a setting change may be short).
+    pub len: u16,
+    /// Actuator volts.
+    pub u_v: [T; RAW_BLOCK_LEN],
+    /// Strain or m.
+    pub y: [T; RAW_BLOCK_LEN],
+}
+
+/// A record turned into modal terms by the low-priority task.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Recovered<T> {
+    /// From the record.
+    pub sample_index: u64,
+    /// ω̂, ζ̂, b̄̂ (eq. 30–32), or why they could not be recovered.
+    pub modal: Result<ModalParams<T>, ModalError>,
+    /// λmin of the scaled P (Lemma 1); `None` if the law keeps no P. NaN if
+    /// P held a non-finite entry.
+    pub excitation_min_eig: Option<T>,
+    /// From the record.
+    pub flags: StatusFlags,
+    /// From the record.
+    pub counters: Counters,
+}
+
+/// Unpack a packed upper triangle into a full symmetric matrix.
+pub fn unpack_symmetric<T: Real, const NP: usize, const NS: usize>(
+    packed: &[T; NS],
+) -> [[T; NP]; NP] {
+    let mut p = [[T::ZERO; NP]; NP];
+    let mut it = packed.iter();
+    for i in 0..NP {
+        for j in i..NP {
+            let v = it.next().copied().unwrap_or(T::ZERO);
+            if let Some(row) = p.get_mut(i) {
+                if let Some(e) = row.get_mut(j) {
+                    *e = v;
+                }
+            }
+            if let Some(row) = p.get_mut(j) {
+                if let Some(e) = row.get_mut(i) {
+                    *e = v;
+                }
+            }
+        }
+    }
+    p
+}
+
+/// Pack the upper triangle of `p` row by row (the record's layout).
+pub fn pack_symmetric<T: Real, const NP: usize, const NS: usize>(
+    p: &[[T; NP]; NP],
+    out: &mut [T; NS],
+) {
+    let mut it = out.iter_mut();
+    for (i, row) in p.iter().enumerate() {
+        for v in row.iter().skip(i) {
+            if let Some(o) = it.next() {
+                *o = *v;
+            }
+        }
+    }
+}
+
+/// The low-priority task's work on one record: Θ̂ → A(s), B(s) (eq. 28–29)
+/// → ω̂, ζ̂, b̄̂ (eq. 30–32, `output_weight` = C̄ of eq. 24 for the modes in
+/// ascending ω), and λmin(P). Pure; never panics.
+pub fn recover<T: Real, const NP: usize, const NS: usize>(
+    record: &TelemetryRecord<T, NP, NS>,
+    output_weight: &[T],
+) -> Recovered<T> {
+    let modal = TransferFunction::from_theta(&record.theta, record.lambda_rad_s)
+        .ok_or(ModalError::LengthMismatch)
+        .and_then(|tf| modal_from_tf(&tf, output_weight));
+    let excitation_min_eig = if record.has_information {
+        let p: [[T; NP]; NP] = unpack_symmetric(&record.information);
+        Some(excitation_min_eig(&p))
+    } else {
+        None
+    };
+    Recovered {
+        sample_index: record.sample_index,
+        modal,
+        excitation_min_eig,
+        flags: record.flags,
+        counters: record.counters,
+    }
+}
