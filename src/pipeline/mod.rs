@@ -98,23 +98,27 @@
     clippy::indexing_slicing
 )]
 
+pub mod adapters;
 mod config;
 pub mod convert;
 pub mod converters;
 mod delay;
 pub mod prefilter;
+pub mod startup;
 pub mod telemetry;
 
+pub use adapters::{adc_scales, bring_up, BringUp, BringUpError};
 pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
 pub use convert::{
-    AdcScale, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17, Linearisation,
-    OutputQuantity, ADS131M02_VREF_V,
+    AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,
+    Linearisation, OutputQuantity, ADS131M02_VREF_V,
 };
 pub use converters::{
     AdcFlags, AdcReading, DacOutcome, Fault, FaultKind, PiezoDac, StrainAdc, ADC_CODE_MAX,
     ADC_CODE_MIN,
 };
 pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
+pub use startup::OutputScaleWindow;
 pub use telemetry::{
     recover, Counters, NoSink, RawBlock, Recovered, Sink, StatusFlags, StepCounts, TelemetryRecord,
     RAW_BLOCK_LEN,
