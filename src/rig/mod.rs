@@ -15,7 +15,9 @@
 //! * [`converter`] — [`ConverterRig`]: the plant between those two models
 //!   with the analog front end (amplifier, bridge, monitor), one DRDY
 //!   period per tick — the rig the QEMU image and the firmware host tests
-//!   run behind the real drivers.
+//!   run behind the real drivers;
+//! * [`bench`] — the settings of that simulated bench (the paper's beam,
+//!   the converters' configuration, the front end, the excitation).
 //!
 //! The rig runs in the emulated board's sample interrupt, so the whole
 //! module keeps the sample path's panic-free lints.
@@ -26,6 +28,7 @@
     clippy::indexing_slicing
 )]
 
+pub mod bench;
 pub mod chips;
 pub mod converter;
 pub mod noise;
