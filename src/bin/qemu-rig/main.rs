@@ -160,9 +160,11 @@ fn main() -> ! {
 
     let mut rx_bytes: u32 = 0;
     let mut next_log: u64 = LOG_EVERY;
+    let mut last: Option<Record> = None;
     loop {
         while let Some(record) = consumer.dequeue() {
             handle(&record, &mut tx, &mut next_log);
+            last = Some(record);
         }
         while rx.read().is_some() {
             rx_bytes = rx_bytes.saturating_add(1);
@@ -175,8 +177,9 @@ fn main() -> ! {
             // Records pushed before the summary are still queued.
             while let Some(record) = consumer.dequeue() {
                 handle(&record, &mut tx, &mut next_log);
+                last = Some(record);
             }
-            finish(&summary, &cal, rx_bytes, &mut tx);
+            finish(&summary, last.as_ref(), &cal, rx_bytes, &mut tx);
         }
         // Idle by executing, never WFI: under `-icount sleep=off` QEMU 7.2
         // warps virtual time past the next timer deadline while the CPU
@@ -327,7 +330,13 @@ fn mean(s: &SpanSum, ipt: f32) -> f64 {
 }
 
 /// End of run: report, check, exit.
-fn finish(s: &Summary, cal: &Calibration, rx_bytes: u32, tx: &mut UartTx) -> ! {
+fn finish(
+    s: &Summary,
+    last: Option<&Record>,
+    cal: &Calibration,
+    rx_bytes: u32,
+    tx: &mut UartTx,
+) -> ! {
     let ipt = cal.instructions_per_tick();
     let period = f64::from(s.period_ticks) / f64::from(PERIODS);
     hprintln!(
@@ -416,9 +425,18 @@ fn finish(s: &Summary, cal: &Calibration, rx_bytes: u32, tx: &mut UartTx) -> ! {
     let modes = TransferFunction::from_theta(&s.theta, bench::LAMBDA_RAD_S)
         .and_then(|tf| modal_from_tf(&tf, &OUTPUT_WEIGHT).ok());
     let recovery = cycles::ticks_between(t0, cycles::now());
+    let record_ticks = last.map_or(0, |r| {
+        let t0 = cycles::now();
+        let rec = recover(r, &OUTPUT_WEIGHT);
+        let t = cycles::ticks_between(t0, cycles::now());
+        core::hint::black_box(rec);
+        t
+    });
     hprintln!(
-        "  modal recovery (thread mode) = {} per call",
-        (recovery as f32 * ipt) as u32
+        "  thread mode, per call: modal recovery (eqs. 30-32) = {}; recover() of a record \
+         (modal recovery + lambda_min(P)) = {}",
+        (recovery as f32 * ipt) as u32,
+        (record_ticks as f32 * ipt) as u32
     );
     hprintln!(
         "instructions_per_sample: estimator={} isr={}",

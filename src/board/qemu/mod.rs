@@ -17,6 +17,13 @@
 //! Memory map: `src/board/qemu/memory.x` (selected by `build.rs`).
 
 #![allow(unsafe_code)]
+// The timer, SysTick and meter code run in the sample interrupt.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 pub mod cycles;
 pub mod meter;
