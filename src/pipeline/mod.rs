@@ -4,6 +4,10 @@
 //! ([`StrainAdc`], [`PiezoDac`]), the estimator ([`Estimator`]) and the
 //! scalar type.
 //!
+//! The real converter drivers plug in through [`adapters`] (and are
+//! brought up by [`bring_up`]); [`startup`] measures the estimator's output
+//! scale from the data before adaptation starts.
+//!
 //! # One tick, in order ([`Pipeline::tick`], called on each data-ready)
 //! 1. **Read the conversion** of both channels: y at t_k (bridge) and the
 //!    amplifier monitor.
