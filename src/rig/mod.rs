@@ -16,7 +16,7 @@
 //!   with the analog front end (amplifier, bridge, monitor), one DRDY
 //!   period per tick — the rig the QEMU image and the firmware host tests
 //!   run behind the real drivers;
-//! * [`bench`] — the settings of that simulated bench (the paper's beam,
+//! * [`bench`](mod@bench) — the settings of that simulated bench (the paper's beam,
 //!   the converters' configuration, the front end, the excitation).
 //!
 //! The rig runs in the emulated board's sample interrupt, so the whole
