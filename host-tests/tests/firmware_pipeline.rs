@@ -24,7 +24,7 @@
 use std::collections::VecDeque;
 
 use beamctl::runner::{self, build_estimator, EstimatorKind, Gains, Precision, RunConfig};
-use beamest::drivers::ad5761r::{Ad5761r, Transfer};
+use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::drivers::Rail;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
@@ -211,7 +211,7 @@ fn reference<T: Real>(y0: f64, conv: Converters) -> ModalParams<f64> {
     let cfg = bench::conversion();
     let fe = cfg.analog_front_end().unwrap();
     let to_y = cfg.compile::<T>().unwrap();
-    let dac = Transfer::new(&bench::dac_config().control(), 2.5);
+    let dac = bench::dac_config().transfer();
     let held = |u: f64| {
         let code = dac.code((u / bench::AMPLIFIER_GAIN) as f32).unwrap().code;
         f64::from(dac.volts(code)) * bench::AMPLIFIER_GAIN
@@ -250,7 +250,7 @@ where
     let cfg = bench::conversion();
     let fe = cfg.analog_front_end().unwrap();
     let to_y = cfg.compile::<T>().unwrap();
-    let dac = Transfer::new(&bench::dac_config().control(), 2.5);
+    let dac = bench::dac_config().transfer();
     let gain = T::from_f64(bench::AMPLIFIER_GAIN);
     let mut expected: VecDeque<(T, T)> = VecDeque::new();
     let mut filling = 0usize;
