@@ -13,7 +13,9 @@
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
-//!   them with the excitation per sample;
+//!   them with the excitation per sample; the converter chip models and
+//!   [`rig::ConverterRig`], the simulated bench behind the real drivers;
+//! * [`drivers`] — the ADS131M02 ADC and AD5761R DAC on embedded-hal 1.0;
 //! * [`excitation`] — square wave (the paper's, Section IV.A), multisine,
 //!   PRBS and chirp for the piezo, inside a safe voltage window;
 //! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,

@@ -498,13 +498,14 @@ impl PiezoDac<f32> for ScriptDac {
 
 fn reading() -> impl Strategy<Value = Result<AdcReading, FaultKind>> {
     prop_oneof![
-        4 => (any::<i32>(), any::<i32>(), any::<[bool; 3]>()).prop_map(|(b, m, f)| Ok(AdcReading {
+        4 => (any::<i32>(), any::<i32>(), any::<[bool; 4]>()).prop_map(|(b, m, f)| Ok(AdcReading {
             bridge: b,
             monitor: m,
             flags: AdcFlags {
                 bridge_saturated: f[0] && f[1],
                 monitor_saturated: f[1] && f[2],
                 stale: f[0] && f[2],
+                stuck: f[3] && f[1],
             },
         })),
         4 => (-100_000i32..100_000).prop_map(|b| Ok(AdcReading {

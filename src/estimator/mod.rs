@@ -21,6 +21,16 @@
 //! four-sample freeze (the interpolation window alone) measurably left a
 //! 1.1e-2 error on ζ. Estimator state is therefore never corrupted by bad
 //! data; the law simply holds Θ meanwhile.
+//!
+//! # Holding the law on purpose
+//! [`Estimator::hold`] freezes the law the same way for a given number of
+//! samples while the filters keep taking real samples: for when the filter
+//! states are out of step with the plant through no fault of the data — an
+//! estimator started (or reset) while the beam already moves, a resume
+//! after adaptation was paused, sample ticks lost to an overrun. Held steps
+//! return [`StepStatus::Frozen`] and are not counted as rejected;
+//! [`Estimator::settling_samples`] is the length that lets the filters
+//! forget the disturbance (the quarantine's).
 
 pub mod adaptive;
 pub mod gradient;
@@ -181,6 +191,51 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn information(&self) -> Option<[[T; NP]; NP]> {
         None
     }
+    /// Hold the law for the next `samples` steps (see *Holding the law on
+    /// purpose* in the module docs): the filters keep running on the
+    /// samples given, Θ and the law's matrices stay as they are, and each
+    /// held step returns [`StepStatus::Frozen`] without counting as
+    /// rejected. Extends a hold or quarantine already running, never
+    /// shortens it; `hold(0)` does nothing.
+    fn hold(&mut self, samples: u32);
+    /// Samples the filters need to forget a discontinuity in their input:
+    /// the quarantine after a rejected sample
+    /// ([`QUARANTINE_TIME_CONSTANTS`] filter time constants). The length to
+    /// [`Estimator::hold`] for after a start, a resume or an overrun.
+    fn settling_samples(&self) -> u32;
+}
+
+/// An estimator borrowed mutably is an estimator (so a caller can lend one
+/// to a pipeline, or keep it in static storage and hand out the reference).
+impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> for &mut E {
+    #[inline]
+    fn step(&mut self, u: T, y: T) -> StepStatus {
+        (**self).step(u, y)
+    }
+    fn theta(&self) -> [T; NP] {
+        (**self).theta()
+    }
+    fn transfer_function(&self) -> TransferFunction<T> {
+        (**self).transfer_function()
+    }
+    fn reset(&mut self) {
+        (**self).reset()
+    }
+    fn excitation_level(&self) -> Option<T> {
+        (**self).excitation_level()
+    }
+    fn health(&self) -> Health {
+        (**self).health()
+    }
+    fn information(&self) -> Option<[[T; NP]; NP]> {
+        (**self).information()
+    }
+    fn hold(&mut self, samples: u32) {
+        (**self).hold(samples)
+    }
+    fn settling_samples(&self) -> u32 {
+        (**self).settling_samples()
+    }
 }
 
 /// A filter bank and an update law: a complete estimator.
@@ -256,7 +311,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
             (u, y)
         } else {
             self.rejected = self.rejected.saturating_add(1);
-            self.quarantine = self.quarantine_len;
+            self.quarantine = self.quarantine.max(self.quarantine_len);
             (self.last_u, self.last_y)
         };
         let reg = self.bank.push(u, y);
@@ -311,6 +366,14 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
 
     fn information(&self) -> Option<[[T; NP]; NP]> {
         self.law.information()
+    }
+
+    fn hold(&mut self, samples: u32) {
+        self.quarantine = self.quarantine.max(samples);
+    }
+
+    fn settling_samples(&self) -> u32 {
+        self.quarantine_len
     }
 
     fn health(&self) -> Health {
@@ -476,6 +539,95 @@ mod tests {
             }
         }
         None
+    }
+
+    fn paper_estimator() -> (Adaptive2<f64>, Rig<f64>) {
+        let cfg = FilterConfig {
+            ts_s: TS,
+            lambda_rad_s: 100.0,
+            scales: SignalScales {
+                u_scale: 0.1,
+                y_scale: 1e-3,
+            },
+            ..FilterConfig::default()
+        };
+        let est = Adaptive2::<f64>::new(&cfg, &AdaptiveConfig::default()).unwrap();
+        let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS).unwrap();
+        (est, Rig::new(plant, SquareWave::paper()))
+    }
+
+    fn run(est: &mut impl Estimator<f64, 7>, rig: &mut Rig<f64>, n: usize) -> [usize; 4] {
+        let mut counts = [0; 4];
+        for _ in 0..n {
+            let s = rig.tick();
+            counts[est.step(s.u, s.y) as usize] += 1;
+        }
+        counts
+    }
+
+    #[test]
+    fn hold_freezes_the_law_for_exactly_n_samples_and_rejects_nothing() {
+        let (mut est, mut rig) = paper_estimator();
+        assert_eq!(
+            est.settling_samples(),
+            4000,
+            "40/λ at λ = 100 rad/s, Ts = 0.1 ms"
+        );
+        run(&mut est, &mut rig, 2000);
+        let theta = est.theta();
+        est.hold(150);
+        // A shorter hold does not shorten it; hold(0) does nothing.
+        est.hold(20);
+        est.hold(0);
+        // [Updated, Frozen, Rejected, Skipped]
+        assert_eq!(run(&mut est, &mut rig, 150), [0, 150, 0, 0]);
+        assert_eq!(est.theta(), theta);
+        // θ steps every K = 10 samples (the default config).
+        assert_eq!(run(&mut est, &mut rig, 10), [10, 0, 0, 0]);
+        assert_ne!(est.theta(), theta);
+        let h = est.health();
+        assert_eq!((h.samples, h.rejected, h.skipped), (2160, 0, 0));
+        // Through a mutable reference (the pipeline's way), and a rejected
+        // sample inside a longer hold does not cut it short.
+        let mut by_ref: &mut dyn Estimator<f64, 7> = &mut est;
+        by_ref.hold(6000);
+        assert_eq!(by_ref.step(f64::NAN, 0.0), StepStatus::Rejected);
+        // (The rejected step itself is not one of the held steps.)
+        assert_eq!(run(&mut by_ref, &mut rig, 6000), [0, 6000, 0, 0]);
+        assert_eq!(run(&mut by_ref, &mut rig, 1), [1, 0, 0, 0]);
+        assert_eq!(est.health().rejected, 1);
+    }
+
+    /// The filters keep running through a hold: an estimator held from its
+    /// first sample on a moving beam for the settling time and one that was
+    /// never held reach the same estimate, while a law that adapts on
+    /// filters started out of step with the beam is visibly off.
+    #[test]
+    fn hold_lets_filters_started_on_a_moving_beam_settle() {
+        let modal_error = |est: &Adaptive2<f64>| {
+            let m = crate::modal::modal_from_tf(&est.transfer_function(), &[-2.0, 2.0]).unwrap();
+            (0..2)
+                .flat_map(|i| {
+                    [
+                        (m.omega_rad_s[i] / PAPER_OMEGA[i] - 1.0).abs(),
+                        (m.zeta[i] / PAPER_ZETA[i] - 1.0).abs(),
+                    ]
+                })
+                .fold(0.0, f64::max)
+        };
+        // The beam has moved for 0.1 s before either estimator starts.
+        let (fresh, mut rig) = paper_estimator();
+        for _ in 0..1000 {
+            rig.tick();
+        }
+        let (mut held, mut plain) = (fresh.clone(), fresh);
+        let mut rig2 = rig.clone();
+        held.hold(held.settling_samples());
+        run(&mut held, &mut rig, 20_000);
+        run(&mut plain, &mut rig2, 20_000);
+        let (eh, ep) = (modal_error(&held), modal_error(&plain));
+        assert!(eh < 1e-6, "held: {eh:e}");
+        assert!(ep > 10.0 * eh, "not held: {ep:e}, held: {eh:e}");
     }
 
     /// Why the laws never integrate H (eq. 37) or Γ2 (eq. 48) explicitly:

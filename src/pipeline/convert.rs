@@ -239,6 +239,55 @@ impl ConversionConfig {
         let f = self.factors().ok()?;
         quantise(u_v / f.code_to_u)
     }
+
+    /// The chain run backwards to the ADC's analog inputs (validates the
+    /// settings): what a simulated front end feeds a converter model.
+    pub fn analog_front_end(&self) -> Result<AnalogFrontEnd, ConversionError> {
+        let f = self.factors()?;
+        let b = &self.bridge;
+        let s = if b.invert { -1.0 } else { 1.0 };
+        Ok(AnalogFrontEnd {
+            ratio_to_y: f.ratio_to_y,
+            null_ratio: f.null_ratio,
+            adc_v_per_ratio: s * b.amplifier_gain * b.excitation_v,
+            exact: b.linearisation == Linearisation::Exact,
+            monitor_v_per_v: self.monitor_v_per_v,
+        })
+    }
+}
+
+/// The simulated analog side of [`ConversionConfig`], in `f64`: output y →
+/// bridge → amplifier → volts at the ADC's channel 0, and actuator volts →
+/// monitor → volts at channel 1, before any quantisation (the converter
+/// model quantises). Steps 2–4 of the module docs inverted:
+/// V_r = ε·GF/4 (linear) or e/(1 + 2e) with e = ε·GF/4 (exact quarter
+/// bridge), V_adc = G_amp·(s·V_r·V_exc + V_null).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AnalogFrontEnd {
+    ratio_to_y: f64,
+    null_ratio: f64,
+    /// s·G_amp·V_exc: ADC volts per unit of (V_r + s·V_null/V_exc).
+    adc_v_per_ratio: f64,
+    exact: bool,
+    monitor_v_per_v: f64,
+}
+
+impl AnalogFrontEnd {
+    /// Volts at the ADC's bridge input for output `y` (strain or m). Beyond
+    /// the quarter bridge's range (V_r → ±∞) the result is ±∞ or NaN, which
+    /// a converter model clips or rejects.
+    #[inline]
+    pub fn bridge_volts(&self, y: f64) -> f64 {
+        let e = y / self.ratio_to_y;
+        let vr = if self.exact { e / (1.0 + 2.0 * e) } else { e };
+        (vr + self.null_ratio) * self.adc_v_per_ratio
+    }
+
+    /// Volts at the ADC's monitor input for actuator voltage `u_v`.
+    #[inline]
+    pub fn monitor_volts(&self, u_v: f64) -> f64 {
+        u_v * self.monitor_v_per_v
+    }
 }
 
 fn quantise(code: f64) -> Option<i32> {
@@ -370,6 +419,45 @@ mod tests {
         let m = cfg.monitor_code_for(50.0).unwrap();
         // Half an LSB: 1.2 V/2²⁴ at the ADC, ÷ 0.01 V/V.
         assert!((conv.u_from_monitor(m) - 50.0).abs() <= 0.6 * 1.2 / 8_388_608.0 / 0.01);
+    }
+
+    #[test]
+    fn analog_front_end_inverts_the_chain() {
+        for invert in [false, true] {
+            for lin in [Linearisation::Exact, Linearisation::Linear] {
+                let mut cfg = rig();
+                cfg.bridge.invert = invert;
+                cfg.bridge.linearisation = lin;
+                cfg.bridge.amplifier_gain = 3.0;
+                let fe = cfg.analog_front_end().unwrap();
+                let vpc = cfg.bridge_adc.volts_per_code().unwrap();
+                for y in [-2e-3, -1e-6, 0.0, 3e-7, 1.5e-3] {
+                    // Volts → code (unrounded) → y is the identity.
+                    let code = fe.bridge_volts(y) / vpc;
+                    let vr = code * 1.2 / (128.0 * 8_388_608.0) / 3.0;
+                    let s = if invert { -1.0 } else { 1.0 };
+                    let ratio = s * (vr - 1e-5) / 5.0;
+                    let eps = match lin {
+                        Linearisation::Exact => 4.0 * ratio / (2.1 * (1.0 - 2.0 * ratio)),
+                        Linearisation::Linear => 4.0 * ratio / 2.1,
+                    };
+                    let w = 2.0 * 0.36f64.powi(3) * eps / (3.0 * 0.34 * 1e-3);
+                    assert!((w - y).abs() <= 1e-12 * y.abs().max(1e-9), "{y}: {w}");
+                    // and the rounded code is the one bridge_code_for gives.
+                    let c = cfg.bridge_code_for(y).unwrap();
+                    assert!((code.round() - f64::from(c)).abs() <= 1.0, "{y}");
+                }
+                assert_eq!(fe.monitor_volts(50.0), 0.5);
+            }
+        }
+        assert_eq!(
+            {
+                let mut c = rig();
+                c.bridge.gauge_factor = 0.0;
+                c.analog_front_end()
+            },
+            Err(ConversionError::GaugeFactor)
+        );
     }
 
     #[test]

@@ -35,8 +35,13 @@ pub struct AdcFlags {
     /// The monitor channel is over range.
     pub monitor_saturated: bool,
     /// The data are not new (e.g. a channel's DRDY bit not set in the
-    /// ADS131M02 status word): the sample is unusable.
+    /// ADS131M02 status word): the sample is unusable and the codes carry
+    /// nothing.
     pub stale: bool,
+    /// The driver found the data stuck (e.g. the ADS131M02 driver's
+    /// `StuckData`: both codes bit-identical for too many frames): the
+    /// sample is unusable, the codes carry nothing, and it counts as stuck.
+    pub stuck: bool,
 }
 
 /// What went wrong with a converter transaction, for the counters.

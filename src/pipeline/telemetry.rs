@@ -65,7 +65,8 @@ pub struct Counters {
     pub bridge_saturated: u32,
     /// Monitor conversions at a full-scale code (or flagged over range).
     pub monitor_saturated: u32,
-    /// Bridge conversions rejected as stuck (identical code for too long).
+    /// Bridge conversions rejected as stuck (identical code for too long,
+    /// or flagged stuck by the converter's driver).
     pub stuck: u32,
     /// DAC writes that failed.
     pub dac_errors: u32,
@@ -74,8 +75,9 @@ pub struct Counters {
     /// Excitation samples the safe-window clamp limited.
     pub excitation_clamped: u32,
     /// Samples found invalid and given to the estimator as NaN (it
-    /// substitutes them and freezes its law, see [`crate::estimator`]);
-    /// the deliberate NaN step after an overrun or resume is not counted.
+    /// substitutes them and freezes its law, see [`crate::estimator`]); a
+    /// deliberate hold (after an overrun, a resume, a new estimator) rejects
+    /// nothing and is not counted.
     pub rejected: u32,
     /// Telemetry records dropped on a full queue.
     pub dropped_records: u32,
@@ -93,7 +95,8 @@ impl StatusFlags {
     pub const FROZEN: u16 = 1 << 0;
     /// At least one sample was rejected.
     pub const REJECTED: u16 = 1 << 1;
-    /// The estimator's law was in quarantine after a rejected sample.
+    /// The estimator's law was held: quarantine after a rejected sample, or
+    /// a deliberate hold (see [`super::Pipeline`], *Deliberate holds*).
     pub const QUARANTINE: u16 = 1 << 2;
     /// The law skipped an update (singular step).
     pub const SKIPPED: u16 = 1 << 3;
@@ -129,7 +132,7 @@ impl StatusFlags {
 pub struct StepCounts {
     /// [`StepStatus::Updated`].
     pub updated: u16,
-    /// [`StepStatus::Frozen`] (quarantine).
+    /// [`StepStatus::Frozen`] (quarantine or deliberate hold).
     pub frozen: u16,
     /// [`StepStatus::Rejected`].
     pub rejected: u16,

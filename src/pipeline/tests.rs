@@ -8,21 +8,37 @@ use heapless::spsc::Queue;
 use std::collections::VecDeque;
 use std::vec::Vec;
 
-/// Records every step; Θ = [steps, 0, 0]; P = diag(1, 2, 3).
+/// Records every step; Θ = [steps, 0, 0]; P = diag(1, 2, 3); holds the
+/// law like the real estimators (a hold of [`SETTLING`] samples).
 #[derive(Default)]
 struct Recorder {
     fed: Vec<(f64, f64)>,
     resets: usize,
+    held: u32,
+    holds: Vec<u32>,
 }
+
+/// The recorder's settling time, samples.
+const SETTLING: u32 = 3;
 
 impl Estimator<f64, 3> for Recorder {
     fn step(&mut self, u: f64, y: f64) -> StepStatus {
         self.fed.push((u, y));
-        if u.is_finite() && y.is_finite() {
-            StepStatus::Updated
-        } else {
+        if !(u.is_finite() && y.is_finite()) {
             StepStatus::Rejected
+        } else if self.held > 0 {
+            self.held -= 1;
+            StepStatus::Frozen
+        } else {
+            StepStatus::Updated
         }
+    }
+    fn hold(&mut self, samples: u32) {
+        self.holds.push(samples);
+        self.held = self.held.max(samples);
+    }
+    fn settling_samples(&self) -> u32 {
+        SETTLING
     }
     fn theta(&self) -> [f64; 3] {
         [self.fed.len() as f64, 0.0, 0.0]
@@ -273,6 +289,10 @@ fn converter_faults_are_counted_and_never_fed_as_valid() {
                 stale: true,
                 ..AdcFlags::default()
             }),
+            flagged(AdcFlags {
+                stuck: true,
+                ..AdcFlags::default()
+            }),
             // Stuck: 7 four times; stuck_after = 2 → recognised at the third.
             ok(7),
             ok(7),
@@ -288,7 +308,7 @@ fn converter_faults_are_counted_and_never_fed_as_valid() {
     };
     let (mut tq, mut rq) = (Queue::new(), Queue::new());
     let (mut p, _, _) = build(&cfg, adc, &mut tq, &mut rq);
-    for _ in 0..15 {
+    for _ in 0..16 {
         p.tick();
     }
     let c = p.counters();
@@ -297,10 +317,11 @@ fn converter_faults_are_counted_and_never_fed_as_valid() {
         (1, 1, 1, 2)
     );
     assert_eq!(c.bridge_saturated, 3);
-    // The four 7s: recognised at the third, the first two flipped in the
-    // delay line (3 samples: the last 3 ticks are not fed yet).
-    assert_eq!(c.stuck, 4);
-    assert_eq!(c.rejected, 11);
+    // One flagged stuck by the driver; the four 7s: recognised at the
+    // third, the first two flipped in the delay line (3 samples: the last 3
+    // ticks are not fed yet).
+    assert_eq!(c.stuck, 5);
+    assert_eq!(c.rejected, 12);
     let est = p.into_parts().0;
     let valid: Vec<bool> = est
         .fed
@@ -308,7 +329,7 @@ fn converter_faults_are_counted_and_never_fed_as_valid() {
         .map(|(u, y)| u.is_finite() && y.is_finite())
         .collect();
     let expect = [
-        true, false, false, false, false, false, false, false, false, false, false, false,
+        true, false, false, false, false, false, false, false, false, false, false, false, false,
     ];
     assert_eq!(valid, expect);
 }
@@ -420,25 +441,57 @@ fn settings_take_effect_at_the_next_tick() {
     let b = rc.dequeue().unwrap();
     assert_eq!((b.first_index, b.decimation, b.len), (4, 2, 32));
     assert!(close(b.y[1], 7.0 * 1e-6));
-    // Freeze: no steps; resume: one deliberate NaN step, then normal.
+    // Freeze: no steps; resume: the law held for the settling time on
+    // real samples (never NaN, nothing rejected), then normal.
     let steps_before = p.estimator().fed.len();
     p.freeze();
     assert!(p.is_frozen());
     p.tick();
     assert_eq!(p.estimator().fed.len(), steps_before);
+    assert!(p.estimator().holds.is_empty());
     p.resume();
-    assert_eq!(p.tick().step, Some(StepStatus::Rejected));
+    assert_eq!(p.estimator().holds, [SETTLING]);
+    for _ in 0..SETTLING {
+        let t = p.tick();
+        assert_eq!(t.step, Some(StepStatus::Frozen));
+        assert!(t.fed.unwrap().1.is_finite());
+    }
     assert_eq!(p.tick().step, Some(StepStatus::Updated));
-    // Overrun: counted, index skips, one NaN step.
+    p.resume();
+    assert_eq!(
+        p.estimator().holds.len(),
+        1,
+        "resume when not frozen: no hold"
+    );
+    // Overrun: counted, index skips, the law held; nothing rejected.
     let idx = p.next_sample_index();
     p.note_overrun(3);
     let t = p.tick();
     assert_eq!(t.sample_index, idx + 3);
-    assert_eq!(t.step, Some(StepStatus::Rejected));
+    assert_eq!(t.step, Some(StepStatus::Frozen));
+    assert!(t.fed.unwrap().1.is_finite());
     let c = p.counters();
     assert_eq!((c.overruns, c.missed_ticks, c.rejected), (1, 3, 0));
+    // A late interrupt that lost no conversion is counted, not held.
+    let holds = p.estimator().holds.len();
+    p.note_overrun(0);
+    assert_eq!(p.estimator().holds.len(), holds);
+    assert_eq!(p.counters().overruns, 2);
+    // Two more held steps, then the record shows the hold, not rejection.
+    p.tick();
+    p.tick();
+    assert_eq!(p.tick().step, Some(StepStatus::Updated));
+    while let Some(r) = tc.dequeue() {
+        assert_eq!(r.steps.rejected, 0);
+        assert!(!r.flags.has(StatusFlags::REJECTED));
+    }
     p.reset_estimator();
     assert_eq!(p.estimator().resets, 1);
+    assert_eq!(p.tick().step, Some(StepStatus::Frozen));
+    let old = p.replace_estimator(Recorder::default(), 50.0);
+    assert_eq!(old.map(|r| r.resets).ok(), Some(1));
+    assert_eq!(p.estimator().holds, [SETTLING]);
+    assert!(p.replace_estimator(Recorder::default(), 0.0).is_err());
     p.reset_counters();
     assert_eq!(p.counters(), Counters::default());
 }

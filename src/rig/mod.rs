@@ -11,14 +11,31 @@
 //!
 //! * [`chips`] — behavioural models of the converters (ADS131M02 ADC,
 //!   AD5761R DAC) behind `SpiDevice`, so the real drivers run against the
-//!   simulated beam; [`Rig::tick_with`] takes the input from outside (the DAC
-//!   model's held voltage) for that.
+//!   simulated beam;
+//! * [`converter`] — [`ConverterRig`]: the plant between those two models
+//!   with the analog front end (amplifier, bridge, monitor), one DRDY
+//!   period per tick — the rig the QEMU image and the firmware host tests
+//!   run behind the real drivers;
+//! * [`bench`](mod@bench) — the settings of that simulated bench (the paper's beam,
+//!   the converters' configuration, the front end, the excitation).
+//!
+//! The rig runs in the emulated board's sample interrupt, so the whole
+//! module keeps the sample path's panic-free lints.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
+pub mod bench;
 pub mod chips;
+pub mod converter;
 pub mod noise;
 pub mod plant;
 pub mod sim;
 
+pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
 pub use plant::{ModalPlant, PlantError};
 pub use sim::{Rig, Sample};

@@ -69,19 +69,13 @@ impl<T: Real> ModalPlant<T> {
     /// The paper's model (23): input gains b̄_i, output weights C̄.
     pub fn from_modal(p: &ModalParams<f64>, ts_s: f64) -> Result<Self, PlantError> {
         let n = p.modes;
-        if n == 0 || n > MAX_MODES {
-            return Err(PlantError::Dimensions);
-        }
-        let mut gain = [0.0; MAX_MODES];
-        let mut pos = [0.0; MAX_MODES];
-        gain[..n].copy_from_slice(&p.bbar[..n]);
-        pos[..n].copy_from_slice(&p.output_weight[..n]);
         Self::build(
-            &p.omega_rad_s[..n],
-            &p.zeta[..n],
-            &gain[..n],
-            &pos[..n],
-            &[0.0; MAX_MODES][..n],
+            n,
+            &p.omega_rad_s,
+            &p.zeta,
+            &p.bbar,
+            &p.output_weight,
+            &[0.0; MAX_MODES],
             ts_s,
         )
     }
@@ -99,16 +93,13 @@ impl<T: Real> ModalPlant<T> {
             return Err(PlantError::Dimensions);
         }
         let d = 2 * n;
+        let ones = [1.0; MAX_MODES];
+        let ones_n = ones.get(..n).ok_or(PlantError::Dimensions)?;
         // Unknowns [α_1..α_n, β_1..β_n]; equations: coefficients of s^{d−1}..s^0.
         let mut a = [[0.0f64; EXPM_MAX]; EXPM_MAX];
         let mut rhs = [0.0f64; EXPM_MAX];
-        let unit = ModalParams::new(
-            omega_rad_s,
-            zeta,
-            &[1.0; MAX_MODES][..n],
-            Some(&[1.0; MAX_MODES][..n]),
-        )
-        .ok_or(PlantError::Dimensions)?;
+        let unit = ModalParams::new(omega_rad_s, zeta, ones_n, Some(ones_n))
+            .ok_or(PlantError::Dimensions)?;
         for i in 0..n {
             // Π_{j≠i} q_j, 2n−1 coefficients, highest first.
             let mut p = [0.0f64; MAX_ORDER + 1];
@@ -121,32 +112,51 @@ impl<T: Real> ModalPlant<T> {
             }
             for (k, pk) in p.iter().enumerate().take(len) {
                 // α_i·p contributes to powers 2n−2−k → row 1 + k.
-                a[1 + k][i] += pk;
+                if let Some(e) = a.get_mut(1 + k).and_then(|r| r.get_mut(i)) {
+                    *e += pk;
+                }
                 // β_i·s·p contributes to powers 2n−1−k → row k.
-                a[k][n + i] += pk;
+                if let Some(e) = a.get_mut(k).and_then(|r| r.get_mut(n + i)) {
+                    *e += pk;
+                }
             }
         }
-        rhs[1..d].copy_from_slice(b);
+        for (r, bk) in rhs.iter_mut().skip(1).zip(b) {
+            *r = *bk;
+        }
         let x = solve_dense(&a, &rhs, d).ok_or(PlantError::Numerator)?;
-        Self::build(
-            omega_rad_s,
-            zeta,
-            &[1.0; MAX_MODES][..n],
-            &x[..n],
-            &x[n..d],
-            ts_s,
-        )
+        let mut pos = [0.0; MAX_MODES];
+        let mut vel = [0.0; MAX_MODES];
+        for (i, (p, v)) in pos.iter_mut().zip(vel.iter_mut()).enumerate().take(n) {
+            *p = x.get(i).copied().unwrap_or(0.0);
+            *v = x.get(n + i).copied().unwrap_or(0.0);
+        }
+        let mut w = [0.0; MAX_MODES];
+        let mut z = [0.0; MAX_MODES];
+        for ((wo, zo), (wi, zi)) in w
+            .iter_mut()
+            .zip(z.iter_mut())
+            .zip(omega_rad_s.iter().zip(zeta))
+        {
+            *wo = *wi;
+            *zo = *zi;
+        }
+        Self::build(n, &w, &z, &ones, &pos, &vel, ts_s)
     }
 
+    /// The first `n` entries of each array describe the modes.
     fn build(
-        omega: &[f64],
-        zeta: &[f64],
-        gain: &[f64],
-        pos: &[f64],
-        vel: &[f64],
+        n: usize,
+        omega: &[f64; MAX_MODES],
+        zeta: &[f64; MAX_MODES],
+        gain: &[f64; MAX_MODES],
+        pos: &[f64; MAX_MODES],
+        vel: &[f64; MAX_MODES],
         ts: f64,
     ) -> Result<Self, PlantError> {
-        let n = omega.len();
+        if n == 0 || n > MAX_MODES {
+            return Err(PlantError::Dimensions);
+        }
         if !(ts > 0.0 && ts.is_finite()) {
             return Err(PlantError::Value);
         }
@@ -157,11 +167,9 @@ impl<T: Real> ModalPlant<T> {
             x: [T::ZERO; 2],
         };
         let mut m = [zero; MAX_MODES];
-        for i in 0..n {
-            let (w, z) = (omega[i], zeta[i]);
-            let finite = [w, z, gain[i], pos[i], vel[i]]
-                .iter()
-                .all(|v| v.is_finite());
+        let params = omega.iter().zip(zeta).zip(gain).zip(pos).zip(vel);
+        for (mode, ((((&w, &z), &g), &c), &v)) in m.iter_mut().zip(params).take(n) {
+            let finite = [w, z, g, c, v].iter().all(|v| v.is_finite());
             if !finite || !(w > 0.0) || z < 0.0 {
                 return Err(PlantError::Value);
             }
@@ -169,15 +177,15 @@ impl<T: Real> ModalPlant<T> {
             aug[0][1] = ts;
             aug[1][0] = -w * w * ts;
             aug[1][1] = -2.0 * z * w * ts;
-            aug[1][2] = gain[i] * ts;
+            aug[1][2] = g * ts;
             let e = expm(&aug, 3);
-            m[i] = DiscreteMode {
+            *mode = DiscreteMode {
                 phi: [
                     [T::from_f64(e[0][0]), T::from_f64(e[0][1])],
                     [T::from_f64(e[1][0]), T::from_f64(e[1][1])],
                 ],
                 gamma: [T::from_f64(e[0][2]), T::from_f64(e[1][2])],
-                out: [T::from_f64(pos[i]), T::from_f64(vel[i])],
+                out: [T::from_f64(c), T::from_f64(v)],
                 x: [T::ZERO; 2],
             };
         }
@@ -223,6 +231,12 @@ impl<T: Real> ModalPlant<T> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 mod tests {
     use super::*;
     use crate::model::{paper_plant_tf, PAPER_B, PAPER_OMEGA, PAPER_ZETA};

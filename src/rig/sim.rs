@@ -118,6 +118,12 @@ impl<T: Real, E: Iterator<Item = T> + Clone> Rig<T, E> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 mod tests {
     use super::*;
     use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};

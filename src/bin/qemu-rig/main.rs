@@ -1,16 +1,24 @@
-//! The simulated rig on the emulated board (QEMU `mps2-an386`, Cortex-M4F,
-//! `f32`): run with `cargo xtask qemu`.
+//! The firmware on the emulated board (QEMU `mps2-an386`, Cortex-M4F,
+//! `f32`) with the simulated bench behind the real converter drivers: run
+//! with `cargo xtask qemu`.
 //!
-//! * Timer 0 interrupt, 10 kHz, highest priority: one [`RigPipeline::step`]
-//!   (the simulated beam, excitation and estimator), instrumented with
-//!   SysTick.
-//! * UART0 interrupts, below it: move bytes between the UART and its rings.
-//! * Thread mode, lowest: reads the telemetry queue, recovers ω, ζ (eqs.
-//!   30–32) from each Θ, streams them out of UART0 as text lines, logs them
-//!   through semihosting as they converge, and after 5 s of simulated time
-//!   prints `instructions_per_sample: estimator=N isr=M` and exits with
-//!   status 0 only if ω1, ω2, ζ1, ζ2 are all within 1e-3 of the simulated
-//!   truth (the one place that reads it).
+//! * Boot (thread mode): SysTick calibration; both converters brought up
+//!   through their drivers against the chip models (AD5761R reset, control
+//!   written and read back; ADS131M02 reset with the ID check, configured
+//!   and read back); the rig, a frozen pipeline and the sample task built
+//!   from `beamest::rig::bench`.
+//! * Timer 0 interrupt, 10 kHz, highest priority: [`sample::SampleTask`] —
+//!   rig tick, then `Pipeline::tick` (the drivers' SPI frames to the
+//!   models, the estimator step, telemetry into the SPSC queue).
+//! * UART0 interrupts, below it: move bytes between the UART and its rings
+//!   (the serial link of issue 7 will use them; today one CSV line per
+//!   record goes out).
+//! * Thread mode, lowest: builds the estimator when the start-up window
+//!   reports Y0, turns each telemetry record into ω, ζ, b̄ and λmin(P)
+//!   (`pipeline::recover`), logs through semihosting as the estimate
+//!   converges, and at the end prints the instruction counts, checks the
+//!   fault counters and ω, ζ against the simulated truth (the one place
+//!   that reads it) and exits with status 0 only if all pass ([`report`]).
 
 #![no_std]
 #![no_main]
@@ -22,68 +30,37 @@
 )]
 
 mod numfmt;
-mod provisional;
+mod report;
+mod sample;
 
 use core::fmt::Write as _;
 
-use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
-use beamest::board::qemu::uart::{self, RxFill, RxRing, TxDrain, TxRing, UartTx};
-use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff};
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
-use beamest::filter_bank::{FilterConfig, SignalScales};
-use beamest::modal::modal_from_tf;
-use beamest::model::{ModalParams, TransferFunction, PAPER_OMEGA, PAPER_ZETA};
-use cortex_m::peripheral::NVIC;
+use beamest::board::qemu::cycles::{self, SpinDelay};
+use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
+use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
+use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned};
+use beamest::drivers::ad5761r::Ad5761r;
+use beamest::drivers::ads131m02::Ads131m02;
+use beamest::estimator::{Adaptive2, AdaptiveConfig};
+use beamest::pipeline::{bring_up, NoSink, Pipeline};
+use beamest::rig::{bench, ConverterModels, ConverterRig};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
-use heapless::spsc::Queue;
+use heapless::spsc::{Producer, Queue};
 use panic_semihosting as _;
 
 use numfmt::{Fixed, Sci};
-use provisional::{Record, RigPipeline, Spans, NP, TELEMETRY_QUEUE, TS_S};
+use report::{finish, handle, LOG_EVERY};
+use sample::{Record, SampleTask, Summary};
 
-/// Simulated run length: 5 s at 10 kHz.
-const RUN_SAMPLES: u32 = 50_000;
-/// Filter pole λ, rad/s (the paper's Section IV.A choice).
-const LAMBDA_RAD_S: f64 = 100.0;
-/// U0: the excitation amplitude, known to the user (V).
-const U_SCALE: f64 = 0.1;
-/// Output weights c_i of the paper's two-mode beam (eq. 24), for b̄.
-const OUTPUT_WEIGHT: [f32; 2] = [-2.0, 2.0];
-/// Pass criterion: relative error of every ω and ζ after the run.
-const TOLERANCE: f64 = 1e-3;
-/// Semihosting log interval while converging, samples (0.25 s).
-const LOG_EVERY: u32 = 2_500;
-/// Timer-period check: SysTick across this many periods, from sample
-/// `PERIOD_FROM` (the interval stays below SysTick's 0.67 s wrap).
-const PERIOD_FROM: u32 = 10;
-const PERIODS: u32 = 6_000;
+/// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 150 ms).
+const TELEMETRY_QUEUE: usize = 16;
 
-/// Everything the sample interrupt owns.
-struct SampleIsr {
-    pipeline: RigPipeline,
-    isr: SpanSum,
-    period_start: u32,
-    period_ticks: u32,
-    overruns: u32,
-    finished: bool,
-}
-
-/// The end-of-run message: the sample interrupt's totals.
-struct Summary {
-    samples: u32,
-    spans: Spans,
-    isr: SpanSum,
-    period_ticks: u32,
-    overruns: u32,
-    dropped: u32,
-    theta: Option<[f32; NP]>,
-}
-
-// The large states are handed over by `&'static mut` into `singleton!`
-// storage: an `Option` of a reference is zero when empty, so these statics
-// stay in .bss instead of carrying kilobytes of .data initialisers.
-static SAMPLE_TASK: Handoff<&'static mut SampleIsr> = Handoff::new();
+static SPI_METER: SpiMeter = SpiMeter::new();
+// Large states are handed over by `&'static mut` into `singleton!` storage:
+// an `Option` of a reference is zero when empty, so these stay in .bss.
+static SAMPLE_TASK: Handoff<IsrOwned<&'static mut SampleTask>> = Handoff::new();
+static Y0: Handoff<f32> = Handoff::new();
 static ESTIMATOR: Handoff<&'static mut Adaptive2<f32>> = Handoff::new();
 static SUMMARY: Handoff<Summary> = Handoff::new();
 static TX_DRAIN: Handoff<TxDrain> = Handoff::new();
@@ -91,44 +68,14 @@ static RX_FILL: Handoff<RxFill> = Handoff::new();
 
 #[interrupt]
 fn TIMER0() {
-    static mut TASK: Option<&'static mut SampleIsr> = None;
+    static mut TASK: Option<IsrOwned<&'static mut SampleTask>> = None;
     let entry = cycles::now();
     timer::clear_interrupt();
     if TASK.is_none() {
         *TASK = SAMPLE_TASK.take();
     }
-    let Some(task) = TASK.as_mut() else { return };
-    if task.finished {
-        return;
-    }
-    let k = task.pipeline.samples();
-    if k == RUN_SAMPLES {
-        task.finished = true;
-        SUMMARY.put(Summary {
-            samples: k,
-            spans: task.pipeline.spans(),
-            isr: task.isr,
-            period_ticks: task.period_ticks,
-            overruns: task.overruns,
-            dropped: task.pipeline.dropped(),
-            theta: task.pipeline.theta(),
-        });
-        return;
-    }
-    if k == PERIOD_FROM {
-        task.period_start = entry;
-    } else if k == PERIOD_FROM + PERIODS {
-        task.period_ticks = cycles::ticks_between(task.period_start, entry);
-    }
-
-    // Spread the start over SysTick's 40-instruction tick (see `cycles`).
-    cycles::dither(k);
-    let t0 = cycles::now();
-    task.pipeline.step();
-    task.isr.add(t0, cycles::now());
-
-    if NVIC::is_pending(board::Interrupt::TIMER0) {
-        task.overruns = task.overruns.saturating_add(1);
+    if let Some(task) = TASK.as_mut() {
+        task.get_mut().on_interrupt(entry);
     }
 }
 
@@ -159,8 +106,10 @@ fn main() -> ! {
     let Some(mut b) = Board::take() else {
         fail("board already taken")
     };
-    hprintln!("beamest qemu-rig: mps2-an386, 10 kHz sample interrupt, f32 estimator");
-
+    hprintln!(
+        "beamest qemu-rig: mps2-an386, 10 kHz sample interrupt, f32 estimator, \
+         ADS131M02/AD5761R drivers on the chip models"
+    );
     let cal = cycles::calibrate();
     hprintln!(
         "systick calibration: {} instructions = {} ticks ({} instructions/tick); \
@@ -192,41 +141,39 @@ fn main() -> ! {
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
     let (producer, mut consumer) = queue.split();
-    let pipeline = match RigPipeline::new(&ESTIMATOR, producer) {
-        Ok(p) => p,
-        Err(_) => fail("plant construction"),
-    };
-    let Some(task) = cortex_m::singleton!(: SampleIsr = SampleIsr {
-        pipeline,
-        isr: SpanSum::default(),
-        period_start: 0,
-        period_ticks: 0,
-        overruns: 0,
-        finished: false,
-    }) else {
-        fail("sample task already placed")
-    };
-    SAMPLE_TASK.put(task);
+    let task = build_sample_task(producer);
+    // SAFETY: the chip models were created inside `build_sample_task` and
+    // only the task (its rig and its drivers) refers to them.
+    SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
     Board::unmask();
     b.timer.start(board::SAMPLE_RELOAD);
-    let _ = writeln!(tx, "# t_s,omega1_rad_s,omega2_rad_s,zeta1,zeta2");
+    let _ = writeln!(
+        tx,
+        "# t_s,omega1_rad_s,omega2_rad_s,zeta1,zeta2,lambda_min_p"
+    );
 
     let mut rx_bytes: u32 = 0;
-    let mut last: Option<ModalParams<f32>> = None;
+    let mut next_log: u64 = LOG_EVERY;
+    let mut last: Option<Record> = None;
     loop {
         while let Some(record) = consumer.dequeue() {
-            handle(record, &mut tx, &mut last);
+            handle(&record, &mut tx, &mut next_log);
+            last = Some(record);
         }
         while rx.read().is_some() {
             rx_bytes = rx_bytes.saturating_add(1);
+        }
+        if let Some(y0) = Y0.take() {
+            start_estimator(y0);
         }
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();
             // Records pushed before the summary are still queued.
             while let Some(record) = consumer.dequeue() {
-                handle(record, &mut tx, &mut last);
+                handle(&record, &mut tx, &mut next_log);
+                last = Some(record);
             }
-            finish(&summary, &cal, rx_bytes, &mut tx);
+            finish(&summary, last.as_ref(), &cal, rx_bytes, &mut tx);
         }
         // Idle by executing, never WFI: under `-icount sleep=off` QEMU 7.2
         // warps virtual time past the next timer deadline while the CPU
@@ -236,172 +183,96 @@ fn main() -> ! {
     }
 }
 
-/// Thread-mode handling of one telemetry record.
-fn handle(record: Record, tx: &mut UartTx, last: &mut Option<ModalParams<f32>>) {
-    match record {
-        Record::Startup { y_rms } => {
-            hprintln!(
-                "start-up: y_rms = {} over 0.1 s -> Y0; estimator starts",
-                Sci(y_rms.into(), 4)
-            );
-            let filter = FilterConfig {
-                ts_s: TS_S,
-                lambda_rad_s: LAMBDA_RAD_S,
-                scales: SignalScales {
-                    u_scale: U_SCALE,
-                    y_scale: f64::from(y_rms),
-                },
-                ..FilterConfig::default()
-            };
-            match Adaptive2::<f32>::new(&filter, &AdaptiveConfig::default()) {
-                Ok(mut est) => {
-                    // The beam is already moving: hold the law while the
-                    // filters settle (one invalid sample arms the input
-                    // quarantine, 40/λ; see `provisional`).
-                    est.step(f32::NAN, f32::NAN);
-                    match cortex_m::singleton!(: Adaptive2<f32> = est) {
-                        Some(e) => ESTIMATOR.put(e),
-                        None => fail("a second start-up record"),
-                    }
-                }
-                Err(e) => {
-                    hprintln!("error: estimator configuration: {:?}", e);
-                    board::exit(false);
-                }
-            }
-        }
-        Record::Estimate {
-            sample,
-            theta,
-            not_updated,
-        } => {
-            let t_s = Fixed(f64::from(sample) * TS_S, 2);
-            let modes = TransferFunction::from_theta(&theta, LAMBDA_RAD_S)
-                .and_then(|tf| modal_from_tf(&tf, &OUTPUT_WEIGHT).ok());
-            let Some(m) = modes else {
-                let _ = writeln!(tx, "{t_s},nan,nan,nan,nan");
-                return;
-            };
-            let [w1, w2, ..] = m.omega_rad_s;
-            let [z1, z2, ..] = m.zeta;
-            let (w1, w2, z1, z2) = (f64::from(w1), f64::from(w2), f64::from(z1), f64::from(z2));
-            let _ = writeln!(
-                tx,
-                "{t_s},{},{},{},{}",
-                Fixed(w1, 6),
-                Fixed(w2, 5),
-                Fixed(z1, 7),
-                Fixed(z2, 6)
-            );
-            if sample % LOG_EVERY == 0 {
-                hprintln!(
-                    "t = {} s  omega = [{}, {}] rad/s  zeta = [{}, {}]  (law held {} samples)",
-                    t_s,
-                    Fixed(w1, 4),
-                    Fixed(w2, 4),
-                    Fixed(z1, 6),
-                    Fixed(z2, 5),
-                    not_updated
-                );
-            }
-            *last = Some(m);
+/// Boot the simulated bench: the chip models, both converters brought up
+/// through their drivers, the rig, a frozen pipeline with a stand-in
+/// estimator (never stepped, replaced once Y0 is known) and the sample
+/// task. Nothing that refers to the models leaves this function except the
+/// task.
+fn build_sample_task(producer: Producer<'static, Record>) -> &'static mut SampleTask {
+    let Some(models) = cortex_m::singleton!(: ConverterModels = ConverterModels::new()) else {
+        fail("chip models already placed")
+    };
+    let models: &'static ConverterModels = models;
+    let mut adc = Ads131m02::new(MeteredSpi::new(models.adc_spi(), &SPI_METER));
+    let mut dac = Ad5761r::new(MeteredSpi::new(models.dac_spi(), &SPI_METER));
+    match bring_up(
+        &mut adc,
+        &mut dac,
+        &bench::adc_config(),
+        bench::dac_config(),
+        &mut SpinDelay,
+    ) {
+        Ok(up) => hprintln!(
+            "converters: ADS131M02 ID {:04X}h, CLOCK/GAIN1/MODE read back; \
+             AD5761R control {:03X}h read back (+/-10 V, 0 V)",
+            up.adc_id,
+            up.dac_control.control.to_bits()
+        ),
+        Err(e) => {
+            hprintln!("error: {}", e);
+            board::exit(false);
         }
     }
+    let Ok(plant) = bench::plant() else {
+        fail("plant construction")
+    };
+    let Ok(rig) = ConverterRig::new(models, plant, &bench::conversion(), bench::AMPLIFIER_GAIN)
+    else {
+        fail("rig settings")
+    };
+    let Ok(stand_in) =
+        Adaptive2::<f32>::new(&bench::filter_config(1.0), &AdaptiveConfig::default())
+    else {
+        fail("estimator settings")
+    };
+    let Some(stand_in) = cortex_m::singleton!(: Adaptive2<f32> = stand_in) else {
+        fail("stand-in estimator already placed")
+    };
+    let Ok(excitation) = bench::excitation::<f32>() else {
+        fail("excitation settings")
+    };
+    let Ok(pipeline) = Pipeline::new(
+        &bench::pipeline_config(),
+        TimedEstimator::new(stand_in),
+        excitation,
+        adc,
+        dac,
+        producer,
+        NoSink,
+    ) else {
+        fail("pipeline settings")
+    };
+    let task = SampleTask::new(rig, pipeline, &SPI_METER, &Y0, &ESTIMATOR, &SUMMARY);
+    let Some(task) = cortex_m::singleton!(: SampleTask = task) else {
+        fail("sample task already placed")
+    };
+    task
 }
 
-/// End of run: report, check against the simulated truth, exit.
-fn finish(s: &Summary, cal: &Calibration, rx_bytes: u32, tx: &mut UartTx) -> ! {
-    let ipt = cal.instructions_per_tick();
-    let period = f64::from(s.period_ticks) / f64::from(PERIODS);
+/// Y0 from the start-up window: build the estimator (its matrix
+/// exponentials run here, not in the interrupt) and hand it over.
+fn start_estimator(y0: f32) {
     hprintln!(
-        "timer period: {} periods = {} SysTick ticks ({} ticks = {} us each; expected 2500)",
-        PERIODS,
-        s.period_ticks,
-        Fixed(period, 3),
-        Fixed(period * 0.04, 3)
+        "start-up: Y0 = {} m (RMS of y over {} samples, excitation running); \
+         U0 = {} V, lambda = {} rad/s",
+        Sci(y0.into(), 4),
+        bench::STARTUP_SAMPLES,
+        Fixed(bench::EXCITATION_V, 2),
+        Fixed(bench::LAMBDA_RAD_S, 0)
     );
-
-    // Final estimate and one timed recovery (timer stopped: no preemption).
-    let theta = s.theta.unwrap_or([f32::NAN; NP]);
-    let t0 = cycles::now();
-    let modes = TransferFunction::from_theta(&theta, LAMBDA_RAD_S)
-        .and_then(|tf| modal_from_tf(&tf, &OUTPUT_WEIGHT).ok());
-    let recovery_ticks = cycles::ticks_between(t0, cycles::now());
-
-    hprintln!(
-        "samples: {} ({} s); estimator steps: {}; overruns: {}; telemetry dropped: {}; \
-         uart0 tx dropped: {}, rx bytes: {}",
-        s.samples,
-        Fixed(f64::from(s.samples) * TS_S, 1),
-        s.spans.estimator.count,
-        s.overruns,
-        s.dropped,
-        uart::link_stats().tx_dropped,
-        rx_bytes
-    );
-    hprintln!(
-        "instruction breakdown per sample: plant (simulated rig, f64) = {}, estimator = {}, \
-         isr = {} (max {}); modal recovery = {} per call",
-        Fixed(s.spans.plant.mean_instructions(ipt).into(), 0),
-        Fixed(s.spans.estimator.mean_instructions(ipt).into(), 0),
-        Fixed(s.isr.mean_instructions(ipt).into(), 0),
-        (s.isr.max_ticks as f32 * ipt) as u32,
-        (recovery_ticks as f32 * ipt) as u32,
-    );
-    hprintln!(
-        "instructions_per_sample: estimator={} isr={}",
-        libm::roundf(s.spans.estimator.mean_instructions(ipt)) as u32,
-        libm::roundf(s.isr.mean_instructions(ipt)) as u32
-    );
-
-    // The only read of the simulated truth: the pass/fail check.
-    let pass = match modes {
-        Some(m) => {
-            let mut ok = true;
-            for i in 0..2 {
-                let (w, z) = (m.omega_rad_s.get(i), m.zeta.get(i));
-                let (tw, tz) = (PAPER_OMEGA.get(i), PAPER_ZETA.get(i));
-                let (Some(&w), Some(&z), Some(&tw), Some(&tz)) = (w, z, tw, tz) else {
-                    fail("mode index");
-                };
-                let ew = (f64::from(w) / tw - 1.0).abs();
-                let ez = (f64::from(z) / tz - 1.0).abs();
-                hprintln!(
-                    "mode {}: omega = {} rad/s (truth {}, rel. error {}), zeta = {} (truth {}, rel. error {})",
-                    i + 1,
-                    Fixed(w.into(), 5),
-                    Fixed(tw, 4),
-                    Sci(ew, 1),
-                    Fixed(z.into(), 7),
-                    Fixed(tz, 4),
-                    Sci(ez, 1)
-                );
-                // `!(e <= tol)` fails NaN too.
-                if !(ew <= TOLERANCE && ez <= TOLERANCE) {
-                    ok = false;
-                }
-            }
-            ok
+    match Adaptive2::<f32>::new(
+        &bench::filter_config(f64::from(y0)),
+        &AdaptiveConfig::default(),
+    ) {
+        Ok(est) => match cortex_m::singleton!(: Adaptive2<f32> = est) {
+            Some(e) => ESTIMATOR.put(e),
+            None => fail("a second start-up window"),
+        },
+        Err(_) => {
+            hprintln!("error: estimator configuration rejected Y0");
+            board::exit(false);
         }
-        None => {
-            hprintln!("no modal estimate at the end of the run");
-            false
-        }
-    };
-    let _ = writeln!(tx, "# end: {}", if pass { "pass" } else { "fail" });
-    // Let the TX interrupt hand the last line to the UART.
-    let mut spins = 0u32;
-    while !tx.is_drained() && spins < 1_000_000 {
-        spins += 1;
-        cortex_m::asm::nop();
     }
-    hprintln!(
-        "result: {} (all of omega, zeta within {} after {} s)",
-        if pass { "PASS" } else { "FAIL" },
-        Sci(TOLERANCE, 0),
-        Fixed(f64::from(s.samples) * TS_S, 1)
-    );
-    board::exit(pass)
 }
 
 /// Log and exit with failure (boot errors).

@@ -213,6 +213,14 @@ impl SpanSum {
         self.max_ticks = self.max_ticks.max(t);
     }
 
+    /// Add a span already measured, in ticks.
+    #[inline(always)]
+    pub fn add_ticks(&mut self, t: u32) {
+        self.ticks = self.ticks.wrapping_add(u64::from(t));
+        self.count = self.count.saturating_add(1);
+        self.max_ticks = self.max_ticks.max(t);
+    }
+
     /// Mean instructions per span at `instructions_per_tick`.
     pub fn mean_instructions(&self, instructions_per_tick: f32) -> f32 {
         if self.count == 0 {
@@ -239,5 +247,17 @@ pub fn idle_block(n: u32) {
             inout(reg) n.max(1) => _,
             options(nomem, nostack),
         );
+    }
+}
+
+/// A blocking delay for the converters' start-up (e.g. the ADS131M02's
+/// t_REGACQ): under `-icount shift=0` one instruction is one nanosecond, so
+/// `spin2(ns/2)` waits at least `ns` of virtual time.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SpinDelay;
+
+impl embedded_hal::delay::DelayNs for SpinDelay {
+    fn delay_ns(&mut self, ns: u32) {
+        spin2(ns / 2 + 1);
     }
 }

@@ -5,6 +5,8 @@
 //! * [`timer`] — CMSDK APB timer 0 at exactly 10 kHz, standing in for DRDY;
 //! * [`uart`] — CMSDK UART0, interrupt-driven rings, never blocking;
 //! * [`cycles`] — SysTick instruction counting under `-icount shift=0`;
+//! * [`meter`] — meters that tell the estimator's and the simulated chips'
+//!   instructions apart inside the sample interrupt;
 //! * [`Handoff`] — move a value from thread mode into an interrupt handler.
 //!
 //! Priorities ([`priority`]): the sample interrupt (timer 0) is the highest;
@@ -15,8 +17,16 @@
 //! Memory map: `src/board/qemu/memory.x` (selected by `build.rs`).
 
 #![allow(unsafe_code)]
+// The timer, SysTick and meter code run in the sample interrupt.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 pub mod cycles;
+pub mod meter;
 mod mmio;
 pub mod timer;
 pub mod uart;
@@ -122,6 +132,37 @@ impl<T> Handoff<T> {
     /// Take the value, if one was placed.
     pub fn take(&self) -> Option<T> {
         critical_section::with(|cs| self.0.borrow(cs).take())
+    }
+}
+
+/// A value the sample interrupt owns once thread mode has built it,
+/// although it is not `Send`: on this board the simulated rig and the
+/// drivers inside the sample task share the chip models through `&RefCell`
+/// handles ([`crate::rig::chips::Shared`]), and `RefCell` is not `Sync`.
+/// Moving the whole bundle — the models' only users — into the interrupt
+/// is sound as long as nothing outside it can still reach the models;
+/// [`IsrOwned::new`] is `unsafe` so the caller states that.
+pub struct IsrOwned<T>(T);
+
+// SAFETY: the value is used from one context at a time (thread mode until
+// it is put into a `Handoff`, the interrupt after it takes it), and by the
+// contract of `new` nothing outside it refers to what it borrows, so no
+// `RefCell` it shares is ever touched from two contexts.
+unsafe impl<T> Send for IsrOwned<T> {}
+
+impl<T> IsrOwned<T> {
+    /// Wrap `value` for the hand-off to the interrupt.
+    ///
+    /// # Safety
+    /// From this call on, nothing outside `value` may access what `value`
+    /// borrows (e.g. the `RefCell`s its parts share).
+    pub unsafe fn new(value: T) -> Self {
+        Self(value)
+    }
+
+    /// The value (in the context that owns it).
+    pub fn get_mut(&mut self) -> &mut T {
+        &mut self.0
     }
 }
 

@@ -1,0 +1,334 @@
+//! The sample interrupt's work (timer 0 at 10 kHz, standing in for the
+//! ADS131M02's DRDY): [`SampleTask::on_interrupt`].
+//!
+//! 1. **The rig** ([`ConverterRig::tick`]): the simulated beam advances one
+//!    period with the AD5761R model's held voltage, the ADS131M02 model
+//!    converts y(t_k) and the monitor (one DRDY period).
+//! 2. **The product** ([`Pipeline::tick`]): the ADS131M02 driver reads that
+//!    conversion over its `SpiDevice` (the model), the AD5761R driver writes
+//!    the next excitation value, the estimator steps, a telemetry record
+//!    goes into the SPSC queue every 100 samples.
+//! 3. **Start-up**: the pipeline starts frozen; after
+//!    [`bench::STARTUP_SAMPLES`] valid samples the RMS of y goes to thread
+//!    mode as Y0, which builds the estimator and hands it back; it is
+//!    swapped in and adaptation resumes with the law held until its
+//!    filters have settled (`Pipeline::resume`).
+//! 4. **Faults** ([`FAULTS`]): injected into the ADC model at fixed
+//!    samples, so the drivers' and the pipeline's fault paths run here too.
+//!
+//! Instruction spans (SysTick, dithered start): the rig, the chip models'
+//! SPI transactions inside the tick ([`MeteredSpi`]), the estimator's step
+//! ([`TimedEstimator`]), and the handler from after the dither to the
+//! overrun check (fault injection and the book-keeping of these spans come
+//! after it). The product's cost is that span minus the rig and the
+//! models.
+
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+use beamest::board::qemu::cycles::{self, SpanSum};
+use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
+use beamest::board::qemu::{self as board, Handoff};
+use beamest::drivers::ad5761r::Ad5761r;
+use beamest::drivers::ads131m02::Ads131m02;
+use beamest::drivers::Rail;
+use beamest::estimator::{Adaptive2, StepStatus};
+use beamest::pipeline::{Counters, NoSink, OutputScaleWindow, Pipeline, TelemetryRecord};
+use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::rig::{bench, ConverterRig};
+use cortex_m::peripheral::NVIC;
+use heapless::spsc::Producer;
+
+/// Parameters of Θ for two modes (eq. 29: 4n − 1) and of packed P.
+pub const NP: usize = 7;
+/// NP(NP + 1)/2.
+pub const NS: usize = 28;
+/// Simulated run length: 5 s at 10 kHz.
+pub const RUN_SAMPLES: u32 = 50_000;
+/// Timer-period check: SysTick across this many periods from sample
+/// `PERIOD_FROM` (the interval stays below SysTick's 0.67 s wrap).
+pub const PERIOD_FROM: u32 = 10;
+/// See [`PERIOD_FROM`].
+pub const PERIODS: u32 = 6_000;
+
+/// The estimator the pipeline steps: static storage, timed.
+pub type Est = TimedEstimator<&'static mut Adaptive2<f32>>;
+/// The ADS131M02 driver on its model.
+pub type AdcDriver = Ads131m02<MeteredSpi<Shared<'static, Ads131m02Model>>>;
+/// The AD5761R driver on its model.
+pub type DacDriver = Ad5761r<MeteredSpi<Shared<'static, Ad5761rModel>>>;
+/// A telemetry record.
+pub type Record = TelemetryRecord<f32, NP, NS>;
+/// The pipeline of this image.
+pub type RigPipeline =
+    Pipeline<f32, Est, AdcDriver, DacDriver, Producer<'static, Record>, NoSink, NP, NS>;
+
+/// A fault injected into the ADC model after the tick of `at`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The next `n` frames carry a corrupted bit after their CRC.
+    BadCrc(u32),
+    /// `n` conversions at positive full scale.
+    Saturate(u32),
+    /// `n` conversions repeat the last one.
+    Stuck(u32),
+    /// The next `n` conversions do not happen (DRDY stays clear).
+    Dropped(u32),
+}
+
+/// The schedule: (sample, fault), after convergence and ≥ 0.5 s apart so
+/// each quarantine (0.4 s) ends before the next fault.
+pub const FAULTS: [(u32, Fault); 4] = [
+    (20_000, Fault::BadCrc(10)),
+    (25_000, Fault::Saturate(50)),
+    (30_000, Fault::Stuck(100)),
+    (35_000, Fault::Dropped(5)),
+];
+
+/// The counters the schedule must produce: every injected bad conversion
+/// counted once by kind and rejected (a stuck run of n repeats is n + 1
+/// identical codes, all rejected), nothing else.
+pub fn expected_counters() -> Counters {
+    let mut c = Counters::default();
+    for (_, fault) in FAULTS {
+        let rejected = match fault {
+            Fault::BadCrc(n) => {
+                c.adc_crc += n;
+                n
+            }
+            Fault::Saturate(n) => {
+                c.bridge_saturated += n;
+                c.monitor_saturated += n;
+                n
+            }
+            Fault::Stuck(n) => {
+                c.stuck += n + 1;
+                n + 1
+            }
+            Fault::Dropped(n) => {
+                c.adc_other += n;
+                n
+            }
+        };
+        c.rejected += rejected;
+    }
+    c
+}
+
+/// Instruction spans, in SysTick ticks.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Spans {
+    /// The simulated beam and the ADC model's conversion (`rig.tick()`).
+    pub rig: SpanSum,
+    /// The chip models' SPI transactions inside `pipeline.tick()`.
+    pub models: SpanSum,
+    /// `pipeline.tick()`, models included.
+    pub tick: SpanSum,
+    /// The estimator's step.
+    pub estimator: SpanSum,
+    /// The whole handler minus the rig and the models: the product.
+    pub product: SpanSum,
+}
+
+/// What the handler hands to thread mode at the end of the run.
+#[derive(Debug, Clone, Copy)]
+pub struct Summary {
+    /// Samples run.
+    pub samples: u32,
+    /// Spans of the samples whose estimator step updated the law.
+    pub steady: Spans,
+    /// Spans of every sample (start-up, held and rejected samples too).
+    pub all: Spans,
+    /// SysTick ticks over [`PERIODS`] timer periods.
+    pub period_ticks: u32,
+    /// Samples whose handler ended with the next one already pending.
+    pub overruns: u32,
+    /// Rig ticks that failed (a model was busy; never expected).
+    pub rig_errors: u32,
+    /// The pipeline's counters.
+    pub counters: Counters,
+    /// Sample at which the estimator was swapped in.
+    pub started_at: Option<u32>,
+    /// Θ at the end.
+    pub theta: [f32; NP],
+    /// The steps' statuses: [updated, held (frozen), rejected, skipped].
+    pub step_counts: [u32; 4],
+}
+
+/// Everything the sample interrupt owns.
+pub struct SampleTask {
+    rig: ConverterRig<'static>,
+    pipeline: RigPipeline,
+    window: OutputScaleWindow<f32>,
+    meter: &'static SpiMeter,
+    y0_out: &'static Handoff<f32>,
+    estimator_in: &'static Handoff<&'static mut Adaptive2<f32>>,
+    summary_out: &'static Handoff<Summary>,
+    samples: u32,
+    started_at: Option<u32>,
+    steady: Spans,
+    all: Spans,
+    period_start: u32,
+    period_ticks: u32,
+    overruns: u32,
+    rig_errors: u32,
+    step_counts: [u32; 4],
+    finished: bool,
+}
+
+impl SampleTask {
+    /// The task around a rig and a frozen pipeline (see the module docs).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        rig: ConverterRig<'static>,
+        mut pipeline: RigPipeline,
+        meter: &'static SpiMeter,
+        y0_out: &'static Handoff<f32>,
+        estimator_in: &'static Handoff<&'static mut Adaptive2<f32>>,
+        summary_out: &'static Handoff<Summary>,
+    ) -> Self {
+        pipeline.freeze();
+        Self {
+            rig,
+            pipeline,
+            window: OutputScaleWindow::new(bench::STARTUP_SAMPLES),
+            meter,
+            y0_out,
+            estimator_in,
+            summary_out,
+            samples: 0,
+            started_at: None,
+            steady: Spans::default(),
+            all: Spans::default(),
+            period_start: 0,
+            period_ticks: 0,
+            overruns: 0,
+            rig_errors: 0,
+            step_counts: [0; 4],
+            finished: false,
+        }
+    }
+
+    /// One sample period; `entry` is SysTick at the handler's entry.
+    #[inline(never)]
+    pub fn on_interrupt(&mut self, entry: u32) {
+        if self.finished {
+            return;
+        }
+        let k = self.samples;
+        if k == RUN_SAMPLES {
+            self.finish();
+            return;
+        }
+        if k == PERIOD_FROM {
+            self.period_start = entry;
+        } else if k == PERIOD_FROM + PERIODS {
+            self.period_ticks = cycles::ticks_between(self.period_start, entry);
+        }
+        // Spread the start over SysTick's 40-instruction tick (see `cycles`).
+        cycles::dither(k);
+        let t0 = cycles::now();
+
+        // 1. The rig: the beam and the ADC model's conversion.
+        if self.rig.tick().is_err() {
+            self.rig_errors = self.rig_errors.saturating_add(1);
+        }
+        let t1 = cycles::now();
+        // 2. The product: drivers, pipeline, estimator.
+        let m0 = self.meter.ticks();
+        let tick = self.pipeline.tick();
+        let t2 = cycles::now();
+        let models = self.meter.ticks().wrapping_sub(m0);
+        // 3. Start-up: Y0 out, the estimator in.
+        if let Some(y0) = self.window.observe(&tick) {
+            self.y0_out.put(y0);
+        }
+        if self.started_at.is_none() {
+            if let Some(est) = self.estimator_in.take() {
+                let new = TimedEstimator::new(est);
+                if self
+                    .pipeline
+                    .replace_estimator(new, bench::LAMBDA_RAD_S)
+                    .is_ok()
+                {
+                    self.pipeline.resume();
+                    self.started_at = Some(k);
+                }
+            }
+        }
+        if NVIC::is_pending(board::Interrupt::TIMER0) {
+            self.overruns = self.overruns.saturating_add(1);
+        }
+        let t3 = cycles::now();
+
+        // 4. Faults for the next conversions (the rig's; not measured).
+        self.inject(k);
+        // Book-keeping (not measured).
+        let rig = cycles::ticks_between(t0, t1);
+        let whole = cycles::ticks_between(t0, t3);
+        let est = self.pipeline.estimator().last_ticks();
+        let slot = match tick.step {
+            Some(StepStatus::Updated) => Some(0),
+            Some(StepStatus::Frozen) => Some(1),
+            Some(StepStatus::Rejected) => Some(2),
+            Some(StepStatus::Skipped) => Some(3),
+            None => None,
+        };
+        if let Some(c) = slot.and_then(|i| self.step_counts.get_mut(i)) {
+            *c = c.saturating_add(1);
+        }
+        let stepped = tick.step.is_some();
+        let product = whole.saturating_sub(rig).saturating_sub(models);
+        let book = |s: &mut Spans| {
+            s.rig.add_ticks(rig);
+            s.models.add_ticks(models);
+            s.tick.add(t1, t2);
+            if stepped {
+                s.estimator.add_ticks(est);
+            }
+            s.product.add_ticks(product);
+        };
+        book(&mut self.all);
+        if slot == Some(0) {
+            book(&mut self.steady);
+        }
+        self.samples = k + 1;
+    }
+
+    fn inject(&self, k: u32) {
+        for (at, fault) in FAULTS {
+            let Ok(mut m) = self.rig.models().adc.try_borrow_mut() else {
+                return;
+            };
+            match fault {
+                Fault::BadCrc(n) if k == at => m.inject_bad_crc(n),
+                Fault::Saturate(_) if k == at => m.set_saturation(Some(Rail::High)),
+                Fault::Saturate(n) if k == at + n => m.set_saturation(None),
+                Fault::Stuck(_) if k == at => m.set_stuck(true),
+                Fault::Stuck(n) if k == at + n => m.set_stuck(false),
+                Fault::Dropped(n) if k == at => m.drop_conversions(n),
+                _ => {}
+            }
+        }
+    }
+
+    fn finish(&mut self) {
+        self.finished = true;
+        self.summary_out.put(Summary {
+            samples: self.samples,
+            steady: self.steady,
+            all: self.all,
+            period_ticks: self.period_ticks,
+            overruns: self.overruns,
+            rig_errors: self.rig_errors,
+            counters: self.pipeline.counters(),
+            started_at: self.started_at,
+            theta: beamest::estimator::Estimator::theta(self.pipeline.estimator()),
+            step_counts: self.step_counts,
+        });
+    }
+}

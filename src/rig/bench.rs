@@ -1,0 +1,170 @@
+//! The simulated bench: the paper's beam (Section IV.A) behind a realistic
+//! front end — one set of settings for the QEMU image and the host tests
+//! that run the firmware's data path, so both simulate the same rig.
+//!
+//! | part | setting | why |
+//! |---|---|---|
+//! | plant | Table III ω, ζ with eq. 46's numerator, Ts = 0.1 ms | the paper's simulation |
+//! | DAC | AD5761R ±10 V, straight binary, mid-scale at power-up | the rig's piezo DAC (driver default) |
+//! | amplifier | 10 V/V: ±10 V → ±100 V | a piezo amplifier's span |
+//! | bridge | quarter bridge, GF 2.1 (WFLA-6-11 class), 5 V, no amplifier, exact linearisation | the paper's gauge |
+//! | y | eq. 17 deflection, L = 0.36 m (Table I), L₁ = 0.34 m, h = 1 mm | the paper's output |
+//! | ADC | ADS131M02, bridge at PGA 128 (±9.4 mV), monitor at PGA 1, 24-bit words, CRC both ways | the rig's ADC (driver default but the gain) |
+//! | monitor | 100 V → 1 V (0.01 V/V) | inside the ±1.2 V input |
+//! | excitation | 0.1 V·square(7 Hz) on the piezo, window ±10 V | the paper's input |
+//! | estimator | λ = 100 rad/s, U0 = the commanded amplitude, Y0 = RMS of y over the first 0.1 s | settings from what the user knows and from the data |
+//!
+//! The beam's peak |y| under the square wave, ≈ 10.4 mm of deflection, is
+//! ≈ 267,000 codes of the bridge channel (1 code = 3.9e-8 m of y; 3% of
+//! full scale), and the 0.1 V square is ±33 codes of the DAC (held
+//! ±0.1007 V). Both figures are checked by
+//! `host-tests/tests/firmware_pipeline.rs`.
+//!
+//! Only the plant reads the paper's truth (it *is* the simulated beam); the
+//! estimator's settings come from [`filter_config`] with the measured Y0.
+
+use super::plant::{ModalPlant, PlantError};
+use crate::drivers::ad5761r;
+use crate::drivers::ads131m02::{self, PgaGain};
+use crate::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
+use crate::filter_bank::{FilterConfig, SignalScales};
+use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use crate::pipeline::{
+    adc_scales, BridgeConfig, ConversionConfig, DacLatch, Eq17, InputSource, Linearisation,
+    OutputQuantity, PipelineConfig,
+};
+use crate::scalar::Real;
+
+/// Sample rate (Hz): the paper's Ts = 0.1 ms.
+pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
+/// Sample period (s).
+pub const TS_S: f64 = 1.0 / SAMPLE_RATE_HZ;
+/// Actuator volts per DAC volt.
+pub const AMPLIFIER_GAIN: f64 = 10.0;
+/// Excitation amplitude on the piezo (V): the paper's 0.1; also U0.
+pub const EXCITATION_V: f64 = 0.1;
+/// Excitation frequency (Hz): the paper's 7.
+pub const EXCITATION_HZ: f64 = 7.0;
+/// Safe window of the piezo voltage (V).
+pub const WINDOW_V: f64 = 10.0;
+/// Filter pole λ (rad/s): the paper's choice for its beam.
+pub const LAMBDA_RAD_S: f64 = 100.0;
+/// Start-up window for Y0 (valid samples: 0.1 s).
+pub const STARTUP_SAMPLES: u32 = 1_000;
+/// Telemetry record interval (samples: 100 Hz).
+pub const TELEMETRY_EVERY: u32 = 100;
+/// A bridge code repeated this many more times is stuck (2.5 ms; the
+/// noise-free beam under the square wave never repeats a code more than a
+/// few times, and a live bridge never does).
+pub const STUCK_AFTER: u16 = 25;
+/// Output weights C̄ (eq. 24) of the two modes, for b̄ (eq. 32).
+pub const OUTPUT_WEIGHT: [f64; 2] = [-2.0, 2.0];
+
+/// The paper's simulation plant at rest.
+pub fn plant() -> Result<ModalPlant<f64>, PlantError> {
+    ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS_S)
+}
+
+/// The ADS131M02 settings: bridge at PGA 128, monitor at PGA 1, the rest
+/// the driver's defaults (OSR 256, 24-bit words, CCITT CRC both ways).
+pub fn adc_config() -> ads131m02::Config {
+    ads131m02::Config {
+        gains: [PgaGain::G128, PgaGain::G1],
+        ..ads131m02::Config::default()
+    }
+}
+
+/// The AD5761R settings: ±10 V, straight binary, 0 V at power-up.
+pub fn dac_config() -> ad5761r::Config {
+    ad5761r::Config::default()
+}
+
+/// Codes → y (eq. 17 deflection, m) and → actuator volts, at the ADC
+/// scales of [`adc_config`].
+pub fn conversion() -> ConversionConfig {
+    let [bridge_adc, monitor_adc] = adc_scales(&adc_config());
+    ConversionConfig {
+        bridge_adc,
+        bridge: BridgeConfig {
+            excitation_v: 5.0,
+            gauge_factor: 2.1,
+            amplifier_gain: 1.0,
+            null_offset_v: 0.0,
+            linearisation: Linearisation::Exact,
+            invert: false,
+        },
+        output: OutputQuantity::Deflection(Eq17 {
+            length_m: 0.36,
+            gauge_lever_arm_m: 0.34,
+            thickness_m: 1e-3,
+        }),
+        monitor_adc,
+        monitor_v_per_v: 0.01,
+    }
+}
+
+/// The pipeline: commanded u, immediate DAC update, no prefilter, a record
+/// every [`TELEMETRY_EVERY`] samples, stuck check after [`STUCK_AFTER`].
+pub fn pipeline_config() -> PipelineConfig {
+    PipelineConfig {
+        conversion: conversion(),
+        input: InputSource::Commanded,
+        amplifier_gain: AMPLIFIER_GAIN,
+        dac_latch: DacLatch::Immediate,
+        prefilter: None,
+        telemetry_every: TELEMETRY_EVERY,
+        raw_decimation: 0,
+        stuck_after: STUCK_AFTER,
+        lambda_rad_s: LAMBDA_RAD_S,
+    }
+}
+
+/// The paper's excitation, 0.1 V·square(7 Hz), inside ±[`WINDOW_V`].
+pub fn excitation<T: Real>() -> Result<Excitation<T>, ExcitationError> {
+    Excitation::new(
+        &Shape::Square {
+            frequency_hz: EXCITATION_HZ,
+        },
+        T::from_f64(EXCITATION_V),
+        T::ZERO,
+        SafeWindow {
+            min_v: T::from_f64(-WINDOW_V),
+            max_v: T::from_f64(WINDOW_V),
+        },
+        SAMPLE_RATE_HZ,
+    )
+}
+
+/// The estimator's filter settings for output scale `y0` (measured):
+/// λ = [`LAMBDA_RAD_S`], U0 = [`EXCITATION_V`], the default output hold.
+pub fn filter_config(y0: f64) -> FilterConfig {
+    FilterConfig {
+        ts_s: TS_S,
+        lambda_rad_s: LAMBDA_RAD_S,
+        scales: SignalScales {
+            u_scale: EXCITATION_V,
+            y_scale: y0,
+        },
+        ..FilterConfig::default()
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_are_valid_and_consistent() {
+        assert!(plant().is_ok());
+        assert!(excitation::<f32>().is_ok());
+        assert!(filter_config(1e-3).validate(4, 7).is_ok());
+        let c = conversion();
+        assert_eq!((c.bridge_adc.pga_gain, c.monitor_adc.pga_gain), (128, 1));
+        assert!(c.compile::<f32>().is_ok());
+        // The monitor at the amplifier's full ±100 V stays inside ±1.2 V.
+        let fe = c.analog_front_end().unwrap();
+        assert!(fe.monitor_volts(10.0 * AMPLIFIER_GAIN).abs() < 1.2);
+        assert_eq!(pipeline_config().conversion, c);
+    }
+}
