@@ -40,6 +40,7 @@ pub struct Host {
     /// (time, frames delivered, bytes) samples for the rates.
     history: VecDeque<(Instant, u64, u64)>,
     sample_rate_fallback: Option<f64>,
+    partial: u64,
 }
 
 impl Host {
@@ -62,6 +63,7 @@ impl Host {
             pending: VecDeque::new(),
             history: VecDeque::new(),
             sample_rate_fallback: None,
+            partial: 0,
         }
     }
 
@@ -76,6 +78,10 @@ impl Host {
     /// [`status`](Self::status) before it is returned.
     pub fn receive(&mut self, bytes: &[u8], now: Instant) -> Vec<Result<Frame, DecodeError>> {
         let out: Vec<_> = self.decoder.feed(bytes).collect();
+        self.partial = match bytes.iter().rposition(|&b| b == beamest::protocol::DELIMITER) {
+            Some(p) => (bytes.len() - p - 1) as u64,
+            None => self.partial + bytes.len() as u64,
+        };
         for f in out.iter().flatten() {
             self.first_seq.get_or_insert(f.seq);
             if let Message::Status(s) = &f.message {
@@ -114,6 +120,12 @@ impl Host {
             (last.1 - first.1) as f64 / dt,
             (last.2 - first.2) as f64 / dt,
         )
+    }
+
+    /// Bytes received since the last delimiter: the start of a frame not
+    /// yet complete (at the end of a capture, a frame cut short).
+    pub fn partial_bytes(&self) -> u64 {
+        self.partial
     }
 
     /// The decoder's counters.

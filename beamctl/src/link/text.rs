@@ -5,8 +5,8 @@
 //! so a line of a record or of the monitor's log can be sent again as is.
 
 use beamest::protocol::{
-    AckResult, Command, EstimatorKind, EstimatorSettings, Excitation, StatusFlags,
-    TelemetryRates, Waveform,
+    AckResult, Command, EstimatorKind, EstimatorSettings, Excitation, LinkCounters, Status,
+    StatusFlags, TelemetryRates, Waveform,
 };
 use std::fmt::Write as _;
 
@@ -179,6 +179,67 @@ pub fn result_text(r: AckResult) -> String {
             reason.describe()
         ),
     }
+}
+
+/// A Status as lines of text (`beamctl send status`).
+pub fn status_lines(s: &Status) -> Vec<String> {
+    let c = &s.counters;
+    let fw = s.firmware;
+    let fs = f64::from(s.sample_rate_hz);
+    let uptime = if fs > 0.0 {
+        format!("{:.3} s", s.uptime_samples as f64 / fs)
+    } else {
+        "?".to_string()
+    };
+    vec![
+        format!(
+            "firmware {}.{}.{}, {} mode(s), sample rate {} Hz, uptime {} samples ({uptime})",
+            fw.major, fw.minor, fw.patch, s.modes, s.sample_rate_hz, s.uptime_samples
+        ),
+        format!(
+            "adaptation: {}",
+            if s.adaptation_frozen {
+                "frozen by command"
+            } else {
+                "running"
+            }
+        ),
+        excitation_text(&s.excitation),
+        estimator_text(&s.estimator),
+        telemetry_text(&s.telemetry),
+        format!(
+            "counters: overruns {}, ADC CRC errors {}, ADC status errors {}, ADC stuck {}, ADC saturations {}, DAC saturations {}, rejected samples {}, telemetry dropped {}, commands accepted {}, commands rejected {}, rx frame errors {}",
+            c.overruns,
+            c.adc_crc_errors,
+            c.adc_status_errors,
+            c.adc_stuck,
+            c.adc_saturations,
+            c.dac_saturations,
+            c.rejected_samples,
+            c.telemetry_dropped,
+            c.commands_accepted,
+            c.commands_rejected,
+            c.rx_frame_errors
+        ),
+    ]
+}
+
+/// The decoder's counters on one line.
+pub fn counters_text(c: &LinkCounters) -> String {
+    format!(
+        "{} frames, {} lost (sequence gaps), {} CRC errors, {} framing errors, {} oversize, {} malformed, {} version mismatches, {} duplicates, {} out of order, {} bytes ({} skipped while joining)",
+        c.frames_ok,
+        c.lost,
+        c.crc_errors,
+        c.framing_errors,
+        c.oversize,
+        c.malformed,
+        c.version_mismatches,
+        c.duplicates,
+        c.out_of_order,
+        c.bytes,
+        c.skipped_bytes
+    )
 }
 
 #[cfg(test)]
