@@ -20,8 +20,8 @@ use crate::error::CliError;
 use beamctl::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
 use beamest::protocol::budget::uart_bytes_per_s;
 use beamest::protocol::{
-    AckResult, Command, DecodeError, EstimatorKind, EstimatorSettings, Excitation, Frame,
-    Message, RejectReason, Status, TelemetryRates, Waveform,
+    AckResult, Command, DecodeError, EstimatorKind, EstimatorSettings, Excitation, Frame, Message,
+    RejectReason, Status, TelemetryRates, Waveform,
 };
 use clap::{ArgGroup, Args, Parser, Subcommand, ValueEnum};
 use std::io::Write;
@@ -287,7 +287,10 @@ impl ExcitationArgs {
         let same = current_wave.filter(|w| wave_arg(w) == wave);
         let not_for = |flag: &str, given: bool| -> Result<(), String> {
             if given {
-                Err(format!("{flag} does not apply to --wave {}", wave_name(wave)))
+                Err(format!(
+                    "{flag} does not apply to --wave {}",
+                    wave_name(wave)
+                ))
             } else {
                 Ok(())
             }
@@ -398,7 +401,11 @@ impl ExcitationArgs {
                 .amplitude
                 .or(current.map(|c| c.amplitude_v))
                 .unwrap_or(0.0),
-            _ => pick(self.amplitude, current.map(|c| c.amplitude_v), "--amplitude")?,
+            _ => pick(
+                self.amplitude,
+                current.map(|c| c.amplitude_v),
+                "--amplitude",
+            )?,
         };
         Ok(Excitation {
             waveform,
@@ -596,7 +603,9 @@ impl Session {
                             self.host.answer(a);
                             return Ok(Some(f));
                         }
-                        (Wanted::StatusAfter(n), Message::Status(_)) if self.host.statuses() > *n => {
+                        (Wanted::StatusAfter(n), Message::Status(_))
+                            if self.host.statuses() > *n =>
+                        {
                             return Ok(Some(f));
                         }
                         _ => {}
@@ -662,7 +671,10 @@ pub fn run(args: &SendArgs) -> Result<(), CliError> {
         if !args.force {
             return Err(CliError::usage(
                 command_name(&args.command),
-                format!("{}; --force sends it anyway", local_refusal(reason, &s.host)),
+                format!(
+                    "{}; --force sends it anyway",
+                    local_refusal(reason, &s.host)
+                ),
             ));
         }
         eprintln!(
@@ -818,10 +830,7 @@ mod tests {
         let mut buf = [0u8; beamest::protocol::MAX_ENCODED_LEN];
         let n = beamest::protocol::encode(&s, 0, &mut buf).unwrap();
         host.receive(&buf[..n], Instant::now());
-        assert_eq!(
-            check_locally(&c, &host, &tcp),
-            Err(RejectReason::Frequency)
-        );
+        assert_eq!(check_locally(&c, &host, &tcp), Err(RejectReason::Frequency));
         // The piezo window is not in a Status: left to the device.
         let c = build("excitation --amplitude 50", Some(&s)).unwrap();
         assert_eq!(check_locally(&c, &host, &tcp), Ok(Some(())));

@@ -26,10 +26,10 @@
 
 use beamest::model::ModalParams;
 use beamest::protocol::{
-    budget::MAX_COMMAND_ENCODED_LEN, Ack, AckResult, Command, Decoder, DeviceCounters,
-    EstimatorKind, EstimatorSettings, Estimate, Excitation, FirmwareVersion, Limits, Message,
-    ModeEstimate, RawSamples, Status, StatusFlags, TelemetryRates, UySample, Waveform,
-    MAX_ENCODED_LEN, MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
+    budget::MAX_COMMAND_ENCODED_LEN, Ack, AckResult, Command, Decoder, DeviceCounters, Estimate,
+    EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, Limits, Message, ModeEstimate,
+    RawSamples, Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_ENCODED_LEN,
+    MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
 };
 use beamest::protocol::{Encoder, Payload};
 use std::io::{self, Read, Write};
@@ -330,11 +330,11 @@ impl FakeDevice {
         for _ in 0..samples {
             let k = self.next;
             self.next += 1;
-            if period(fs, self.rates.status_rate_hz).is_some_and(|p| k % p == 0) {
+            if period(fs, self.rates.status_rate_hz).is_some_and(|p| k.is_multiple_of(p)) {
                 self.send_status(out);
             }
             let d = u64::from(self.rates.raw_decimation);
-            if d > 0 && k % d == 0 {
+            if d > 0 && k.is_multiple_of(d) {
                 if self.raw.is_empty() {
                     self.raw_first = k;
                 }
@@ -344,7 +344,7 @@ impl FakeDevice {
                     self.flush_raw(out);
                 }
             }
-            if period(fs, self.rates.estimate_rate_hz).is_some_and(|p| (k + 1) % p == 0) {
+            if period(fs, self.rates.estimate_rate_hz).is_some_and(|p| (k + 1).is_multiple_of(p)) {
                 let e = self.estimate(k);
                 self.send(&e, out);
                 self.log.estimates += 1;
@@ -474,7 +474,11 @@ impl FakeDevice {
                 self.advance(due - self.next, &mut out);
             }
             if !out.is_empty() {
-                if writer.write_all(&out).and_then(|()| writer.flush()).is_err() {
+                if writer
+                    .write_all(&out)
+                    .and_then(|()| writer.flush())
+                    .is_err()
+                {
                     break ServeEnd::HostGone;
                 }
                 out.clear();

@@ -8,8 +8,8 @@
 //! plain output, `beamctl send` and the tests.
 
 use beamest::protocol::{
-    Ack, Command, DecodeError, Decoder, EncodeError, Encoder, Frame, LinkCounters, Limits,
-    Message, Status, MAX_ENCODED_LEN,
+    Ack, Command, DecodeError, Decoder, EncodeError, Encoder, Frame, Limits, LinkCounters, Message,
+    Status, MAX_ENCODED_LEN,
 };
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -78,7 +78,10 @@ impl Host {
     /// [`status`](Self::status) before it is returned.
     pub fn receive(&mut self, bytes: &[u8], now: Instant) -> Vec<Result<Frame, DecodeError>> {
         let out: Vec<_> = self.decoder.feed(bytes).collect();
-        self.partial = match bytes.iter().rposition(|&b| b == beamest::protocol::DELIMITER) {
+        self.partial = match bytes
+            .iter()
+            .rposition(|&b| b == beamest::protocol::DELIMITER)
+        {
             Some(p) => (bytes.len() - p - 1) as u64,
             None => self.partial + bytes.len() as u64,
         };
@@ -168,7 +171,11 @@ impl Host {
     /// pending from `now`. Returns its sequence number and the bytes to
     /// write (a leading delimiter, so the device drops any noise before
     /// it, then the frame).
-    pub fn command(&mut self, command: Command, now: Instant) -> Result<(u32, Vec<u8>), EncodeError> {
+    pub fn command(
+        &mut self,
+        command: Command,
+        now: Instant,
+    ) -> Result<(u32, Vec<u8>), EncodeError> {
         let mut buf = [0u8; MAX_ENCODED_LEN];
         let seq = self.encoder.next_seq();
         let n = self.encoder.encode(&command, &mut buf)?;

@@ -50,7 +50,11 @@ pub fn columns() -> Vec<String> {
     .map(|s| s.to_string())
     .collect();
     for i in 1..=MAX_MODES {
-        c.extend([format!("omega_{i}"), format!("zeta_{i}"), format!("bbar_{i}")]);
+        c.extend([
+            format!("omega_{i}"),
+            format!("zeta_{i}"),
+            format!("bbar_{i}"),
+        ]);
     }
     c.push("lambda_min".into());
     c.extend((1..=MAX_THETA).map(|i| format!("theta_{i}")));
@@ -415,7 +419,11 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
     let c = &s.counters;
     let fw = s.firmware;
     row.set(cols, "sample_rate_hz", s.sample_rate_hz);
-    row.set(cols, "firmware", format!("{}.{}.{}", fw.major, fw.minor, fw.patch));
+    row.set(
+        cols,
+        "firmware",
+        format!("{}.{}.{}", fw.major, fw.minor, fw.patch),
+    );
     row.set(cols, "modes", s.modes);
     for (name, v) in [
         ("overruns", c.overruns),
@@ -433,7 +441,11 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
         row.set(cols, name, v);
     }
     row.set(cols, "adaptation_frozen", u8::from(s.adaptation_frozen));
-    row.set(cols, "waveform", text::waveform_name(&s.excitation.waveform));
+    row.set(
+        cols,
+        "waveform",
+        text::waveform_name(&s.excitation.waveform),
+    );
     row.set(
         cols,
         "waveform_params",

@@ -83,8 +83,7 @@ impl fmt::Debug for Connection {
 
 /// Open `endpoint`. The error says what could not be opened and why.
 pub fn open(endpoint: &Endpoint) -> Result<Connection, String> {
-    let (reader, writer): (Box<dyn Read + Send>, Option<Box<dyn Write + Send>>) = match endpoint
-    {
+    let (reader, writer): (Box<dyn Read + Send>, Option<Box<dyn Write + Send>>) = match endpoint {
         Endpoint::Serial { path, baud } => {
             let port = serialport::new(path.as_str(), *baud)
                 .timeout(SERIAL_READ_TIMEOUT)
@@ -188,7 +187,10 @@ impl Connection {
                     Ok(0) => break StreamEnd::Eof,
                     Ok(n) => {
                         let bytes = buf.get(..n).unwrap_or_default().to_vec();
-                        if tx.send(Incoming::Bytes(bytes, Instant::now()).into()).is_err() {
+                        if tx
+                            .send(Incoming::Bytes(bytes, Instant::now()).into())
+                            .is_err()
+                        {
                             return;
                         }
                     }

@@ -458,7 +458,10 @@ impl Loop<'_> {
         if let Err(reason) = send::check_locally(&command, &st.host, self.endpoint) {
             let refusal = send::local_refusal(reason, &st.host);
             if !force {
-                self.note(st, format!("{text}: {refusal}; prefix with ! to send it anyway"));
+                self.note(
+                    st,
+                    format!("{text}: {refusal}; prefix with ! to send it anyway"),
+                );
                 return;
             }
             self.note(st, format!("{text}: {refusal}; sent anyway (!)"));
@@ -569,7 +572,11 @@ fn finish(
     if let Some(p) = &args.plot {
         match plot::write(p, st) {
             Ok(text) => {
-                let note = if text { "" } else { ", without text: no font found" };
+                let note = if text {
+                    ""
+                } else {
+                    ", without text: no font found"
+                };
                 kept.push(format!("{}{note}", p.display()));
             }
             Err(e) => problems.push(e.message),

@@ -52,7 +52,9 @@ pub fn write(path: &Path, st: &State) -> Result<bool, CliError> {
                 format!("estimated ω{} (rad/s)", i + 1),
                 (|p: &Point, i: usize| p.omega[i]) as fn(&Point, usize) -> f64,
             ),
-            (format!("estimated ζ{}", i + 1), |p: &Point, i: usize| p.zeta[i]),
+            (format!("estimated ζ{}", i + 1), |p: &Point, i: usize| {
+                p.zeta[i]
+            }),
         ]
         .into_iter()
         .enumerate()
@@ -133,10 +135,18 @@ mod tests {
     #[test]
     fn y_range_skips_the_transient() {
         let line: Vec<(f64, f64)> = (0..100)
-            .map(|k| (k as f64 * 0.1, if k < 3 { 1e6 } else { 40.0 + 0.01 * k as f64 }))
+            .map(|k| {
+                (
+                    k as f64 * 0.1,
+                    if k < 3 { 1e6 } else { 40.0 + 0.01 * k as f64 },
+                )
+            })
             .collect();
         let (lo, hi) = y_range(&line, (0.0, 9.9));
-        assert!(lo < 40.05 && lo > 39.0 && hi > 40.98 && hi < 42.0, "{lo} {hi}");
+        assert!(
+            lo < 40.05 && lo > 39.0 && hi > 40.98 && hi < 42.0,
+            "{lo} {hi}"
+        );
         // Flat: still a visible band around the value.
         let flat: Vec<(f64, f64)> = (0..10).map(|k| (k as f64, 0.02)).collect();
         let (lo, hi) = y_range(&flat, (0.0, 9.0));

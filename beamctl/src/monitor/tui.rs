@@ -132,7 +132,9 @@ pub fn draw(f: &mut Frame<'_>, st: &State, now: Instant) {
         Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(charts);
     let rows = Layout::vertical(vec![Constraint::Ratio(1, modes as u32); modes]);
     for (i, (wa, za)) in rows.split(w).iter().zip(rows.split(z).iter()).enumerate() {
-        chart(f, *wa, st, i, &format!("ω̂{} (rad/s)", i + 1), |p, i| p.omega[i]);
+        chart(f, *wa, st, i, &format!("ω̂{} (rad/s)", i + 1), |p, i| {
+            p.omega[i]
+        });
         chart(f, *za, st, i, &format!("ζ̂{}", i + 1), |p, i| p.zeta[i]);
     }
     f.render_widget(command_pane(st, commands), commands);
@@ -211,10 +213,10 @@ fn estimate_pane(st: &State, now: Instant, modes: usize) -> Paragraph<'static> {
         };
         lines.push(Line::from(row).fg(MODE_COLORS[i % MAX_MODES]));
     }
-    let t = st
-        .host
-        .time_s(e.sample_index)
-        .map_or_else(|| format!("sample {}", e.sample_index), |t| format!("t {t:.3} s"));
+    let t = st.host.time_s(e.sample_index).map_or_else(
+        || format!("sample {}", e.sample_index),
+        |t| format!("t {t:.3} s"),
+    );
     let level = e
         .excitation_level
         .map_or_else(|| "-".to_string(), |l| format!("{l:.3e}"));
@@ -302,7 +304,10 @@ fn series(
     let Some(fs) = st.host.sample_rate_hz() else {
         return (Vec::new(), 0.0);
     };
-    let t_end = st.history.last().map_or(0.0, |p| p.sample_index as f64 / fs);
+    let t_end = st
+        .history
+        .last()
+        .map_or(0.0, |p| p.sample_index as f64 / fs);
     let t0 = t_end - CHART_WINDOW_S;
     let start = st
         .history
@@ -445,16 +450,23 @@ mod tests {
     #[test]
     fn keys_open_the_command_line_and_send() {
         let (_, mut st) = screen();
-        let press = |st: &mut State, c: KeyCode| {
-            key(st, ct::KeyEvent::new(c, KeyModifiers::NONE))
-        };
-        assert!(matches!(press(&mut st, KeyCode::Char('f')), KeyAction::Send(CommandArgs::Freeze, false)));
-        assert!(matches!(press(&mut st, KeyCode::Char(':')), KeyAction::None));
+        let press = |st: &mut State, c: KeyCode| key(st, ct::KeyEvent::new(c, KeyModifiers::NONE));
+        assert!(matches!(
+            press(&mut st, KeyCode::Char('f')),
+            KeyAction::Send(CommandArgs::Freeze, false)
+        ));
+        assert!(matches!(
+            press(&mut st, KeyCode::Char(':')),
+            KeyAction::None
+        ));
         for c in "!reset".chars() {
             press(&mut st, KeyCode::Char(c));
         }
         assert_eq!(st.input.as_deref(), Some("!reset"));
-        assert!(matches!(press(&mut st, KeyCode::Enter), KeyAction::Send(CommandArgs::Reset, true)));
+        assert!(matches!(
+            press(&mut st, KeyCode::Enter),
+            KeyAction::Send(CommandArgs::Reset, true)
+        ));
         assert!(st.input.is_none());
         press(&mut st, KeyCode::Char(':'));
         for c in "bogus".chars() {
@@ -462,6 +474,9 @@ mod tests {
         }
         assert!(matches!(press(&mut st, KeyCode::Enter), KeyAction::None));
         assert!(st.log.back().unwrap().starts_with("'bogus':"));
-        assert!(matches!(press(&mut st, KeyCode::Char('q')), KeyAction::Quit));
+        assert!(matches!(
+            press(&mut st, KeyCode::Char('q')),
+            KeyAction::Quit
+        ));
     }
 }
