@@ -257,6 +257,7 @@ impl Loop<'_> {
             .duration
             .map(|d| st.start + Duration::from_secs_f64(d));
         let mut next_draw = Instant::now();
+        let mut next_capture_flush = Instant::now();
         loop {
             let now = Instant::now();
             if deadline.is_some_and(|d| now >= d) {
@@ -320,10 +321,13 @@ impl Loop<'_> {
                     return End::Failure(format!("--record: {m}"));
                 }
             }
-            if let Some(c) = capture.as_deref_mut() {
-                if let Err(e) = c.flush() {
-                    return End::Failure(format!("--capture: {e}"));
+            if now >= next_capture_flush {
+                if let Some(c) = capture.as_deref_mut() {
+                    if let Err(e) = c.flush() {
+                        return End::Failure(format!("--capture: {e}"));
+                    }
                 }
+                next_capture_flush = now + beamctl::link::record::FLUSH_EVERY;
             }
         }
     }
