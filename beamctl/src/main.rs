@@ -86,9 +86,10 @@ refused it (exit 1), or that no acknowledgement came within --timeout (exit 1).
 Settings not given are kept from the device's current ones, read from a Status that \
 send asks for first (so `excitation --amplitude 0.2` changes only the amplitude). The \
 command is checked locally with the device's own rules against what its Status tells \
-(sample rate, mode count, and the baud rate's link budget with --port); a command \
-refused there is not sent (exit 2) unless --force. The device checks it again against \
-its full limits (piezo safe window, generators, estimators) and decides.";
+(sample rate, mode count, and the baud rate's link budget with --port); a command that \
+check expects to be refused is still sent, with a warning on stderr, because the device \
+decides: it checks the command against its full limits (piezo safe window, generators, \
+estimators) and answers.";
 
 const SIMULATE_ABOUT: &str = "\
 Run an estimator against the simulated beam and compare its estimates with the truth \

@@ -504,36 +504,24 @@ fn send_rejected_prints_the_reason_and_changes_nothing() {
 }
 
 #[test]
-fn send_refused_locally_is_not_sent_unless_forced() {
+fn send_warns_when_the_local_check_expects_a_refusal_and_the_device_decides() {
     let (addr, dev) = fake_tcp(FakeConfig::default(), None);
     let o = beamctl(&["send", "--tcp", &addr, "excitation", "--freq", "6000"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).starts_with("error: excitation: refused locally (4 Frequency): frequency not in (0, Nyquist) (device sample rate 10000 Hz"),
-        "{}",
-        stderr(&o)
-    );
-    let dev = dev.join().unwrap();
-    assert_eq!(dev.log().commands.len(), 1, "only the status request");
-
-    let (addr, dev) = fake_tcp(FakeConfig::default(), None);
-    let o = beamctl(&[
-        "send",
-        "--tcp",
-        &addr,
-        "--force",
-        "excitation",
-        "--freq",
-        "6000",
-    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 2, "{err}");
     assert!(
-        stderr(&o).contains("error: the device rejected (4 Frequency)"),
-        "{}",
-        stderr(&o)
+        lines[0].starts_with("warning: excitation: the local check expects a refusal (4 Frequency: frequency not in (0, Nyquist); device sample rate 10000 Hz"),
+        "{err}"
+    );
+    assert!(
+        lines[1].starts_with("error: the device rejected (4 Frequency)"),
+        "{err}"
     );
     let dev = dev.join().unwrap();
-    assert_eq!(dev.log().commands.len(), 2);
+    assert_eq!(dev.log().commands.len(), 2, "sent: the device decided");
+    assert_eq!(dev.excitation(), &Excitation::default());
 }
 
 #[test]
@@ -607,7 +595,8 @@ fn monitor_sends_commands_from_stdin() {
         "#1 excitation --wave chirp --band 1:100 --sweep 10 --amplitude 0.1 --offset 0: sent",
         "#1 excitation --wave chirp --band 1:100 --sweep 10 --amplitude 0.1 --offset 0: accepted",
         "'launch': ",
-        "telemetry --estimates 20000 --raw-decimation 0 --status 1: refused locally (13 Rate)",
+        "telemetry --estimates 20000 --raw-decimation 0 --status 1: the local check expects a refusal (13 Rate",
+        "#2 telemetry --estimates 20000 --raw-decimation 0 --status 1: rejected (13 Rate)",
     ] {
         assert!(err.contains(want), "missing {want:?} in {err}");
     }

@@ -137,7 +137,7 @@ enum End {
 pub enum KeyAction {
     None,
     Quit,
-    Send(CommandArgs, bool),
+    Send(CommandArgs),
 }
 
 fn check_seconds(flag: &str, v: f64) -> Result<(), CliError> {
@@ -219,7 +219,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
         errors_unreported: 0,
     };
     if writable {
-        lp.submit(&mut st, Command::RequestStatus, false, Instant::now());
+        lp.submit(&mut st, Command::RequestStatus, Instant::now());
     }
 
     let mut terminal = if tui { Some(ratatui::init()) } else { None };
@@ -291,7 +291,7 @@ impl Loop<'_> {
                 Ok(Event::Link(Incoming::End(e))) => return End::Stream(e),
                 Ok(Event::Key(k)) => match tui::key(st, k) {
                     KeyAction::Quit => return End::User,
-                    KeyAction::Send(c, force) => self.submit_args(st, &c, force, Instant::now()),
+                    KeyAction::Send(c) => self.submit_args(st, &c, Instant::now()),
                     KeyAction::None => next_draw = Instant::now(),
                 },
                 Ok(Event::Line(line)) => self.line(st, &line),
@@ -430,25 +430,21 @@ impl Loop<'_> {
         if line.is_empty() || line.starts_with('#') {
             return;
         }
-        let (force, line) = match line.strip_prefix('!') {
-            Some(rest) => (true, rest),
-            None => (false, line),
-        };
         match send::parse_line(line) {
-            Ok(c) => self.submit_args(st, &c, force, Instant::now()),
+            Ok(c) => self.submit_args(st, &c, Instant::now()),
             Err(m) => self.note(st, format!("'{line}': {m}")),
         }
     }
 
-    fn submit_args(&mut self, st: &mut State, c: &CommandArgs, force: bool, now: Instant) {
+    fn submit_args(&mut self, st: &mut State, c: &CommandArgs, now: Instant) {
         match c.build(st.host.status()) {
-            Ok(cmd) => self.submit(st, cmd, force, now),
+            Ok(cmd) => self.submit(st, cmd, now),
             Err(m) => self.note(st, m),
         }
     }
 
     /// Check, send and record a command.
-    fn submit(&mut self, st: &mut State, command: Command, force: bool, now: Instant) {
+    fn submit(&mut self, st: &mut State, command: Command, now: Instant) {
         let text = text::command_text(&command);
         if self.writer.is_none() {
             let why = if self.endpoint.is_live() {
@@ -460,15 +456,8 @@ impl Loop<'_> {
             return;
         };
         if let Err(reason) = send::check_locally(&command, &st.host, self.endpoint) {
-            let refusal = send::local_refusal(reason, &st.host);
-            if !force {
-                self.note(
-                    st,
-                    format!("{text}: {refusal}; prefix with ! to send it anyway"),
-                );
-                return;
-            }
-            self.note(st, format!("{text}: {refusal}; sent anyway (!)"));
+            let warning = send::local_refusal(reason, &st.host);
+            self.note(st, format!("{text}: {warning}"));
         }
         let (seq, bytes) = match st.host.command(command, now) {
             Ok(x) => x,

@@ -24,8 +24,7 @@
 //!
 //! Keys: `q` (or Esc, Ctrl-C) quits; `:` opens the command line, where any
 //! `beamctl send` command is typed (`excitation --amplitude 0.2`,
-//! `estimator --gain 2e4`, `reset`, …; a leading `!` sends it even if the
-//! local check refuses it), Enter sends, Esc closes; `f`, `r` and `s` send
+//! `estimator --gain 2e4`, `reset`, …), Enter sends, Esc closes; `f`, `r` and `s` send
 //! freeze, resume and a status request.
 
 use super::state::State;
@@ -79,17 +78,13 @@ pub fn key(st: &mut State, k: ct::KeyEvent) -> KeyAction {
             KeyCode::Enter => {
                 let line = st.input.take().unwrap_or_default();
                 let line = line.trim();
-                let (force, body) = match line.strip_prefix('!') {
-                    Some(rest) => (true, rest),
-                    None => (false, line),
-                };
-                if body.is_empty() {
+                if line.is_empty() {
                     return KeyAction::None;
                 }
-                return match send::parse_line(body) {
-                    Ok(c) => KeyAction::Send(c, force),
+                return match send::parse_line(line) {
+                    Ok(c) => KeyAction::Send(c),
                     Err(m) => {
-                        st.log(format!("'{body}': {m}"));
+                        st.log(format!("'{line}': {m}"));
                         KeyAction::None
                     }
                 };
@@ -105,9 +100,9 @@ pub fn key(st: &mut State, k: ct::KeyEvent) -> KeyAction {
             st.input = Some(String::new());
             KeyAction::None
         }
-        KeyCode::Char('f') => KeyAction::Send(CommandArgs::Freeze, false),
-        KeyCode::Char('r') => KeyAction::Send(CommandArgs::Resume, false),
-        KeyCode::Char('s') => KeyAction::Send(CommandArgs::Status, false),
+        KeyCode::Char('f') => KeyAction::Send(CommandArgs::Freeze),
+        KeyCode::Char('r') => KeyAction::Send(CommandArgs::Resume),
+        KeyCode::Char('s') => KeyAction::Send(CommandArgs::Status),
         _ => KeyAction::None,
     }
 }
@@ -453,19 +448,20 @@ mod tests {
         let press = |st: &mut State, c: KeyCode| key(st, ct::KeyEvent::new(c, KeyModifiers::NONE));
         assert!(matches!(
             press(&mut st, KeyCode::Char('f')),
-            KeyAction::Send(CommandArgs::Freeze, false)
+            KeyAction::Send(CommandArgs::Freeze)
         ));
         assert!(matches!(
             press(&mut st, KeyCode::Char(':')),
             KeyAction::None
         ));
-        for c in "!reset".chars() {
+        for c in "resett".chars() {
             press(&mut st, KeyCode::Char(c));
         }
-        assert_eq!(st.input.as_deref(), Some("!reset"));
+        press(&mut st, KeyCode::Backspace);
+        assert_eq!(st.input.as_deref(), Some("reset"));
         assert!(matches!(
             press(&mut st, KeyCode::Enter),
-            KeyAction::Send(CommandArgs::Reset, true)
+            KeyAction::Send(CommandArgs::Reset)
         ));
         assert!(st.input.is_none());
         press(&mut st, KeyCode::Char(':'));

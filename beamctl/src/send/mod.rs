@@ -9,12 +9,13 @@
 //!
 //! Every command is checked locally with the core's `Command::validate`,
 //! against what the last Status tells (sample rate, mode count; the baud
-//! rate's link budget for `--port`), before it is sent: a command refused
-//! there is not sent (exit 2) unless `--force`. The device checks it again
-//! against its full limits (the piezo's safe window, its generators and
-//! estimators) and has the last word: its Ack is printed, and a negative
-//! one (the reason code and its meaning) exits 1, as does no answer within
-//! `--timeout`.
+//! rate's link budget for `--port`). The local check only informs: a
+//! command it expects the device to refuse is still sent, with a warning
+//! that gives the reason and the device's sample rate, because the device
+//! decides. It checks the command against its full limits (the piezo's
+//! safe window, its generators and estimators); its Ack is printed, and a
+//! negative one (the reason code and its meaning) exits 1, as does no
+//! answer within `--timeout`.
 
 use crate::error::CliError;
 use beamctl::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
@@ -70,11 +71,6 @@ pub struct SendArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
     pub timeout: f64,
 
-    /// Send the command even if the local check refuses it (the device
-    /// checks it again and decides).
-    #[arg(long)]
-    pub force: bool,
-
     #[command(subcommand)]
     pub command: CommandArgs,
 }
@@ -101,13 +97,13 @@ pub fn check_locally(
     }
 }
 
-/// The message for a command refused by the local check.
+/// The warning for a command the local check expects the device to refuse.
 pub fn local_refusal(reason: RejectReason, host: &Host) -> String {
     let fs = host
         .status()
         .map_or_else(|| "?".to_string(), |s| s.sample_rate_hz.to_string());
     format!(
-        "refused locally ({} {reason:?}): {} (device sample rate {fs} Hz, from its last Status)",
+        "the local check expects a refusal ({} {reason:?}: {}; device sample rate {fs} Hz, from its last Status); sent anyway, the device decides",
         reason as u8,
         reason.describe()
     )
@@ -258,17 +254,9 @@ pub fn run(args: &SendArgs) -> Result<(), CliError> {
         .build(s.host.status())
         .map_err(|m| CliError::usage(command_name(&args.command), m))?;
     if let Err(reason) = check_locally(&command, &s.host, &endpoint) {
-        if !args.force {
-            return Err(CliError::usage(
-                command_name(&args.command),
-                format!(
-                    "{}; --force sends it anyway",
-                    local_refusal(reason, &s.host)
-                ),
-            ));
-        }
         eprintln!(
-            "warning: {}; sending it anyway (--force)",
+            "warning: {}: {}",
+            command_name(&args.command),
             local_refusal(reason, &s.host)
         );
     }
