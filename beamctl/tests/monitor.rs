@@ -581,14 +581,20 @@ fn monitor_sends_commands_from_stdin() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // After the start-up Status has arrived.
-    std::thread::sleep(Duration::from_millis(700));
+    // Once an estimate is printed, the Status before it has arrived (the
+    // fake device sends one at its start-up): unspecified settings are known.
+    let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut first = String::new();
+    std::io::BufRead::read_line(&mut out, &mut first).unwrap();
+    assert!(first.starts_with("sample="), "{first}");
     let mut stdin = child.stdin.take().unwrap();
     stdin
         .write_all(b"excitation --wave chirp --band 1:100 --sweep 10\nlaunch\ntelemetry --estimates 20000\n")
         .unwrap();
     drop(stdin);
+    let drain = std::thread::spawn(move || std::io::copy(&mut out, &mut std::io::sink()));
     let o = child.wait_with_output().unwrap();
+    drain.join().unwrap().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     for want in [
