@@ -4,7 +4,9 @@
 //!
 //! * [`runner`] — run one estimator against the simulated rig
 //!   ([`beamest::rig::Rig`]) and measure it against the truth;
-//! * [`scenario`] — which beam is simulated and its true parameters.
+//! * [`scenario`] — which beam is simulated and its true parameters;
+//! * [`link`] — the host end of the serial link (`beamctl monitor`,
+//!   `beamctl send`) and a fake device that speaks the protocol.
 //!
 //! The command-line front end is `src/main.rs`.
 
@@ -13,6 +15,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_docs)]
 
+pub mod link;
 pub mod runner;
 pub mod scenario;
 

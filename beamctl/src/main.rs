@@ -8,6 +8,10 @@
 //! * `beamctl model` prints the physical beam's modal model (Section II and
 //!   Appendix: Tables I–II → β_iL, ω_i, ζ_i, m_ii, k_ii, c_ii, z_i, b̄_i, c_i,
 //!   and the transfer function of eqs. 25–26).
+//! * `beamctl monitor` watches a device over the serial link
+//!   (docs/PROTOCOL.md): live view or one line per estimate, record, plot,
+//!   commands.
+//! * `beamctl send` sends one command to a device and prints its answer.
 //!
 //! This file holds the command-line definitions only; each subcommand lives
 //! in its own module. Errors are reported as one line on stderr
@@ -17,8 +21,10 @@
 mod csvout;
 mod error;
 mod model;
+mod monitor;
 mod plot;
 mod progress;
+mod send;
 mod simulate;
 mod table;
 
@@ -45,7 +51,45 @@ enum Command {
     /// transfer function).
     #[command(long_about = MODEL_ABOUT)]
     Model(ModelArgs),
+    /// Watch a device's estimates live (serial port, TCP or a capture file),
+    /// record them, send it commands.
+    #[command(long_about = MONITOR_ABOUT)]
+    Monitor(monitor::MonitorArgs),
+    /// Send one command to a device (excitation, estimator settings,
+    /// telemetry rates, reset, freeze, resume, status) and print its answer.
+    #[command(long_about = SEND_ABOUT)]
+    Send(send::SendArgs),
 }
+
+const MONITOR_ABOUT: &str = "\
+Watch a device's estimates live over the serial link (docs/PROTOCOL.md): from a serial \
+port (--port, --baud), a TCP socket (--tcp, e.g. QEMU's -serial tcp:...) or a file of \
+captured bytes (--file).
+
+On a terminal: a live view of the current estimates (ω̂_i, ζ̂_i, b̂̄_i, λmin(P), flags), \
+charts of ω̂_i and ζ̂_i over the last 60 s of device time, the link's health (frames/s, \
+frames lost by sequence gaps, CRC and framing errors, the device's counters) and a \
+command line (:). Otherwise, or with --plain: one line per estimate on stdout \
+(sample=... t_s=... seq=... law=... omega_rad_s=... zeta=... bbar=... lambda_min=... \
+flags=...), messages on stderr.
+
+At start-up the monitor asks a live device for a Status (its sample rate and settings) \
+unless --listen-only. It stops after --duration, on q or Ctrl-C, at the end of a --file \
+(exit 0), when a live device disappears (exit 1) or when it meets another protocol \
+version (exit 1); the --record and --capture files are flushed at least every 0.25 s and \
+kept in every case.";
+
+const SEND_ABOUT: &str = "\
+Send one command to a device and print its acknowledgement, or the reason the device \
+refused it (exit 1), or that no acknowledgement came within --timeout (exit 1).
+
+Settings not given are kept from the device's current ones, read from a Status that \
+send asks for first (so `excitation --amplitude 0.2` changes only the amplitude). The \
+command is checked locally with the device's own rules against what its Status tells \
+(sample rate, mode count, and the baud rate's link budget with --port); a command that \
+check expects to be refused is still sent, with a warning on stderr, because the device \
+decides: it checks the command against its full limits (piezo safe window, generators, \
+estimators) and answers.";
 
 const SIMULATE_ABOUT: &str = "\
 Run an estimator against the simulated beam and compare its estimates with the truth \
@@ -242,6 +286,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Simulate(args) => simulate::run(args),
         Command::Model(args) => model::run(args),
+        Command::Monitor(args) => monitor::run(args),
+        Command::Send(args) => send::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -133,7 +133,7 @@ const FONT_PATHS: &[&str] = &[
 const FONT_DIRS: &[&str] = &["/usr/share/fonts", "/usr/local/share/fonts"];
 
 /// Register a sans-serif font with plotters once; true if one was found.
-fn ensure_font() -> bool {
+pub fn ensure_font() -> bool {
     static FOUND: OnceLock<bool> = OnceLock::new();
     *FOUND.get_or_init(|| {
         let candidates: Vec<PathBuf> = match std::env::var_os("BEAMCTL_FONT") {

@@ -1,0 +1,161 @@
+//! What the monitor knows and shows: the link (through [`Host`]), the last
+//! estimate, the history of ω̂ and ζ̂ for the chart and the plot, and the
+//! log of commands and their answers. The terminal view and the plain
+//! output are both drawn from a [`State`].
+
+use beamctl::link::{text, Host};
+use beamest::protocol::{Estimate, Frame, Message, MAX_MODES};
+use std::collections::VecDeque;
+use std::time::Instant;
+
+/// Lines kept in the command log.
+pub const LOG_LINES: usize = 200;
+
+/// One estimate in the history.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// The estimate's sample index.
+    pub sample_index: u64,
+    /// Number of modes in the estimate (0: recovery failed).
+    pub modes: usize,
+    /// ω̂_i (rad/s).
+    pub omega: [f64; MAX_MODES],
+    /// ζ̂_i.
+    pub zeta: [f64; MAX_MODES],
+}
+
+/// Frames delivered, by kind.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct KindCounts {
+    /// Estimates.
+    pub estimates: u64,
+    /// Raw-sample blocks.
+    pub raw: u64,
+    /// Status frames.
+    pub status: u64,
+    /// Acknowledgements.
+    pub acks: u64,
+    /// Frames of a host → device kind (a loop-back, or a wrong wire).
+    pub other: u64,
+}
+
+/// The monitor's state.
+#[derive(Debug)]
+pub struct State {
+    /// What the bytes come from (for titles and messages).
+    pub source: String,
+    /// The link.
+    pub host: Host,
+    /// The last estimate and when it arrived.
+    pub last: Option<(Estimate, Instant)>,
+    /// Every estimate's ω̂, ζ̂, in arrival order.
+    pub history: Vec<Point>,
+    /// Commands sent and their answers, newest last.
+    pub log: VecDeque<String>,
+    /// The command line being typed in the terminal view, if open.
+    pub input: Option<String>,
+    /// When the monitor started.
+    pub start: Instant,
+    /// Frames by kind.
+    pub kinds: KindCounts,
+    /// Commands can be sent (a live device, not --listen-only).
+    pub writable: bool,
+}
+
+impl State {
+    /// A state for `source`.
+    pub fn new(source: String, host: Host, writable: bool) -> Self {
+        Self {
+            source,
+            host,
+            last: None,
+            history: Vec::new(),
+            log: VecDeque::new(),
+            input: None,
+            start: Instant::now(),
+            kinds: KindCounts::default(),
+            writable,
+        }
+    }
+
+    /// Seconds since the start (host clock).
+    pub fn host_s(&self, now: Instant) -> f64 {
+        now.duration_since(self.start).as_secs_f64()
+    }
+
+    /// Add a line to the command log.
+    pub fn log(&mut self, line: String) {
+        if self.log.len() == LOG_LINES {
+            self.log.pop_front();
+        }
+        self.log.push_back(line);
+    }
+
+    /// Take note of a delivered frame (counts, last estimate, history).
+    pub fn frame(&mut self, f: &Frame, now: Instant) {
+        match &f.message {
+            Message::Estimate(e) => {
+                self.kinds.estimates += 1;
+                let mut p = Point {
+                    sample_index: e.sample_index,
+                    modes: e.modes.len(),
+                    omega: [f64::NAN; MAX_MODES],
+                    zeta: [f64::NAN; MAX_MODES],
+                };
+                for (i, m) in e.modes.iter().enumerate().take(MAX_MODES) {
+                    p.omega[i] = f64::from(m.omega_rad_s);
+                    p.zeta[i] = f64::from(m.zeta);
+                }
+                self.history.push(p);
+                self.last = Some((e.clone(), now));
+            }
+            Message::RawSamples(_) => self.kinds.raw += 1,
+            Message::Status(_) => self.kinds.status += 1,
+            Message::Ack(_) => self.kinds.acks += 1,
+            Message::Command(_) => self.kinds.other += 1,
+        }
+    }
+
+    /// The most modes seen in an estimate (for charts and plots).
+    pub fn modes(&self) -> usize {
+        let seen = self.history.iter().map(|p| p.modes).max().unwrap_or(0);
+        let status = self
+            .host
+            .status()
+            .map_or(0, |s| usize::from(s.modes).min(MAX_MODES));
+        seen.max(status)
+    }
+}
+
+/// One line per estimate (plain output): sample index, device time,
+/// sequence number, law, ω̂, ζ̂, b̂̄ per mode, λmin(P) and the flags.
+/// Values are the f32 the device sent, printed exactly (shortest form);
+/// `-` where there is none, `?` for a time before the sample rate is known.
+pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
+    let t = host
+        .time_s(e.sample_index)
+        .map_or_else(|| "?".to_string(), |t| t.to_string());
+    let list = |f: &dyn Fn(&beamest::protocol::ModeEstimate) -> f32| {
+        if e.modes.is_empty() {
+            "-".to_string()
+        } else {
+            e.modes
+                .iter()
+                .map(|m| f(m).to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        }
+    };
+    let level = e
+        .excitation_level
+        .map_or_else(|| "-".to_string(), |l| l.to_string());
+    format!(
+        "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_min={level} flags={}",
+        e.sample_index,
+        text::estimator_name(e.estimator),
+        list(&|m| m.omega_rad_s),
+        list(&|m| m.zeta),
+        list(&|m| m.b_bar),
+        text::flags_text(e.flags, "|"),
+    )
+}

@@ -1,0 +1,501 @@
+//! The command grammar shared by `beamctl send` and the monitor's command
+//! line: clap definitions ([`CommandArgs`]) and how they become a protocol
+//! [`Command`], with the settings not given taken from the device's last
+//! Status.
+
+use beamest::protocol::{
+    Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
+};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// A command to the device.
+#[derive(Debug, Clone, Subcommand)]
+pub enum CommandArgs {
+    /// Set the excitation: waveform, amplitude, offset; what is not given
+    /// is kept from the device's current excitation.
+    Excitation(ExcitationArgs),
+    /// Set the estimator settings (the estimator restarts with them); what
+    /// is not given is kept from the device's current settings.
+    Estimator(EstimatorArgs),
+    /// Set the telemetry rates; what is not given is kept.
+    Telemetry(TelemetryArgs),
+    /// Reset the estimator to its initial state (settings kept).
+    Reset,
+    /// Freeze adaptation (Θ̂ held, filters running).
+    Freeze,
+    /// Resume adaptation.
+    Resume,
+    /// Ask for a Status and print it.
+    Status,
+}
+
+/// The waveforms of `excitation --wave`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WaveArg {
+    /// No excitation: the output holds the offset.
+    Off,
+    /// Square wave (--freq).
+    Square,
+    /// Sum of sines over a band (--band, --tones).
+    Multisine,
+    /// Maximal-length PRBS (--bit-rate, --bits).
+    Prbs,
+    /// Linear chirp, repeated (--band, --sweep).
+    Chirp,
+}
+
+/// Options of `excitation`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct ExcitationArgs {
+    /// Waveform [default: the current one].
+    #[arg(long, value_enum, value_name = "KIND")]
+    pub wave: Option<WaveArg>,
+    /// Square wave frequency (Hz).
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub freq: Option<f32>,
+    /// Band LO:HI (Hz): multisine f_min:f_max, chirp f_start:f_end.
+    #[arg(long, value_name = "LO:HI", value_parser = parse_band, allow_hyphen_values = true)]
+    pub band: Option<(f32, f32)>,
+    /// Multisine tone count.
+    #[arg(long, value_name = "N")]
+    pub tones: Option<u8>,
+    /// PRBS bit rate (Hz).
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub bit_rate: Option<f32>,
+    /// PRBS shift-register length (bits).
+    #[arg(long, value_name = "N")]
+    pub bits: Option<u8>,
+    /// Chirp sweep time (s).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub sweep: Option<f32>,
+    /// Peak deviation from the offset (V).
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub amplitude: Option<f32>,
+    /// DC offset (V).
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub offset: Option<f32>,
+}
+
+/// The laws of `estimator --law`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LawArg {
+    /// The paper's adaptive law (eqs. 33–41).
+    Adaptive,
+    /// Gradient (eq. 47).
+    Gradient,
+    /// Least squares (eq. 48).
+    Ls,
+    /// Bias-compensated law, where the firmware has one.
+    Robust,
+}
+
+/// Options of `estimator`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct EstimatorArgs {
+    /// Update law.
+    #[arg(long, value_enum, value_name = "LAW")]
+    pub law: Option<LawArg>,
+    /// Γ of eq. 41 (1/s) (gradient law: Γ1 = gain·I of eq. 47).
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
+    pub gain: Option<f32>,
+    /// Forgetting rate l of eq. 33 (1/s).
+    #[arg(long, value_name = "L", allow_negative_numbers = true)]
+    pub forgetting_p: Option<f32>,
+    /// Forgetting rate γ of eq. 37 (1/s).
+    #[arg(long, value_name = "GAMMA", allow_negative_numbers = true)]
+    pub forgetting_h: Option<f32>,
+    /// Initial gain: H(0) = value·I (adaptive), Γ2(0) = value·I (ls).
+    #[arg(long, value_name = "H0", allow_negative_numbers = true)]
+    pub initial_gain: Option<f32>,
+    /// Filter pole λ (rad/s), or `auto` for the firmware's rule [default:
+    /// the λ in use, from the device's Status].
+    #[arg(long, value_name = "RAD_S|auto", value_parser = parse_lambda, allow_hyphen_values = true)]
+    pub lambda: Option<Lambda>,
+}
+
+/// `--lambda`: a value or the automatic rule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lambda {
+    /// The firmware's automatic rule.
+    Auto,
+    /// This λ (rad/s).
+    Value(f32),
+}
+
+/// Options of `telemetry`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct TelemetryArgs {
+    /// Estimates per second (Hz), 0 = off.
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub estimates: Option<f32>,
+    /// Raw samples: every d-th sample, 0 = off.
+    #[arg(long, value_name = "D")]
+    pub raw_decimation: Option<u16>,
+    /// Status frames per second (Hz), 0 = only on request.
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub status: Option<f32>,
+}
+
+fn parse_band(s: &str) -> Result<(f32, f32), String> {
+    let (lo, hi) = s
+        .split_once(':')
+        .ok_or_else(|| format!("expected LO:HI, got '{s}'"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f32>()
+            .map_err(|e| format!("'{v}' in '{s}': {e}"))
+    };
+    Ok((num(lo)?, num(hi)?))
+}
+
+fn parse_lambda(s: &str) -> Result<Lambda, String> {
+    if s.eq_ignore_ascii_case("auto") {
+        Ok(Lambda::Auto)
+    } else {
+        s.parse::<f32>()
+            .map(Lambda::Value)
+            .map_err(|e| format!("expected a number or 'auto', got '{s}': {e}"))
+    }
+}
+
+/// A command typed in the monitor (`excitation --amplitude 0.2`, `freeze`).
+#[derive(Debug, Parser)]
+#[command(name = "command", no_binary_name = true, disable_help_flag = true)]
+pub struct CommandLine {
+    #[command(subcommand)]
+    pub command: CommandArgs,
+}
+
+/// Parse a typed command line (words separated by white space).
+pub fn parse_line(line: &str) -> Result<CommandArgs, String> {
+    CommandLine::try_parse_from(line.split_whitespace())
+        .map(|c| c.command)
+        .map_err(|e| crate::error::one_line(&e.render().to_string()))
+}
+
+impl CommandArgs {
+    /// True if building the command takes settings from a Status.
+    pub fn needs_status(&self) -> bool {
+        matches!(
+            self,
+            Self::Excitation(_) | Self::Estimator(_) | Self::Telemetry(_)
+        )
+    }
+
+    /// The command, with what is not given taken from `current` (the
+    /// device's last Status). The error names the missing or misplaced
+    /// flag.
+    pub fn build(&self, current: Option<&Status>) -> Result<Command, String> {
+        Ok(match self {
+            Self::Excitation(a) => Command::SetExcitation(a.build(current.map(|s| &s.excitation))?),
+            Self::Estimator(a) => Command::SetEstimator(a.build(current.map(|s| &s.estimator))?),
+            Self::Telemetry(a) => Command::SetTelemetry(a.build(current.map(|s| &s.telemetry))?),
+            Self::Reset => Command::Reset,
+            Self::Freeze => Command::Freeze,
+            Self::Resume => Command::Resume,
+            Self::Status => Command::RequestStatus,
+        })
+    }
+}
+
+const UNKNOWN: &str = "is needed: the device's current setting is unknown (no Status yet)";
+
+fn pick<T: Copy>(given: Option<T>, current: Option<T>, flag: &str) -> Result<T, String> {
+    given.or(current).ok_or_else(|| format!("{flag} {UNKNOWN}"))
+}
+
+impl ExcitationArgs {
+    fn build(&self, current: Option<&Excitation>) -> Result<Excitation, String> {
+        let current_wave = current.map(|e| e.waveform);
+        let wave = match (self.wave, current_wave) {
+            (Some(w), _) => w,
+            (None, Some(w)) => wave_arg(&w),
+            (None, None) => return Err(format!("--wave {UNKNOWN}")),
+        };
+        // The current waveform's parameters, if it is of the same kind.
+        let same = current_wave.filter(|w| wave_arg(w) == wave);
+        let not_for = |flag: &str, given: bool| -> Result<(), String> {
+            if given {
+                Err(format!(
+                    "{flag} does not apply to --wave {}",
+                    wave_name(wave)
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let needed = |flag: &str| format!("{flag} is needed for --wave {}", wave_name(wave));
+        let waveform = match wave {
+            WaveArg::Off => {
+                not_for("--freq", self.freq.is_some())?;
+                not_for("--band", self.band.is_some())?;
+                not_for("--tones", self.tones.is_some())?;
+                not_for("--bit-rate", self.bit_rate.is_some())?;
+                not_for("--bits", self.bits.is_some())?;
+                not_for("--sweep", self.sweep.is_some())?;
+                Waveform::Off
+            }
+            WaveArg::Square => {
+                not_for("--band", self.band.is_some())?;
+                not_for("--tones", self.tones.is_some())?;
+                not_for("--bit-rate", self.bit_rate.is_some())?;
+                not_for("--bits", self.bits.is_some())?;
+                not_for("--sweep", self.sweep.is_some())?;
+                let cur = match same {
+                    Some(Waveform::Square { freq_hz }) => Some(freq_hz),
+                    _ => None,
+                };
+                Waveform::Square {
+                    freq_hz: self.freq.or(cur).ok_or_else(|| needed("--freq"))?,
+                }
+            }
+            WaveArg::Multisine => {
+                not_for("--freq", self.freq.is_some())?;
+                not_for("--bit-rate", self.bit_rate.is_some())?;
+                not_for("--bits", self.bits.is_some())?;
+                not_for("--sweep", self.sweep.is_some())?;
+                let cur = match same {
+                    Some(Waveform::Multisine {
+                        f_min_hz,
+                        f_max_hz,
+                        tones,
+                    }) => Some(((f_min_hz, f_max_hz), tones)),
+                    _ => None,
+                };
+                let (f_min_hz, f_max_hz) = self
+                    .band
+                    .or(cur.map(|c| c.0))
+                    .ok_or_else(|| needed("--band"))?;
+                Waveform::Multisine {
+                    f_min_hz,
+                    f_max_hz,
+                    tones: self
+                        .tones
+                        .or(cur.map(|c| c.1))
+                        .ok_or_else(|| needed("--tones"))?,
+                }
+            }
+            WaveArg::Prbs => {
+                not_for("--freq", self.freq.is_some())?;
+                not_for("--band", self.band.is_some())?;
+                not_for("--tones", self.tones.is_some())?;
+                not_for("--sweep", self.sweep.is_some())?;
+                let cur = match same {
+                    Some(Waveform::Prbs {
+                        bit_rate_hz,
+                        register_bits,
+                    }) => Some((bit_rate_hz, register_bits)),
+                    _ => None,
+                };
+                Waveform::Prbs {
+                    bit_rate_hz: self
+                        .bit_rate
+                        .or(cur.map(|c| c.0))
+                        .ok_or_else(|| needed("--bit-rate"))?,
+                    register_bits: self
+                        .bits
+                        .or(cur.map(|c| c.1))
+                        .ok_or_else(|| needed("--bits"))?,
+                }
+            }
+            WaveArg::Chirp => {
+                not_for("--freq", self.freq.is_some())?;
+                not_for("--tones", self.tones.is_some())?;
+                not_for("--bit-rate", self.bit_rate.is_some())?;
+                not_for("--bits", self.bits.is_some())?;
+                let cur = match same {
+                    Some(Waveform::Chirp {
+                        f_start_hz,
+                        f_end_hz,
+                        sweep_s,
+                    }) => Some(((f_start_hz, f_end_hz), sweep_s)),
+                    _ => None,
+                };
+                let (f_start_hz, f_end_hz) = self
+                    .band
+                    .or(cur.map(|c| c.0))
+                    .ok_or_else(|| needed("--band"))?;
+                Waveform::Chirp {
+                    f_start_hz,
+                    f_end_hz,
+                    sweep_s: self
+                        .sweep
+                        .or(cur.map(|c| c.1))
+                        .ok_or_else(|| needed("--sweep"))?,
+                }
+            }
+        };
+        let amplitude_v = match wave {
+            WaveArg::Off => self
+                .amplitude
+                .or(current.map(|c| c.amplitude_v))
+                .unwrap_or(0.0),
+            _ => pick(
+                self.amplitude,
+                current.map(|c| c.amplitude_v),
+                "--amplitude",
+            )?,
+        };
+        Ok(Excitation {
+            waveform,
+            amplitude_v,
+            offset_v: pick(self.offset, current.map(|c| c.offset_v), "--offset")?,
+        })
+    }
+}
+
+fn wave_arg(w: &Waveform) -> WaveArg {
+    match w {
+        Waveform::Off => WaveArg::Off,
+        Waveform::Square { .. } => WaveArg::Square,
+        Waveform::Multisine { .. } => WaveArg::Multisine,
+        Waveform::Prbs { .. } => WaveArg::Prbs,
+        Waveform::Chirp { .. } => WaveArg::Chirp,
+    }
+}
+
+fn wave_name(w: WaveArg) -> &'static str {
+    match w {
+        WaveArg::Off => "off",
+        WaveArg::Square => "square",
+        WaveArg::Multisine => "multisine",
+        WaveArg::Prbs => "prbs",
+        WaveArg::Chirp => "chirp",
+    }
+}
+
+impl EstimatorArgs {
+    fn build(&self, current: Option<&EstimatorSettings>) -> Result<EstimatorSettings, String> {
+        let kind = match self.law {
+            Some(LawArg::Adaptive) => Some(EstimatorKind::Adaptive),
+            Some(LawArg::Gradient) => Some(EstimatorKind::Gradient),
+            Some(LawArg::Ls) => Some(EstimatorKind::LeastSquares),
+            Some(LawArg::Robust) => Some(EstimatorKind::Robust),
+            None => None,
+        };
+        Ok(EstimatorSettings {
+            kind: pick(kind, current.map(|c| c.kind), "--law")?,
+            gain: pick(self.gain, current.map(|c| c.gain), "--gain")?,
+            forgetting_p: pick(
+                self.forgetting_p,
+                current.map(|c| c.forgetting_p),
+                "--forgetting-p",
+            )?,
+            forgetting_h: pick(
+                self.forgetting_h,
+                current.map(|c| c.forgetting_h),
+                "--forgetting-h",
+            )?,
+            initial_gain: pick(
+                self.initial_gain,
+                current.map(|c| c.initial_gain),
+                "--initial-gain",
+            )?,
+            lambda_rad_s: match self.lambda {
+                Some(Lambda::Auto) => None,
+                Some(Lambda::Value(v)) => Some(v),
+                None => pick(None, current.map(|c| c.lambda_rad_s), "--lambda")?,
+            },
+        })
+    }
+}
+
+impl TelemetryArgs {
+    fn build(&self, current: Option<&TelemetryRates>) -> Result<TelemetryRates, String> {
+        Ok(TelemetryRates {
+            estimate_rate_hz: pick(
+                self.estimates,
+                current.map(|c| c.estimate_rate_hz),
+                "--estimates",
+            )?,
+            raw_decimation: pick(
+                self.raw_decimation,
+                current.map(|c| c.raw_decimation),
+                "--raw-decimation",
+            )?,
+            status_rate_hz: pick(self.status, current.map(|c| c.status_rate_hz), "--status")?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use beamctl::link::fake::FakeDevice;
+    use beamctl::link::text;
+
+    fn status() -> Status {
+        FakeDevice::new(beamctl::link::fake::FakeConfig::default()).status()
+    }
+
+    fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {
+        parse_line(line)?.build(current)
+    }
+
+    #[test]
+    fn unspecified_fields_come_from_the_status() {
+        let s = status();
+        let c = build("excitation --amplitude 0.3", Some(&s)).unwrap();
+        assert_eq!(
+            c,
+            Command::SetExcitation(Excitation {
+                amplitude_v: 0.3,
+                ..s.excitation
+            })
+        );
+        let c = build("excitation --wave chirp --band 1:100 --sweep 10", Some(&s)).unwrap();
+        assert_eq!(
+            text::command_text(&c),
+            "excitation --wave chirp --band 1:100 --sweep 10 --amplitude 0.1 --offset 0"
+        );
+        let c = build("estimator --gain 2e4", Some(&s)).unwrap();
+        let Command::SetEstimator(e) = c else {
+            panic!()
+        };
+        assert_eq!(e.gain, 2e4);
+        assert_eq!(e.lambda_rad_s, s.estimator.lambda_rad_s, "λ in use kept");
+        let c = build("estimator --lambda auto", Some(&s)).unwrap();
+        let Command::SetEstimator(e) = c else {
+            panic!()
+        };
+        assert_eq!(e.lambda_rad_s, None);
+        let c = build("telemetry --raw-decimation 4", Some(&s)).unwrap();
+        assert_eq!(
+            c,
+            Command::SetTelemetry(TelemetryRates {
+                raw_decimation: 4,
+                ..s.telemetry
+            })
+        );
+    }
+
+    #[test]
+    fn missing_and_misplaced_flags_are_named() {
+        let s = status();
+        assert_eq!(
+            build("excitation --amplitude 0.3", None).unwrap_err(),
+            format!("--wave {UNKNOWN}")
+        );
+        assert_eq!(
+            build("excitation --wave prbs --bits 7", Some(&s)).unwrap_err(),
+            "--bit-rate is needed for --wave prbs"
+        );
+        assert_eq!(
+            build("excitation --wave square --tones 3", Some(&s)).unwrap_err(),
+            "--tones does not apply to --wave square"
+        );
+        assert_eq!(
+            build("telemetry --estimates 50", None).unwrap_err(),
+            format!("--raw-decimation {UNKNOWN}")
+        );
+        // Complete without a Status.
+        assert!(build(
+            "excitation --wave square --freq 7 --amplitude 0.1 --offset 0",
+            None
+        )
+        .is_ok());
+        assert_eq!(build("freeze", None).unwrap(), Command::Freeze);
+        assert!(parse_line("excitation --band 5").is_err());
+        assert!(parse_line("launch").is_err());
+    }
+}
