@@ -64,6 +64,7 @@ const CYCLE: f64 = 4_294_967_296.0;
 
 /// Invalid excitation settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ExcitationError {
     /// A frequency (or bit rate) is not positive, not finite or not below
     /// half the sample rate, or a band is empty.
