@@ -85,6 +85,10 @@ const RAW_QUEUE: usize = 8;
 const DRDY_TIMEOUT_PERIODS: u32 = 3;
 /// Records per status log line (1 s at 100 Hz).
 const LOG_EVERY_RECORDS: u32 = 100;
+/// Conversions discarded after the ADC's reset before the null-offset
+/// average: the first two come from its fast-settling filter, the sinc3
+/// then needs three conversions to fill (ADS131M02 §8.3.7.1).
+const SETTLE_FRAMES: u32 = 4;
 
 type Record = TelemetryRecord<f64, NP, NS>;
 type RigPipeline = Pipeline<
@@ -445,6 +449,11 @@ fn measure_null(adc: &mut Adc<SpiDev>) -> Result<f64, NullError> {
     let mut n: u32 = 0;
     let mut bad: u32 = 0;
     drdy::clear_pending();
+    for _ in 0..SETTLE_FRAMES {
+        wait_drdy()?;
+        // Only to advance the converter; a failed frame is as good here.
+        let _ = adc.driver().read_frame();
+    }
     while n < rig::NULL_SAMPLES {
         wait_drdy()?;
         match adc.driver().read_frame() {
