@@ -15,6 +15,9 @@
 //!   flip-link follows the same `INCLUDE` chain to find the RAM region;
 //! * for the QEMU board, also `device.x` (the weak aliases of the device
 //!   interrupt handlers that cortex-m-rt's `device` feature includes);
+//! * sets `cfg(beamest_cortex_m7)` when the target's rustflags hold
+//!   `-C target-cpu=cortex-m7` (the reference board's binary refuses to
+//!   build without the M7's double-precision FPU);
 //! * passes the link scripts to the firmware binaries only (`-Tlink.x`,
 //!   `-Tdefmt.x` where defmt is linked, `--nmagic`), so the library's unit
 //!   tests and host tools never see them.
