@@ -4,7 +4,9 @@
 //! * `firmware` — build every firmware image (release, thumbv7em-none-eabihf),
 //!   print flash and static RAM of each, and check each vector table against
 //!   its board's memory map (initial SP inside RAM, reset vector a thumb
-//!   address inside flash).
+//!   address inside flash); for the reference board, also check from the
+//!   disassembly that the sample interrupt's call graph reaches no panic
+//!   and no software floating point ([`callgraph`]).
 //! * `qemu [--timeout S] [--uart0 PATH]` — build the QEMU image and run it in
 //!   `qemu-system-arm -machine mps2-an386` with deterministic instruction
 //!   counting; exit with QEMU's status (the firmware's verdict).
@@ -14,6 +16,7 @@
 //! * `fp-bench` — the f32/f64 cost of the estimator step on QEMU
 //!   `mps2-an386` (Cortex-M4F) and `mps2-an500` (Cortex-M7).
 
+mod callgraph;
 mod image;
 mod m7;
 mod memory_map;
@@ -71,6 +74,9 @@ struct Image {
     memory_x: &'static str,
     /// Flash and static RAM targets to report against (bytes), if any.
     budget: Option<(u64, u64)>,
+    /// The sample interrupt's handler, if its call graph must be free of
+    /// panics, software floating point and indirect branches (a hard check).
+    sample_isr: Option<&'static str>,
 }
 
 /// Every firmware image.
@@ -83,6 +89,7 @@ const IMAGES: &[Image] = &[
         memory_x: "src/board/qemu/memory.x",
         // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
         budget: Some((64 * 1024, 16 * 1024)),
+        sample_isr: None,
     },
     Image {
         board: "NUCLEO-H743ZI2 (Cortex-M7, f64)",
@@ -91,6 +98,7 @@ const IMAGES: &[Image] = &[
         cpu: Cpu::CortexM7,
         memory_x: "src/board/nucleo/memory.x",
         budget: None,
+        sample_isr: Some("EXTI3"),
     },
 ];
 
@@ -244,6 +252,23 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
             verdict(fp.flash, flash_max),
             ram_max / 1024,
             verdict(fp.ram, ram_max)
+        );
+    }
+    if let Some(isr) = image.sample_isr {
+        let mcpu = match image.cpu {
+            Cpu::Generic => "cortex-m4",
+            Cpu::CortexM7 => "cortex-m7",
+        };
+        let text = callgraph::disassemble(elf_path, mcpu)?;
+        let (reached, findings) = callgraph::CallGraph::parse(&text).check(isr);
+        if !findings.is_empty() {
+            let list: Vec<String> = findings.iter().map(|f| f.to_string()).collect();
+            return Err(format!("sample interrupt `{isr}`: {}", list.join("; ")));
+        }
+        println!(
+            "  sample interrupt `{isr}`: {} functions reachable, no panic, no software \
+             floating point, no indirect branch: OK",
+            reached.len()
         );
     }
     Ok(())

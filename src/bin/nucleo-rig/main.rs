@@ -15,7 +15,8 @@
 //! * **Thread mode (lowest):** start-up (bridge null offset, Y0), then
 //!   telemetry records → modal recovery (eqs. 30–32) and λmin(P) →
 //!   defmt log once a second, raw blocks and received frames through
-//!   [`link`], ADC re-initialisation after a device reset.
+//!   [`link`], ADC re-initialisation after a device reset, a warning when
+//!   no sample has come for 0.5 s (SysTick wakes it even then).
 //!
 //! # Start-up
 //! 1. Board: clocks, CLKIN, pins, buses; converters reset by their pins.
@@ -85,6 +86,8 @@ const RAW_QUEUE: usize = 8;
 const DRDY_TIMEOUT_PERIODS: u32 = 3;
 /// Records per status log line (1 s at 100 Hz).
 const LOG_EVERY_RECORDS: u32 = 100;
+/// No telemetry record for this long (cycles, 0.5 s): DRDY has stopped.
+const STALL_CYCLES: u32 = clocks::CPU_HZ / 2;
 /// Conversions discarded after the ADC's reset before the null-offset
 /// average: the first two come from its fast-settling filter, the sinc3
 /// then needs three conversions to fill (ADS131M02 §8.3.7.1).
@@ -149,6 +152,11 @@ fn USART3() {
         s.fill.on_interrupt();
         s.drain.on_interrupt();
     });
+}
+
+#[exception]
+fn SysTick() {
+    // Only wakes thread mode from `wfi` (see `board::WAKE_HZ`).
 }
 
 #[exception]
@@ -239,6 +247,7 @@ fn main() -> ! {
 
     let mut startup = Some(Startup::default());
     let mut records: u32 = 0;
+    let mut last_record = cycles::now();
     loop {
         while let Some(block) = raw_rx.dequeue() {
             match startup.as_mut() {
@@ -254,6 +263,7 @@ fn main() -> ! {
             }
         }
         while let Some(record) = telemetry_rx.dequeue() {
+            last_record = cycles::now();
             records = records.wrapping_add(1);
             if records % LOG_EVERY_RECORDS == 0 {
                 report(&record, &link);
@@ -272,7 +282,13 @@ fn main() -> ! {
                 frame.message.kind()
             );
         }
-        // Woken by the next interrupt (DRDY at the latest, 100 µs).
+        if cycles::between(last_record, cycles::now()) > STALL_CYCLES {
+            // Re-armed every 0.5 s, so the difference never wraps.
+            last_record = cycles::now();
+            b.led_fault.set_high();
+            warn!("no sample for 0.5 s: DRDY stopped (CLKIN, ADC supply, wiring?)");
+        }
+        // Woken by the next interrupt (DRDY every 100 µs, SysTick every 10 ms).
         cortex_m::asm::wfi();
     }
 }

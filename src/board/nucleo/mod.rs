@@ -16,7 +16,9 @@
 //! is `src/board/nucleo/memory.x`).
 //!
 //! Priorities ([`priority`]): DRDY (`EXTI3`) highest; `USART3` below it;
-//! thread mode (telemetry, modal recovery, start-up, logging) lowest.
+//! SysTick ([`WAKE_HZ`], an empty handler that only wakes thread mode from
+//! `wfi`) lowest of the exceptions; thread mode (telemetry, modal
+//! recovery, start-up, logging) below everything.
 //!
 //! # Pins (NUCLEO-H743ZI2 ST Zio / Arduino labels; docs/RIG.md has the table)
 //! | Signal | Pin | Label | Function |
@@ -58,6 +60,8 @@ pub mod drdy;
 pub mod shared;
 pub mod uart;
 
+use cortex_m::peripheral::scb::SystemHandler;
+use cortex_m::peripheral::syst::SystClkSource;
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::interrupt::{self, InterruptExt};
 use embassy_stm32::mode::Blocking;
@@ -79,7 +83,12 @@ pub mod priority {
     pub const SAMPLE: Priority = Priority::P0;
     /// USART3 TX/RX.
     pub const SERIAL: Priority = Priority::P4;
+    /// SysTick, the thread-mode wake-up (raw 8-bit value: the lowest).
+    pub const WAKE: u8 = 0xF0;
 }
+
+/// SysTick rate (Hz): thread mode wakes at least this often.
+pub const WAKE_HZ: u32 = 100;
 
 /// A blocking SPI bus with its chip select: an embedded-hal 1.0
 /// `SpiDevice` for the drivers.
@@ -177,6 +186,17 @@ impl Board {
         cp.SCB.enable_icache();
         cp.SCB.enable_dcache(&mut cp.CPUID);
         cycles::start(&mut cp.DCB, &mut cp.DWT);
+        // SysTick wakes thread mode from `wfi` even when no DRDY comes, so
+        // it can notice that (the binary defines the empty handler).
+        let mut syst = cp.SYST;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(clocks::CPU_HZ / WAKE_HZ - 1);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+        // SAFETY: set before the interrupts that could be running are
+        // enabled; the lowest priority never delays the sample interrupt.
+        unsafe { cp.SCB.set_priority(SystemHandler::SysTick, priority::WAKE) };
 
         let p = embassy_stm32::init(clocks::hal_config());
         let mut delay = CycleDelay::new(clocks::CPU_HZ);
