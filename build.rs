@@ -15,6 +15,9 @@
 //!   flip-link follows the same `INCLUDE` chain to find the RAM region;
 //! * for the QEMU board, also `device.x` (the weak aliases of the device
 //!   interrupt handlers that cortex-m-rt's `device` feature includes);
+//! * sets `cfg(beamest_cortex_m7)` when the target's rustflags hold
+//!   `-C target-cpu=cortex-m7` (the reference board's binary refuses to
+//!   build without the M7's double-precision FPU);
 //! * passes the link scripts to the firmware binaries only (`-Tlink.x`,
 //!   `-Tdefmt.x` where defmt is linked, `--nmagic`), so the library's unit
 //!   tests and host tools never see them.
@@ -59,6 +62,10 @@ fn main() {
         }
     }
 
+    // Set below when the firmware is built for the Cortex-M7 (the
+    // reference board's binary refuses to build without it).
+    println!("cargo::rustc-check-cfg=cfg(beamest_cortex_m7)");
+
     let enabled: Vec<&Board> = BOARDS
         .iter()
         .filter(|b| env::var_os(b.feature_env).is_some())
@@ -84,6 +91,24 @@ fn main() {
              `cargo xtask qemu`",
             board.name
         );
+    }
+
+    // `-C target-cpu=cortex-m7` in the target's rustflags (cargo passes
+    // them to build scripts, 0x1F-separated): the FPv5-D16 double-precision
+    // FPU is available.
+    let rustflags = env::var("CARGO_ENCODED_RUSTFLAGS").unwrap_or_default();
+    let mut flags = rustflags.split('\x1f').peekable();
+    let mut cortex_m7 = false;
+    while let Some(flag) = flags.next() {
+        let cpu = match flag.strip_prefix("-C") {
+            Some("") => flags.peek().copied().unwrap_or_default(),
+            Some(rest) => rest,
+            None => flag,
+        };
+        cortex_m7 |= cpu == "target-cpu=cortex-m7";
+    }
+    if cortex_m7 {
+        println!("cargo::rustc-cfg=beamest_cortex_m7");
     }
 
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));

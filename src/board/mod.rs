@@ -9,3 +9,6 @@
 
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
+
+#[cfg(feature = "board-nucleo")]
+pub mod nucleo;
