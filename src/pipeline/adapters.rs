@@ -80,6 +80,23 @@ impl<E> Fault for ad5761r::Error<E> {
     }
 }
 
+/// True for the ADS131M02 errors after which the device has lost its
+/// settings (an unexpected reset, a reset reply where a response was due, a
+/// STATUS word that disagrees with the configured framing, an ID or
+/// configuration read-back that does not match): the board must reset and
+/// configure it again, between samples, before its data can be trusted.
+pub fn lost_configuration<E>(e: &ads131m02::Error<E>) -> bool {
+    use ads131m02::Error as E;
+    matches!(
+        e,
+        E::UnexpectedReset(_)
+            | E::StatusMismatch(_)
+            | E::ResetReply(_)
+            | E::IdMismatch(_)
+            | E::ConfigMismatch { .. }
+    )
+}
+
 /// A reading whose codes carry nothing, with one flag set.
 fn flagged(stale: bool, stuck: bool) -> AdcReading {
     AdcReading {

@@ -111,7 +111,7 @@ pub mod prefilter;
 pub mod startup;
 pub mod telemetry;
 
-pub use adapters::{adc_scales, bring_up, BringUp, BringUpError};
+pub use adapters::{adc_scales, bring_up, lost_configuration, BringUp, BringUpError};
 pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
 pub use convert::{
     AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,

@@ -59,10 +59,11 @@ compile_error!(
 mod link;
 mod rig;
 
-use beamest::board::nucleo::converters::{Adc, Dac};
+use beamest::board::nucleo::converters::Adc;
 use beamest::board::nucleo::cycles::{self, Spans};
 use beamest::board::nucleo::shared::Shared;
 use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
+use beamest::drivers::ad5761r::Ad5761r;
 use beamest::estimator::Adaptive2;
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, TelemetryRecord};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -98,7 +99,7 @@ type RigPipeline = Pipeline<
     f64,
     Adaptive2<f64>,
     Adc<SpiDev>,
-    Dac<SpiDev>,
+    Ad5761r<SpiDev>,
     Producer<'static, Record>,
     Producer<'static, RawBlock<f64>>,
     NP,
@@ -188,8 +189,9 @@ fn main() -> ! {
         clocks::DAC_SCLK_HZ
     );
 
-    let (dac, readback) = match Dac::new(b.dac_spi, rig::dac_config()) {
-        Ok(d) => d,
+    let mut dac = Ad5761r::new(b.dac_spi);
+    let readback = match dac.init(rig::dac_config()) {
+        Ok(r) => r,
         Err(e) => fatal("AD5761R init", Debug2Format(&e)),
     };
     info!("AD5761R: control read back {}", readback);
@@ -298,7 +300,7 @@ fn main() -> ! {
 fn build_pipeline(
     null_offset_v: f64,
     adc: Adc<SpiDev>,
-    dac: Dac<SpiDev>,
+    dac: Ad5761r<SpiDev>,
     telemetry: Producer<'static, Record>,
     raw: Producer<'static, RawBlock<f64>>,
 ) -> Result<RigPipeline, &'static str> {
