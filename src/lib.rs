@@ -61,6 +61,7 @@
 
 pub mod beam;
 pub mod compensated;
+pub mod crlb;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;

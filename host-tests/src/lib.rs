@@ -7,6 +7,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod naive;
+pub mod noise_study;
 pub mod runner;
 pub mod scenario;
 
