@@ -304,6 +304,16 @@ impl FisherAccumulator {
         self.rms_output() / libm::pow(10.0, snr_db / 20.0)
     }
 
+    /// Forget the information and the output RMS gathered so far but keep
+    /// the simulation running: the bound then covers only the samples
+    /// pushed from now on (e.g. an estimator that starts after the
+    /// excitation did).
+    pub fn clear_information(&mut self) {
+        self.gram = [[0.0; RAW]; RAW];
+        self.sum_y2 = 0.0;
+        self.samples = 0;
+    }
+
     /// Back to rest with no information (same model).
     pub fn reset(&mut self) {
         self.sens.reset();

@@ -8,6 +8,10 @@
 //! * [`gradient::GradientLaw`] — the gradient baseline, eq. 47;
 //! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
 //!
+//! [`robust::RobustEstimator`] is not an `Identifier`: it runs the proposed
+//! law on the output error of a simulated model (unbiased under measurement
+//! noise, near the Cramér–Rao bound) and shares only the input screening.
+//!
 //! All laws work on the scaled regressor φ and scaled parameters θ_s (see
 //! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
 //!

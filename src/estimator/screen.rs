@@ -65,6 +65,13 @@ impl<T: Real> InputScreen<T> {
         }
     }
 
+    /// Freeze the law for the quarantine length from now on, as after a bad
+    /// sample (e.g. at the first sample, when the filters start at rest but
+    /// the plant may not).
+    pub fn start_quarantine(&mut self) {
+        self.quarantine = self.quarantine_len;
+    }
+
     /// Whether `u` alone would pass the screen.
     pub fn accepts_u(&self, u: T) -> bool {
         u.is_finite() && u.abs() <= self.u_limit

@@ -101,6 +101,11 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
         &self.theta
     }
 
+    /// The linearization point θ_m (double word).
+    pub fn model(&self) -> &CompensatedArray<T, NP> {
+        &self.model
+    }
+
     /// Weighted mean squared residual ε (scaled units); `None` before the
     /// first sample.
     pub fn residual_variance(&self) -> Option<T> {
@@ -116,6 +121,17 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
         core::array::from_fn(|i| {
             (self.theta.hi[i] - self.model.hi[i]) + (self.theta.lo[i] - self.model.lo[i])
         })
+    }
+
+    /// `steps` more implicit θ̂ steps on the information gathered so far (no
+    /// new sample, no decay): converges θ̂ further towards W = 0 where the
+    /// damped step is slow (weak directions in `f32`). Off the sample path.
+    pub fn refine(&mut self, steps: u32) {
+        for _ in 0..steps {
+            if self.step().is_err() {
+                return;
+            }
+        }
     }
 
     /// W/g = P̃·(θ̂ − θ_m) − q̃, a Dot2 product when `T::COMPENSATED`.

@@ -116,6 +116,47 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
         }
     }
 
+    /// Set the simulation state at the first sample (before any push): ξ(t_0)
+    /// = `xi0`. The gradient filter and the windows stay at rest.
+    pub fn start_at(&mut self, xi0: &[T; D]) {
+        for (i, v) in xi0.iter().enumerate() {
+            self.xi.set(i, *v);
+        }
+    }
+
+    /// The initial state x0 that best explains `y` given the model (least
+    /// squares over the record, the model's free responses as regressors):
+    /// ŷ_n = ŷ0_n + F_n·x0 with ŷ0 the response from rest and F_n =
+    /// ∂ŷ_n/∂ξ(t_0). `None` if the normal matrix is singular. Scaled `u`,
+    /// `y`, as recorded.
+    pub fn fit_initial_state(&self, u: &[T], y: &[T]) -> Option<[T; D]> {
+        let mut rest = CompensatedArray::<T, D>::default();
+        // Free responses from ξ(t_0) = e_k, k = 0..D−1.
+        let mut free: [CompensatedArray<T, D>; D] = core::array::from_fn(|k| {
+            let mut c = CompensatedArray::default();
+            c.set(k, T::ONE);
+            c
+        });
+        let mut g = [[T::ZERO; D]; D];
+        let mut h = [T::ZERO; D];
+        for (&uk, &yk) in u.iter().zip(y) {
+            let r = yk - self.output(&rest);
+            let f: [T; D] = core::array::from_fn(|k| self.output(&free[k]));
+            for a in 0..D {
+                h[a] += f[a] * r;
+                for b in 0..D {
+                    g[a][b] += f[a] * f[b];
+                }
+            }
+            Self::advance(&self.f, &mut rest, uk);
+            for fk in free.iter_mut() {
+                Self::advance(&self.f, fk, T::ZERO);
+            }
+        }
+        let x = crate::linalg::ldlt_solve_floored(&mut g, &h).ok()?;
+        crate::linalg::all_finite(&x).then_some(x)
+    }
+
     /// Push sample n (`u` held over [t_n, t_{n+1}), `y` sampled at t_n,
     /// both scaled); returns ψ and ε at t_{n−2}.
     #[inline]
