@@ -10,7 +10,7 @@
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
 use beamest::estimator::{
-    Adaptive2, AdaptiveConfig, Estimator, GradientConfig, GradientEstimator, LeastSquaresConfig,
+    Adaptive2, AdaptiveConfig, GradientConfig, GradientEstimator, LeastSquaresConfig,
     LeastSquaresEstimator, Robust2, RobustConfig,
 };
 use beamest::filter_bank::FilterConfig;

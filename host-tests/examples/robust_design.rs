@@ -7,7 +7,7 @@
 //! the 20-seed run: `-- 60 20`).
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
-use beamest::estimator::robust::RobustEstimator;
+use beamest::estimator::robust::{InitialState, RobustEstimator};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Robust2, RobustConfig};
 use beamest::filter_bank::FilterConfig;
 use beamest::model::paper_plant_tf;
@@ -108,6 +108,24 @@ fn main() {
                 .collect();
             report("robust, default, f32", &errs);
         }
+        for (name, start, initial) in [
+            (
+                "started 1 s after the excitation (Auto)",
+                10_000,
+                InitialState::Auto,
+            ),
+            (
+                "started 1 s after the excitation (Rest)",
+                10_000,
+                InitialState::Rest,
+            ),
+            ("at rest, InitialState::Estimate", 0, InitialState::Estimate),
+        ] {
+            if only.as_deref().is_some_and(|o| !name.starts_with(o)) {
+                continue;
+            }
+            report(name, &late(start, initial, snr, seeds));
+        }
         for (name, secs) in [
             ("record 0.5 s", 0.5),
             ("record 1 s", 1.0),
@@ -130,6 +148,24 @@ fn main() {
             report(name, &errs);
         }
     }
+}
+
+/// The default estimator started `start` samples after the excitation (the
+/// beam already moving), on the next 60 s.
+fn late(start: usize, initial: InitialState, snr: f64, seeds: u64) -> Vec<Errors> {
+    let rec = Record::paper(60.0 + start as f64 * 1e-4);
+    (1..=seeds)
+        .map(|seed| {
+            let y = rec.noisy_y(Some(snr), seed);
+            let (u, y) = (&rec.u[start..], &y[start..]);
+            let cfg = RobustConfig {
+                initial_state: initial,
+                ..RobustConfig::default()
+            };
+            let mut est = Box::new(Robust2::<f64>::new(&study_filter(u, y), &cfg).unwrap());
+            run(&mut *est, u, y, 0, &mut |_, _| {})
+        })
+        .collect()
 }
 
 fn f32_record<const B: usize>(f: &FilterConfig, u: &[f64], y: &[f64]) -> Errors {

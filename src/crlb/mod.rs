@@ -30,6 +30,28 @@
 //! the paper's plant it doubles the bound on ζ1 (the velocity weight shifts
 //! the phase of mode 1 like its damping does).
 //!
+//! # Checked
+//! * Sensitivities against central differences of the simulated output
+//!   (`sensitivity` tests); the paper's plant at 40 dB over 60 s gives ω1
+//!   3.2e-6, ω2 3.9e-4, ζ1 7.8e-5, ζ2 3.2e-3 (modal set: the figures of
+//!   issue 9) and ζ1 1.59e-4 in the transfer-function set; an independent
+//!   numpy/scipy computation (dlsim of the same sensitivity systems) agreed
+//!   to four digits.
+//! * Monte Carlo: the maximum-likelihood (output-error Gauss–Newton) fit's
+//!   sample standard deviation over 300 realizations of 60 s at 40 dB is
+//!   0.97, 1.05, 1.00, 1.01× the transfer-function-set bound for ω1, ω2,
+//!   ζ1, ζ2 (±0.04 at 1σ); at 20 dB (200 realizations) 0.96, 1.04, 1.00,
+//!   0.98×; over 20 s at 40 dB 0.95, 1.01, 1.00, 1.03×. The modal set's ζ1
+//!   bound (half as large) is not reached by a 7-parameter fit, as it
+//!   should not be. `cargo run --release -p host-tests --example
+//!   crlb_monte_carlo -- 60 300 40`.
+//! * Where the information is: for the paper's plant most of the
+//!   information on ω1 and ζ1 comes from the first seconds after the
+//!   excitation starts with the beam at rest (mode 1's ring-down, time
+//!   constant 1.2 s); the same 50 s taken after 10 s bound ω1 100× less
+//!   tightly. [`FisherAccumulator::clear_information`] computes such
+//!   bounds (an estimator that starts late).
+//!
 //! # Use
 //! Push the held input sample by sample ([`FisherAccumulator::push`]); no
 //! record is stored. Then ask for the bound at a noise level
@@ -512,10 +534,8 @@ fn bbar_of_tf_params(
         real_poles: [false; MAX_MODES],
     };
     let mut beta = [0.0; MAX_MODES];
-    for i in 0..n {
-        modes.omega_rad_s[i] = p[i];
-        modes.zeta[i] = p[n + i];
-    }
+    modes.omega_rad_s[..n].copy_from_slice(&p[..n]);
+    modes.zeta[..n].copy_from_slice(&p[n..2 * n]);
     for i in 0..n - 1 {
         beta[i] = p[3 * n + i];
         beta[n - 1] -= p[3 * n + i];

@@ -3,21 +3,26 @@
 //! equation error, started from a short recording of the start-up so that
 //! its model is simulated and linearized exactly. Unbiased under white
 //! noise on y; on the paper's plant at 40 dB its RMS error is at the
-//! Cramér–Rao bound ([`crate::crlb`]), in `f64` and `f32`.
+//! Cramér–Rao bound ([`crate::crlb`]), in `f64` and `f32`, at a per-sample
+//! cost within 1.2× of the proposed law's.
 //!
 //! # Algorithm
 //! 1. **Start-up** ([`Phase::Startup`]): the paper's law ([`AdaptiveLaw`])
 //!    on the Λ filter bank gives a first estimate within a few hundred
 //!    milliseconds, while u and y are recorded (the first `B` samples,
-//!    2 s by default).
+//!    2 s by default). The first 3.2 ms decide whether the beam was at rest
+//!    ([`InitialState`]); if it was moving, the start-up law is restarted
+//!    and held for the input quarantine (40/λ), because its filters started
+//!    at rest and the beam did not.
 //! 2. **Refining** ([`Phase::Refining`]): once that estimate has settled
 //!    (two candidates `update_every` apart agree within `start_tolerance`,
-//!    or half the record is used), and then every `update_every` samples
-//!    while the record lasts, the model B̂/Â is re-simulated *from rest*
-//!    over the record with the current estimate as linearization point θ_m
-//!    and the law restarts from that replay
-//!    ([`RobustEstimator::prepare_update`], [`RobustEstimator::apply`]):
-//!    batch Gauss–Newton iterations on a growing window.
+//!    or ¾ of the record is used), and then every `update_every` samples
+//!    while the record lasts, the model B̂/Â is re-simulated over the record
+//!    — from rest, or from the initial state fitted to the record — with the
+//!    current estimate as linearization point θ_m, and the law restarts
+//!    from that replay ([`RobustEstimator::prepare_update`],
+//!    [`RobustEstimator::apply`]): batch Gauss–Newton iterations on a
+//!    growing window.
 //! 3. **Steady** ([`Phase::Steady`]): when the record is full the
 //!    linearization point stays where it is and the law runs recursively.
 //!
@@ -32,49 +37,63 @@
 //! # Design
 //! Figures: paper's plant, u = 0.1·square(7 Hz), Ts = 0.1 ms, 60 s, λ =
 //! 100 rad/s, U0/Y0 = RMS of u, y over the first 0.5 s; "×" = RMS error over
-//! the seeds ÷ the bound of the 7-parameter model, for ω1, ω2, ζ1, ζ2.
+//! the seeds ÷ the bound of the 7-parameter model for ω1, ω2, ζ1, ζ2.
 //! Reproducible rows: `cargo run --release -p host-tests --example
 //! robust_design -- 60 20` (20 seeds) and `--example noise_table` (5 seeds).
 //!
 //! * **The bias.** The proposed law converges to P⁻¹Q with noise in the
 //!   regressor (errors in variables): 41, 6.5, 51, 13× at 40 dB, ζ2 81% off
-//!   at 20 dB. Here the regressor holds u and the simulated ŷ only, and the
+//!   at 20 dB. Here the regressor holds u and the simulated ŷ only and the
 //!   noise enters the residual y − ŷ additively: the fixed point is
-//!   consistent.
+//!   consistent. Default settings: 1.0, 1.0, 1.0, 1.0× at 40 dB and 1.0,
+//!   2.1, 1.0, 1.8× at 20 dB (`f64`); `f32` 1.1, 1.0, 1.0, 1.0× and 1.1,
+//!   3.2, 1.0, 3.0×.
 //! * **Where the bound's information is.** The bound on ω1, ζ1 comes mostly
 //!   from the seconds after the excitation starts with the beam at rest
 //!   (mode 1 rings down with 1/(ζ1ω1) = 1.2 s): for 60 s at 40 dB, ω1's
 //!   bound is 3.2e-6 from t = 0 but 3.6e-6 from 1 s, 5.3e-6 from 2 s,
 //!   2.8e-5 from 5 s and 3.3e-4 from 10 s (ζ1: 1.6e-4, 1.8e-4, 2.5e-4,
-//!   1.2e-3, 5.0e-3; `crlb` test `bound_is_dominated_by_the_start_up_ring_down`).
-//!   An efficient estimator has to weight those seconds with a model it does
-//!   not have yet. That decided the design.
-//! * **Alternatives measured during development** (the code of these
-//!   variants was not kept; numbers at 40 dB, 5 seeds):
-//!   refined instrumental variables with the prefilter re-centred online on
-//!   Â (SRIVC) leave an equation-error transient at every change of Â that
-//!   decays at the same 1.2 s rate, and freezing until it had died
-//!   discarded exactly the informative seconds: 375, 3.3, 72, 2.5×. Batch
-//!   IV with the *true* model as prefilter and instruments reached the bound
-//!   only when given the data from t = 0 (ω1 3.19e-6); plain IV on the fixed
-//!   Λ bank with perfect instruments was 5.6, 1.2, 8.1, 0.45×. The output
-//!   error form with the simulation started by a state reconstruction (from
-//!   the Λ bank) and the gradient filter from zero, moving the model every
-//!   0.1 s: 106, 6.4, 112, 8.0× (each move of a running simulation leaves a
-//!   ŷ transient that enters the linearized data at first order; gating the
-//!   moves by a χ² test still diverged on some seeds). The same law with
-//!   the true model, fixed, from t = 0: 1.0, 0.9, 0.7, 0.3×.
-//!   Replaying the record from rest makes both the simulation and its
+//!   1.2e-3, 5.0e-3). An efficient estimator has to weight those seconds
+//!   with a model it does not have yet. That decided the design.
+//! * **Alternatives measured during development** (their code was not kept;
+//!   40 dB, 5 seeds): refined instrumental variables with the prefilter
+//!   re-centred online on Â (SRIVC) leave an equation-error transient at
+//!   every change of Â that decays at the same 1.2 s rate, and freezing
+//!   until it had died discarded exactly the informative seconds: 375, 3.3,
+//!   72, 2.5×. Batch IV with the *true* model as prefilter and instruments
+//!   reached the bound only when given the data from t = 0 (ω1 3.19e-6);
+//!   plain IV on the fixed Λ bank with perfect instruments was 5.6, 1.2,
+//!   8.1, 0.45×. Output error with the simulation started by a state
+//!   reconstruction from the Λ bank and the gradient filter from zero,
+//!   moving the model every 0.1 s: 106, 6.4, 112, 8.0× (each move of a
+//!   running simulation leaves a ŷ transient that enters the linearized
+//!   data at first order; gating the moves by a χ² test still diverged on
+//!   some seeds). The same law with the true model, fixed, from t = 0: 1.0,
+//!   0.9, 0.7, 0.3×. Replaying the record makes the simulation and its
 //!   gradient exact whatever the model, so the linearization point can move
 //!   freely while the record lasts.
-//! * **Record length** (20 seeds, `f64`; at 40 dB / at 20 dB):
-//!   0.5 s: 1.1, 1.3, 1.1, 1.0× / 3.3, 13, 6.5, 10×;
-//!   1 s: 1.0, 1.1, 1.0, 1.0× / 1.2, 4.2, 0.9, 2.8×;
-//!   2 s (default): 1.0, 1.0, 1.0, 1.0× / 1.0, 2.0, 1.0, 1.6×;
-//!   5 s: 1.0, 1.0, 1.0, 1.0× / 1.0, 1.6, 1.0, 1.1×.
-//!   At 20 dB the start-up estimate is 90% off on ζ2 and the linearization
-//!   point frozen at the end of the record still carries a second-order
-//!   error; a longer record fixes it at the cost of memory.
+//! * **Record length** (20 seeds, `f64`; 40 dB / 20 dB): 0.5 s: 1.2, 1.2,
+//!   1.1, 1.0× / 24, 12, 39, 14×; 1 s: 1.0, 1.1, 1.0, 1.0× / 1.2, 4.9, 1.2,
+//!   5.9×; 2 s (default): 1.0, 1.0, 1.0, 1.0× / 1.0, 2.1, 1.0, 1.8×; 5 s:
+//!   1.0, 1.0, 1.0, 1.0× / 1.0, 1.6, 1.0, 1.1×. At 20 dB the start-up
+//!   estimate is 90% off on ζ2 and the linearization point frozen at the end
+//!   of the record still carries a second-order error; a longer record
+//!   fixes it at the cost of memory.
+//! * **Initial state.** Replaying from rest assumes the beam was at rest at
+//!   the first sample. Started 1 s after the excitation with that
+//!   assumption ([`InitialState::Rest`]) the estimate is useless (ζ1 81%,
+//!   ω2 45% off at 40 dB). Fitting the initial state in every replay
+//!   ([`InitialState::Estimate`]) fixes that (noise-free ≤ 1e-10) but, on a
+//!   beam that was at rest, gives away part of the ring-down's information
+//!   (1.7, 1.0, 1.7, 0.9× at 40 dB). The default [`InitialState::Auto`]
+//!   decides from the first 3.2 ms (a beam at rest starts at y = y' = 0):
+//!   at rest it equals `Rest`; started 1 s late it gives 3.0, 1.6, 3.0,
+//!   1.8× the from-rest bound at 40 dB (that bound is not reachable without
+//!   the first second: from 1 s with a known state it is already 1.1× larger
+//!   on ω1). A χ² test on the fitted state itself misclassified quiet starts:
+//!   the early replays' model misfit inflates it (up to 1754 on one seed).
+//!   The paper's law needs the same care: started 1 s late it is 52–650%
+//!   off after 4 s, noise-free, because its filter bank starts at rest.
 //! * **Precision.** The law stores q = Q − Pθ_m, so every term of W is of
 //!   the size of θ̂ − θ_m. cond(P) in these coordinates is ≈ 1.6e7 after 3 s
 //!   (the 1/Â-filtered gradients are more collinear than the proposed law's
@@ -84,37 +103,35 @@
 //!   gradient filter runs in plain working precision (an error there costs
 //!   efficiency, never bias). The step matrix is damped by 16·NP·ε·max diag:
 //!   with plain `f32` P the law diverged after 1.3 s, with √ε·diag damping
-//!   after 2–6 s. `f32`: 1.1, 1.0, 1.0, 1.0× at 40 dB, 1.1, 3.2, 1.0, 3.0×
-//!   at 20 dB (20 seeds; the run-to-run spread of the 20 dB linearization
-//!   point), noise-free ≤ 1e-7 after 20 s (`f64`: 1e-12).
+//!   after 2–6 s. Noise-free after 20 s: ≤ 2e-12 (`f64`), ≤ 3e-7 (`f32`).
 //! * **Forgetting** l = 0.01 s⁻¹ (the paper's value): l = 0.05 gave 1.1,
-//!   1.4, 0.8, 1.3× / 1.1, 2.6, 0.9, 2.1×; l = 0.002 the same as 0.01.
+//!   1.4, 0.8, 1.3× / 1.1, 2.7, 0.9, 2.2×; l = 0.002 the same as 0.01.
 //! * **Cost** (criterion, `step/robust` vs `step/adaptive`, one run on the
 //!   shared 2-core host): 2 modes 123 vs 108 ns per sample in `f64` (1.14×),
 //!   468 vs 461 ns in `f32` (1.01×); 1 mode 1.0× / 1.7×; 3 modes 1.04× /
-//!   1.0×. The start-up (2 s with about 18 replays) averages 1.44 µs per
-//!   sample in `f64`.
+//!   1.0×. The start-up (the 2 s record with about 18 replays) averages
+//!   1.4 µs per sample in `f64`.
 //!
 //! # Limits
 //! * After the record the linearization point never moves: a plant that
 //!   changes by more than the estimate's uncertainty is followed with a
-//!   second-order bias (tracking, issue 9 item 4, needs more). [`Estimator::reset`]
-//!   records afresh.
-//! * The record costs 2·B·size_of::<T>() bytes: 160 KB in `f32` for the
-//!   default 2 s; [`RobustEstimator`] takes any `B` (1 s halves it and is as
-//!   good at 40 dB).
+//!   second-order bias (tracking, issue 9 item 4, needs more).
+//!   [`Estimator::reset`] records afresh.
+//! * The record costs `2·B·size_of::<T>()` bytes: 160 KB in `f32` for the
+//!   default 2 s; [`RobustEstimator`] takes any `B` (1 s is as good at
+//!   40 dB).
 //! * [`RobustEstimator::prepare_update`] replays up to `B` samples
-//!   (~B·(6D² + NP²) flops, 2.4 ms on the host at the end of the default
-//!   record); it runs about 18 times during the record and never after.
-//!   With `update_every > 0` it runs inside [`Estimator::step`] (host use);
-//!   firmware sets `update_every = 0`, calls it from a low-priority context
-//!   and [`RobustEstimator::apply`]s the result at a sample boundary (apply
+//!   (~B·(6D² + NP²) flops, plus ~B·D³ for an initial-state fit; ≈ 2.4 ms
+//!   on the host at the end of the default record) about 18 times during
+//!   the record and never after. With `update_every > 0` it runs inside
+//!   [`Estimator::step`] (host use); firmware sets `update_every = 0`,
+//!   calls it from a low-priority context (it borrows the estimator
+//!   immutably, so that context must own or lock it meanwhile) and
+//!   [`RobustEstimator::apply`]s the result at a sample boundary (apply
 //!   replays only the samples recorded meanwhile).
-//! * The bound assumes the excitation starts with the beam at rest and the
-//!   estimator running, as in the simulations. On a rig where the estimator
-//!   starts later, the relevant bound is the steady-state one
-//!   ([`crate::crlb::FisherAccumulator::clear_information`]) and the
-//!   start-up replay is not exact (the record does not start at rest).
+//! * If the start-up estimate has not settled before the record is full
+//!   (a very short record, or a start quarantine longer than the record),
+//!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
 
 mod law;
 mod oe;
@@ -564,7 +581,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             });
             // A forced switch needs a start-up estimate that has run for a
             // period at least (a stored candidate).
-            if !converged && !(late && self.candidate.is_some()) {
+            let forced = late && self.candidate.is_some();
+            if !(converged || forced) {
                 self.candidate = Some(p.candidate);
                 return Err(UpdateError::NotConverged);
             }
