@@ -3,8 +3,8 @@
 //! equation error, started from a short recording of the start-up so that
 //! its model is simulated and linearized exactly. Unbiased under white
 //! noise on y; on the paper's plant at 40 dB its RMS error is at the
-//! Cramér–Rao bound ([`crate::crlb`]), in `f64` and `f32`, at a per-sample
-//! cost within 1.2× of the proposed law's.
+//! Cramér–Rao bound ([`crate::crlb`]), in `f64` and `f32`, at a steady
+//! per-sample cost within 1.2× of the proposed law's for two modes.
 //!
 //! # Algorithm
 //! 1. **Start-up** ([`Phase::Startup`]): the paper's law ([`AdaptiveLaw`])
@@ -106,11 +106,12 @@
 //!   after 2–6 s. Noise-free after 20 s: ≤ 2e-12 (`f64`), ≤ 3e-7 (`f32`).
 //! * **Forgetting** l = 0.01 s⁻¹ (the paper's value): l = 0.05 gave 1.1,
 //!   1.4, 0.8, 1.3× / 1.1, 2.7, 0.9, 2.2×; l = 0.002 the same as 0.01.
-//! * **Cost** (criterion, `step/robust` vs `step/adaptive`, one run on the
-//!   shared 2-core host): 2 modes 123 vs 108 ns per sample in `f64` (1.14×),
-//!   468 vs 461 ns in `f32` (1.01×); 1 mode 1.0× / 1.7×; 3 modes 1.04× /
-//!   1.0×. The start-up (the 2 s record with about 18 replays) averages
-//!   1.4 µs per sample in `f64`.
+//! * **Cost** (criterion, `step/robust` vs `step/adaptive` in the same run,
+//!   two runs on the shared 2-core host, ns per sample): 2 modes `f64` 123
+//!   vs 108 and 92 vs 80 (1.14×, 1.15×), `f32` 468 vs 461 and 318 vs 293
+//!   (1.01×, 1.08×); 1 mode `f64` 1.0×, 1.6×, `f32` 1.7×, 0.9×; 3 modes
+//!   ≤ 1.06×. The start-up (the 2 s record with about 18 replays) averages
+//!   0.85–1.4 µs per sample in `f64`, 3.6–4.9 µs in `f32`.
 //!
 //! # Limits
 //! * After the record the linearization point never moves: a plant that
