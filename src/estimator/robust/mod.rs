@@ -136,6 +136,7 @@
 
 mod law;
 mod oe;
+mod start;
 
 use crate::compensated::CompensatedArray;
 use crate::estimator::adaptive::{AdaptiveConfig, AdaptiveLaw};
@@ -149,6 +150,8 @@ use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
 use law::OeLaw;
 use oe::{Filters, OeModel};
+use start::start_test;
+pub use start::{InitialState, START_TEST_CHI2, START_TEST_NOISE_FLOOR, START_TEST_SAMPLES};
 
 /// Gains, rates and schedule of the robust estimator (scaled coordinates,
 /// like [`AdaptiveConfig`]).
@@ -174,92 +177,6 @@ pub struct RobustConfig<const NP: usize> {
     pub start_tolerance: f64,
     /// The state of the beam when the first sample is taken.
     pub initial_state: InitialState,
-}
-
-/// What the estimator assumes about the beam at its first sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum InitialState {
-    /// At rest (the excitation starts with the estimator): the start-up
-    /// replay is exact and the bound's start-up information is fully used.
-    Rest,
-    /// Unknown: each replay fits the model's initial state to the record
-    /// (its free responses, by least squares) and starts from it. Costs
-    /// efficiency on a beam that was at rest (the fitted state absorbs part
-    /// of the start-up ring-down).
-    Estimate,
-    /// Decide from the first [`START_TEST_SAMPLES`] samples of y: a beam at
-    /// rest has y(0) = y'(0) = 0 (its forced response grows like t²), a
-    /// moving one does not. A cubic is fitted and its value and slope at the
-    /// first sample are tested against the fit's residual (floored at
-    /// [`START_TEST_NOISE_FLOOR`]): χ²(2) above [`START_TEST_CHI2`] means
-    /// moving ([`InitialState::Estimate`]), otherwise at rest.
-    Auto,
-}
-
-/// Samples of the start test of [`InitialState::Auto`] (3.2 ms at 10 kHz).
-pub const START_TEST_SAMPLES: usize = 32;
-/// χ²(2) threshold of that test (p ≈ 4e-6 for a beam at rest).
-pub const START_TEST_CHI2: f64 = 25.0;
-/// Floor of the test's noise estimate, relative to the output scale Y0
-/// (−60 dB). The forced response from rest is not exactly a cubic (the
-/// paper's plant leaves ~1e-4·Y0 over the window); without the floor a
-/// clean record would read that misfit as noise and a quiet start as
-/// moving. A motion below this level is not worth an initial state.
-pub const START_TEST_NOISE_FLOOR: f64 = 1e-3;
-
-/// The start test of [`InitialState::Auto`] on the first samples of y:
-/// χ²(2) of the value and slope at the first sample in a cubic fit
-/// (y_n ≈ a + b·t + c·t² + d·t³, t = n/(N−1)). A beam at rest has a = b = 0
-/// and its forced response is fitted by the c, d terms. `None` if fewer
-/// than [`START_TEST_SAMPLES`] samples or a degenerate fit.
-fn start_test<T: Real>(y: &[T]) -> Option<T> {
-    const K: usize = 4;
-    let y = y.get(..START_TEST_SAMPLES)?;
-    let span = T::from_usize(START_TEST_SAMPLES - 1);
-    let basis = |n: usize| {
-        let t = T::from_usize(n) / span;
-        [T::ONE, t, t * t, t * t * t]
-    };
-    let mut xtx = [[T::ZERO; K]; K];
-    let mut xty = [T::ZERO; K];
-    for (n, &v) in y.iter().enumerate() {
-        let x = basis(n);
-        for i in 0..K {
-            xty[i] += x[i] * v;
-            for j in 0..K {
-                xtx[i][j] += x[i] * x[j];
-            }
-        }
-    }
-    // (XᵀX)⁻¹ by columns; its leading 2×2 block scales Cov(a, b).
-    let mut inv = [[T::ZERO; K]; K];
-    for c in 0..K {
-        let mut e = [T::ZERO; K];
-        e[c] = T::ONE;
-        let col = crate::linalg::ldlt_solve_floored(&mut xtx.clone(), &e).ok()?;
-        for r in 0..K {
-            inv[r][c] = col[r];
-        }
-    }
-    let coef: [T; K] =
-        core::array::from_fn(|i| (0..K).fold(T::ZERO, |s, j| s + inv[i][j] * xty[j]));
-    let mut rss = T::ZERO;
-    for (n, &v) in y.iter().enumerate() {
-        let x = basis(n);
-        let fit = (0..K).fold(T::ZERO, |s, j| s + coef[j] * x[j]);
-        rss += (v - fit) * (v - fit);
-    }
-    let floor = T::from_f64(START_TEST_NOISE_FLOOR);
-    let var = (rss / T::from_usize(START_TEST_SAMPLES - K)).max(floor * floor);
-    // χ² = [a b]·(σ²·inv₂ₓ₂)⁻¹·[a b]ᵀ.
-    let (p, q, r) = (inv[0][0], inv[0][1], inv[1][1]);
-    let det = p * r - q * q;
-    if !(det > T::ZERO) {
-        return None;
-    }
-    let (a, b) = (coef[0], coef[1]);
-    let chi2 = (r * a * a - (q + q) * a * b + p * b * b) / det / var;
-    chi2.is_finite().then_some(chi2)
 }
 
 impl<const NP: usize> Default for RobustConfig<NP> {
@@ -778,174 +695,4 @@ pub type Robust2<T> = RobustEstimator<T, 4, 7, 28, DEFAULT_RECORD>;
 pub type Robust3<T> = RobustEstimator<T, 6, 11, 66, DEFAULT_RECORD>;
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::excitation::SquareWave;
-    use crate::filter_bank::SignalScales;
-    use crate::modal::modal_from_tf;
-    use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-    use crate::plant::ModalPlant;
-
-    /// A 0.3 s record keeps the tests quick.
-    type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
-
-    fn filter() -> FilterConfig {
-        FilterConfig {
-            scales: SignalScales {
-                u_scale: 0.1,
-                y_scale: 4e-3,
-            },
-            ..FilterConfig::default()
-        }
-    }
-
-    /// The paper's plant and excitation, continuing across calls.
-    struct Rig {
-        plant: ModalPlant<f64>,
-        sq: SquareWave<f64>,
-    }
-
-    impl Rig {
-        fn new() -> Self {
-            Self {
-                plant: ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4)
-                    .unwrap(),
-                sq: SquareWave::paper(),
-            }
-        }
-
-        /// The next (u, y) sample.
-        fn sample(&mut self) -> (f64, f64) {
-            let u = self.sq.next_sample();
-            (u, self.plant.sample(u))
-        }
-
-        /// Feed `est` for `seconds`; largest relative ω/ζ error.
-        fn run<T: Real>(&mut self, est: &mut Small<T>, seconds: f64) -> f64 {
-            for _ in 0..(seconds * 1e4) as usize {
-                let u = self.sq.next_sample();
-                est.step(T::from_f64(u), T::from_f64(self.plant.sample(u)));
-            }
-            let w = [T::from_f64(-2.0), T::from_f64(2.0)];
-            let m = modal_from_tf(&est.transfer_function(), &w).unwrap();
-            (0..2)
-                .map(|i| {
-                    let ew = m.omega_rad_s[i].to_f64() / PAPER_OMEGA[i] - 1.0;
-                    let ez = m.zeta[i].to_f64() / PAPER_ZETA[i] - 1.0;
-                    ew.abs().max(ez.abs())
-                })
-                .fold(0.0, f64::max)
-        }
-    }
-
-    #[test]
-    fn identifies_the_paper_plant_noise_free_in_both_precisions() {
-        let mut e64 = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
-        let mut rig = Rig::new();
-        assert_eq!(e64.phase(), Phase::Startup);
-        assert!(rig.run(&mut e64, 0.25) < 1e-6);
-        assert_eq!(e64.phase(), Phase::Refining);
-        let err = rig.run(&mut e64, 2.0);
-        assert_eq!(e64.phase(), Phase::Steady);
-        assert!(err < 1e-9, "f64: {err}");
-        assert!(e64.noise_rms().unwrap() < 1e-12);
-        assert!(e64.excitation_level().unwrap() > 0.0);
-        let mut e32 = Small::<f32>::new(&filter(), &RobustConfig::default()).unwrap();
-        let err = Rig::new().run(&mut e32, 2.3);
-        assert!(err < 1e-5, "f32: {err}");
-        let h = e32.health();
-        assert!(h.state_ok && h.skipped == 0 && h.samples == 23_000);
-    }
-
-    #[test]
-    fn bad_samples_never_enter_the_state() {
-        let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
-        let mut rig = Rig::new();
-        rig.run(&mut est, 1.0);
-        let before = est.theta();
-        for bad in [f64::NAN, f64::INFINITY, 1e30] {
-            let (u, _) = rig.sample();
-            assert_eq!(est.step(u, bad), StepStatus::Rejected);
-        }
-        let (u, y) = rig.sample();
-        assert_eq!(est.step(u, y), StepStatus::Frozen);
-        assert_eq!(est.theta(), before);
-        assert_eq!(est.health().rejected, 3);
-        assert!(est.health().state_ok);
-        let err = rig.run(&mut est, 1.0);
-        assert!(err < 1e-9, "{err}");
-    }
-
-    #[test]
-    fn frozen_adaptation_holds_the_estimate() {
-        let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
-        let mut rig = Rig::new();
-        rig.run(&mut est, 0.5);
-        est.set_frozen(true);
-        let before = est.theta();
-        rig.run(&mut est, 0.2);
-        assert_eq!(est.theta(), before);
-        est.set_frozen(false);
-        assert!(rig.run(&mut est, 0.5) < 1e-9);
-    }
-
-    #[test]
-    fn manual_updates_and_stale_or_final_ones() {
-        let cfg = RobustConfig {
-            update_every: 0,
-            ..RobustConfig::default()
-        };
-        let mut est = Small::<f64>::new(&filter(), &cfg).unwrap();
-        let mut rig = Rig::new();
-        rig.run(&mut est, 0.1);
-        // First candidate is stored, the second (unchanged) one starts.
-        let p = est.prepare_update().unwrap();
-        assert_eq!(est.apply(p), Err(UpdateError::NotConverged));
-        let p = est.prepare_update().unwrap();
-        rig.run(&mut est, 0.01); // applied late: the samples since are replayed
-        assert_eq!(est.apply(p.clone()), Ok(()));
-        assert_eq!(est.phase(), Phase::Refining);
-        assert_eq!(est.apply(p), Err(UpdateError::Stale));
-        let p = est.prepare_update().unwrap();
-        est.reset();
-        assert_eq!(est.apply(p), Err(UpdateError::Stale));
-        assert_eq!(est.phase(), Phase::Startup);
-        let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
-        Rig::new().run(&mut est, 0.5);
-        assert_eq!(est.prepare_update().err(), Some(UpdateError::RecordFull));
-        assert!(!UpdateError::Unstable.to_string().is_empty());
-    }
-
-    #[test]
-    fn rejects_invalid_settings() {
-        let bad = [
-            RobustConfig::<7> {
-                gain: 0.0,
-                ..RobustConfig::default()
-            },
-            RobustConfig::<7> {
-                forgetting: f64::NAN,
-                ..RobustConfig::default()
-            },
-            RobustConfig::<7> {
-                theta_update_every: 0,
-                ..RobustConfig::default()
-            },
-            RobustConfig::<7> {
-                start_tolerance: -1.0,
-                ..RobustConfig::default()
-            },
-        ];
-        for cfg in &bad {
-            assert_eq!(
-                Small::<f32>::new(&filter(), cfg).err(),
-                Some(ConfigError::Gain)
-            );
-        }
-        let f = FilterConfig {
-            lambda_rad_s: 0.0,
-            ..filter()
-        };
-        assert!(Small::<f32>::new(&f, &RobustConfig::default()).is_err());
-    }
-}
+mod tests;
