@@ -98,7 +98,7 @@ impl OutputHold {
 }
 
 /// Length of the y window (y_{k−2} … y_{k+3}).
-const WINDOW: usize = 6;
+pub(crate) const WINDOW: usize = 6;
 
 /// Signal scales: u and y enter the filters as u/U0 and y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -269,6 +269,74 @@ pub struct Regressor<T, const NP: usize> {
     pub y: T,
 }
 
+/// Exact discretization (in `f64`) of the normalized filter bank for a
+/// general monic denominator: the states z_k = ρ^{D−k}·s^k/Â(s)·v with
+/// Â(s) = s^D + Σ_k â_k s^k given by its normalized coefficients
+/// c_k = â_k/ρ^{D−k} (k = 0..D−1). For Λ(s) = (s+λ)^D and ρ = λ, c_k is the
+/// binomial C(D, k) ([`FilterBank`]); the re-centred banks of
+/// `estimator::robust` pass the current estimate's denominator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct FilterMatrices<const D: usize> {
+    /// Φ − I, Φ = e^{A·Ts}.
+    pub phi_minus_i: [[f64; D]; D],
+    /// Zero-order-hold input gain (held u).
+    pub gain_u: [f64; D],
+    /// Gains on y_{k−2} … y_{k+3} for the interpolating hold on a sampled
+    /// signal.
+    pub taps_y: [[f64; D]; WINDOW],
+}
+
+impl<const D: usize> FilterMatrices<D> {
+    /// Discretize for normalized coefficients `c` and ρ·Ts = `rho_ts`.
+    /// The caller validates D (D + [`WINDOW`] ≤ `EXPM_MAX`).
+    pub(crate) fn new(c: &[f64; D], rho_ts: f64, hold: OutputHold) -> Self {
+        let lt = rho_ts;
+        // Augmented system in τ = t/Ts: [x; q0..q5], x' = ρTs(A_n x + e_{D−1} q0),
+        // q_m' = q_{m+1}; starting from q_m(0) = 1 drives x with τ^m/m!.
+        let n = D + WINDOW;
+        let mut m = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+        for i in 0..D - 1 {
+            m[i][i + 1] = lt;
+        }
+        for j in 0..D {
+            m[D - 1][j] = -lt * c[j];
+        }
+        m[D - 1][D] = lt;
+        for q in 0..WINDOW - 1 {
+            m[D + q][D + q + 1] = 1.0;
+        }
+        let e = expm(&m, n);
+        let mut g = [[0.0f64; D]; WINDOW];
+        let mut phi_minus_i = [[0.0f64; D]; D];
+        for i in 0..D {
+            for j in 0..D {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                phi_minus_i[i][j] = e[i][j] - identity;
+            }
+            for (mm, gm) in g.iter_mut().enumerate() {
+                gm[i] = e[i][D + mm];
+            }
+        }
+        // x⁺ = Φx + Σ_m G_m p^{(m)}(0), p^{(m)}(0) = Σ_tap M[m][tap]·y_tap.
+        let deriv = hold.derivative_weights();
+        let mut taps_y = [[0.0f64; D]; WINDOW];
+        for (tap, t) in taps_y.iter_mut().enumerate() {
+            for i in 0..D {
+                let mut s = 0.0;
+                for mm in 0..WINDOW {
+                    s += deriv[mm][tap] * g[mm][i];
+                }
+                t[i] = s;
+            }
+        }
+        Self {
+            phi_minus_i,
+            gain_u: g[0],
+            taps_y,
+        }
+    }
+}
+
 /// The two D-state filters (u and y) with their delay lines.
 ///
 /// `D` is the filter order 2n; `NP = 2D − 1` is the length of Ψ.
@@ -297,53 +365,15 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     /// Discretize Λ(s) for the given configuration.
     pub fn new(cfg: &FilterConfig) -> Result<Self, FilterConfigError> {
         cfg.validate(D, NP)?;
-        let lt = cfg.lambda_rad_s * cfg.ts_s;
-        // Augmented system in τ = t/Ts: [x; q0..q5], x' = λTs(A_n x + e_{D−1} q0),
-        // q_m' = q_{m+1}; starting from q_m(0) = 1 drives x with τ^m/m!.
-        let n = D + WINDOW;
-        let mut m = [[0.0f64; EXPM_MAX]; EXPM_MAX];
-        for i in 0..D - 1 {
-            m[i][i + 1] = lt;
+        let mut c = [0.0f64; D];
+        for (j, cj) in c.iter_mut().enumerate() {
+            *cj = binomial(D, j);
         }
-        for j in 0..D {
-            m[D - 1][j] = -lt * binomial(D, j);
-        }
-        m[D - 1][D] = lt;
-        for q in 0..WINDOW - 1 {
-            m[D + q][D + q + 1] = 1.0;
-        }
-        let e = expm(&m, n);
-        let mut g = [[0.0f64; D]; WINDOW];
-        let mut phi_minus_i = [[T::ZERO; D]; D];
-        for i in 0..D {
-            for j in 0..D {
-                let identity = if i == j { 1.0 } else { 0.0 };
-                phi_minus_i[i][j] = T::from_f64(e[i][j] - identity);
-            }
-            for (mm, gm) in g.iter_mut().enumerate() {
-                gm[i] = e[i][D + mm];
-            }
-        }
-        // x⁺ = Φx + Σ_m G_m p^{(m)}(0), p^{(m)}(0) = Σ_tap M[m][tap]·y_tap.
-        let deriv = cfg.hold.derivative_weights();
-        let mut taps_y = [[T::ZERO; D]; WINDOW];
-        for (tap, t) in taps_y.iter_mut().enumerate() {
-            for i in 0..D {
-                let mut s = 0.0;
-                for mm in 0..WINDOW {
-                    s += deriv[mm][tap] * g[mm][i];
-                }
-                t[i] = T::from_f64(s);
-            }
-        }
-        let mut gain_u = [T::ZERO; D];
-        for i in 0..D {
-            gain_u[i] = T::from_f64(g[0][i]);
-        }
+        let m = FilterMatrices::<D>::new(&c, cfg.lambda_rad_s * cfg.ts_s, cfg.hold);
         Ok(Self {
-            phi_minus_i,
-            gain_u,
-            taps_y,
+            phi_minus_i: m.phi_minus_i.map(|row| row.map(T::from_f64)),
+            gain_u: m.gain_u.map(T::from_f64),
+            taps_y: m.taps_y.map(|row| row.map(T::from_f64)),
             inv_u_scale: T::from_f64(1.0 / cfg.scales.u_scale),
             inv_y_scale: T::from_f64(1.0 / cfg.scales.y_scale),
             x_u: CompensatedArray::default(),

@@ -7,7 +7,9 @@
 //!
 //! * [`filter_bank`] — the 1/Λ(s) filters that produce the regressor Ψ (eq. 29);
 //! * [`estimator`] — the proposed adaptive law (eqs. 33–41) and the gradient
-//!   (47) and least-squares (48) baselines, behind one trait;
+//!   (47) and least-squares (48) baselines, behind one trait, and a
+//!   noise-robust (output-error) form of the proposed law;
+//! * [`crlb`] — the Cramér–Rao bound on ω, ζ, b̄ for an experiment;
 //! * [`modal`] / [`poly`] — Θ → polynomial → ω, ζ, b̄ (eqs. 25–32) and the
 //!   excitation monitor of Lemma 1;
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
@@ -84,6 +86,7 @@ pub mod beam;
 #[cfg(any(feature = "board-qemu", feature = "board-nucleo"))]
 pub mod board;
 pub(crate) mod compensated;
+pub mod crlb;
 pub mod drivers;
 pub mod estimator;
 pub mod excitation;

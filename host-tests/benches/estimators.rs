@@ -7,6 +7,11 @@
 //!   time per sample (`Throughput::Elements`).
 //! * `step/filter_bank/<float>/<modes>`: the filter bank alone (shared by
 //!   all laws), for the breakdown.
+//! * `step/robust/<float>/<modes>`: the noise-robust estimator in its steady
+//!   phase (warmed up for its 2 s start-up record instead of 1 s).
+//! * `startup/robust/<float>/<modes>`: the robust estimator's start-up
+//!   record from rest (2 s: start-up law, recording, and the replays of the
+//!   record), per sample.
 //! * `modal_from_tf/<float>/<modes>`: modal recovery (telemetry rate).
 //! * `excitation_level/adaptive/<float>/2`: the Lemma 1 excitation monitor
 //!   (telemetry rate).
@@ -17,9 +22,10 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+use beamest::estimator::robust::{Phase, RobustEstimator, DEFAULT_RECORD};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
-    LeastSquaresConfig, LeastSquaresEstimator, StepStatus,
+    LeastSquaresConfig, LeastSquaresEstimator, RobustConfig, StepStatus,
 };
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterBank, FilterConfig};
@@ -54,6 +60,11 @@ impl<T: Real> Workload<T> {
     /// The documented default beam for `modes` modes, excited as in the
     /// paper, filtered as `beamctl simulate` would.
     fn new(modes: usize) -> Self {
+        Self::with_warmup(modes, WARMUP_SAMPLES)
+    }
+
+    /// The same with `warmup` samples fed before the measured ones.
+    fn with_warmup(modes: usize, warmup: usize) -> Self {
         let plant_spec = PlantSpec::default_for_modes(modes).expect("1..=3 modes");
         let cfg = RunConfig {
             plant: plant_spec.clone(),
@@ -64,7 +75,7 @@ impl<T: Real> Workload<T> {
         let mut plant = plant_spec.plant(cfg.ts_s).expect("valid plant");
         let mut square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, 1.0 / cfg.ts_s)
             .expect("valid excitation");
-        let total = WARMUP_SAMPLES + MEASURED_SAMPLES;
+        let total = warmup + MEASURED_SAMPLES;
         let mut u = Vec::with_capacity(total);
         let mut y = Vec::with_capacity(total);
         for _ in 0..total {
@@ -73,8 +84,8 @@ impl<T: Real> Workload<T> {
             u.push(T::from_f64(uk));
             y.push(T::from_f64(yk));
         }
-        let (warm_u, u) = (u[..WARMUP_SAMPLES].to_vec(), u[WARMUP_SAMPLES..].to_vec());
-        let (warm_y, y) = (y[..WARMUP_SAMPLES].to_vec(), y[WARMUP_SAMPLES..].to_vec());
+        let (warm_u, u) = (u[..warmup].to_vec(), u[warmup..].to_vec());
+        let (warm_y, y) = (y[..warmup].to_vec(), y[warmup..].to_vec());
         let tf = TransferFunction {
             modes: truth.tf.modes,
             a: truth.tf.a.map(T::from_f64),
@@ -192,6 +203,61 @@ fn step_all_laws<T: Real, const D: usize, const NP: usize, const NS: usize>(
         LeastSquaresEstimator::<T, D, NP>::new(f, &LeastSquaresConfig::default()).expect("config");
     bench_step(group, "ls", modes, est, &work);
     bench_filter_bank::<T, D, NP>(group, modes, &work);
+    // The robust estimator is measured in its steady phase: warmed up for
+    // its whole start-up record.
+    let long = Workload::<T>::with_warmup(modes, DEFAULT_RECORD);
+    let robust = RobustEstimator::<T, D, NP, NS, DEFAULT_RECORD>::new(
+        &long.filter,
+        &RobustConfig::default(),
+    )
+    .expect("config");
+    let mut warm = robust.clone();
+    long.warm_up(&mut warm);
+    assert_eq!(
+        warm.phase(),
+        Phase::Steady,
+        "robust/{modes}: record not full"
+    );
+    bench_step(group, "robust", modes, robust, &long);
+}
+
+/// The robust estimator's start-up record (2 s) from rest, per sample.
+fn startup_one<T: Real, const D: usize, const NP: usize, const NS: usize>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    modes: usize,
+) {
+    let work = Workload::<T>::with_warmup(modes, DEFAULT_RECORD);
+    let est = RobustEstimator::<T, D, NP, NS, DEFAULT_RECORD>::new(
+        &work.filter,
+        &RobustConfig::default(),
+    )
+    .expect("config");
+    group.bench_function(
+        BenchmarkId::new(format!("robust/{}", T::NAME), modes),
+        |b| {
+            b.iter_custom(|iters| {
+                let mut elapsed = Duration::ZERO;
+                for _ in 0..iters {
+                    let mut e = est.clone();
+                    let start = Instant::now();
+                    for (&u, &y) in work.warm_u.iter().zip(&work.warm_y) {
+                        black_box(e.step(black_box(u), black_box(y)));
+                    }
+                    elapsed += start.elapsed();
+                    black_box(&e);
+                }
+                elapsed
+            })
+        },
+    );
+}
+
+fn startup(c: &mut Criterion) {
+    let mut group = c.benchmark_group("startup");
+    group.throughput(Throughput::Elements(DEFAULT_RECORD as u64));
+    startup_one::<f32, 4, 7, 28>(&mut group, 2);
+    startup_one::<f64, 4, 7, 28>(&mut group, 2);
+    group.finish();
 }
 
 fn step(c: &mut Criterion) {
@@ -256,6 +322,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = step, modal, excitation
+    targets = step, startup, modal, excitation
 }
 criterion_main!(benches);

@@ -10,6 +10,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod naive;
+pub mod noise_study;
 pub mod scenario;
 pub mod sim_rig;
 

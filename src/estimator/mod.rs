@@ -8,6 +8,10 @@
 //! * [`gradient::GradientLaw`] — the gradient baseline, eq. 47;
 //! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
 //!
+//! [`robust::RobustEstimator`] is not an `Identifier`: it runs the proposed
+//! law on the output error of a simulated model (unbiased under measurement
+//! noise, near the Cramér–Rao bound) and shares only the input screening.
+//!
 //! All laws work on the scaled regressor φ and scaled parameters θ_s (see
 //! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
 //!
@@ -35,6 +39,8 @@
 pub mod adaptive;
 pub mod gradient;
 pub mod least_squares;
+pub mod robust;
+mod screen;
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
 use crate::modal::excitation_min_eig;
@@ -44,6 +50,8 @@ use crate::scalar::Real;
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use gradient::{GradientConfig, GradientLaw};
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
+pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
+use screen::{InputScreen, Screened};
 
 /// A sample more than this many signal scales away from zero is rejected.
 pub const INPUT_LIMIT: f64 = 1e6;
@@ -248,14 +256,8 @@ pub struct Identifier<T, L, const D: usize, const NP: usize> {
     /// Θ_j = θ_s,j·unscale_j (Y0·E_j of [`Scaling`]), in working precision.
     unscale: [T; NP],
     lambda_rad_s: f64,
-    u_limit: T,
-    y_limit: T,
-    last_u: T,
-    last_y: T,
-    quarantine: u32,
-    quarantine_len: u32,
+    screen: InputScreen<T>,
     samples: u64,
-    rejected: u32,
     skipped: u32,
 }
 
@@ -269,14 +271,8 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
             law,
             unscale: Scaling::<NP>::new(filter).to_physical(&[T::ONE; NP]),
             lambda_rad_s: filter.lambda_rad_s,
-            u_limit: T::from_f64(INPUT_LIMIT * filter.scales.u_scale),
-            y_limit: T::from_f64(INPUT_LIMIT * filter.scales.y_scale),
-            last_u: T::ZERO,
-            last_y: T::ZERO,
-            quarantine: 0,
-            quarantine_len: quarantine_samples(filter),
+            screen: InputScreen::new(filter),
             samples: 0,
-            rejected: 0,
             skipped: 0,
         })
     }
@@ -288,7 +284,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
 
     /// Samples the law stays frozen after a rejected sample.
     pub fn quarantine_samples(&self) -> u32 {
-        self.quarantine_len
+        self.screen.quarantine_len()
     }
 
     /// The filter pole λ (rad/s).
@@ -303,30 +299,24 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
         self.samples = self.samples.wrapping_add(1);
-        let good =
-            u.is_finite() && y.is_finite() && u.abs() <= self.u_limit && y.abs() <= self.y_limit;
-        let (u, y) = if good {
-            self.last_u = u;
-            self.last_y = y;
-            (u, y)
-        } else {
-            self.rejected = self.rejected.saturating_add(1);
-            self.quarantine = self.quarantine.max(self.quarantine_len);
-            (self.last_u, self.last_y)
-        };
-        let reg = self.bank.push(u, y);
-        if !good {
-            return StepStatus::Rejected;
-        }
-        if self.quarantine > 0 {
-            self.quarantine -= 1;
-            return StepStatus::Frozen;
-        }
-        match self.law.update(&reg) {
-            Ok(()) => StepStatus::Updated,
-            Err(_) => {
-                self.skipped = self.skipped.saturating_add(1);
-                StepStatus::Skipped
+        match self.screen.screen(u, y) {
+            Screened::Good(u, y) => {
+                let reg = self.bank.push(u, y);
+                match self.law.update(&reg) {
+                    Ok(()) => StepStatus::Updated,
+                    Err(_) => {
+                        self.skipped = self.skipped.saturating_add(1);
+                        StepStatus::Skipped
+                    }
+                }
+            }
+            Screened::Quarantined(u, y) => {
+                self.bank.push(u, y);
+                StepStatus::Frozen
+            }
+            Screened::Rejected(u, y) => {
+                self.bank.push(u, y);
+                StepStatus::Rejected
             }
         }
     }
@@ -352,11 +342,8 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     fn reset(&mut self) {
         self.bank.reset();
         self.law.reset();
-        self.last_u = T::ZERO;
-        self.last_y = T::ZERO;
-        self.quarantine = 0;
+        self.screen.reset();
         self.samples = 0;
-        self.rejected = 0;
         self.skipped = 0;
     }
 
@@ -369,17 +356,17 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn hold(&mut self, samples: u32) {
-        self.quarantine = self.quarantine.max(samples);
+        self.screen.hold(samples);
     }
 
     fn settling_samples(&self) -> u32 {
-        self.quarantine_len
+        self.screen.quarantine_len()
     }
 
     fn health(&self) -> Health {
         Health {
             samples: self.samples,
-            rejected: self.rejected,
+            rejected: self.screen.rejected,
             skipped: self.skipped,
             state_ok: self.law.is_healthy(),
         }
@@ -402,17 +389,6 @@ pub type GradientEstimator<T, const D: usize, const NP: usize> =
 /// The least-squares baseline (eq. 48).
 pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
     Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
-
-/// Samples covering [`QUARANTINE_TIME_CONSTANTS`] filter time constants
-/// (at least the interpolation window), saturating at `u32::MAX`.
-fn quarantine_samples(filter: &FilterConfig) -> u32 {
-    let n = libm::ceil(QUARANTINE_TIME_CONSTANTS / (filter.lambda_rad_s * filter.ts_s));
-    if n >= u32::MAX as f64 {
-        u32::MAX
-    } else {
-        (n as u32).max(8)
-    }
-}
 
 /// (1 − e^{−x})/x, accurate for small x ≥ 0 (the exact-step factor of the
 /// rank-one laws).

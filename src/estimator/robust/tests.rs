@@ -1,0 +1,169 @@
+//! Unit tests of the robust estimator.
+use super::*;
+use crate::excitation::SquareWave;
+use crate::filter_bank::SignalScales;
+use crate::modal::modal_from_tf;
+use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use crate::plant::ModalPlant;
+
+/// A 0.3 s record keeps the tests quick.
+type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
+
+fn filter() -> FilterConfig {
+    FilterConfig {
+        scales: SignalScales {
+            u_scale: 0.1,
+            y_scale: 4e-3,
+        },
+        ..FilterConfig::default()
+    }
+}
+
+/// The paper's plant and excitation, continuing across calls.
+struct Rig {
+    plant: ModalPlant<f64>,
+    sq: SquareWave<f64>,
+}
+
+impl Rig {
+    fn new() -> Self {
+        Self {
+            plant: ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap(),
+            sq: SquareWave::paper(),
+        }
+    }
+
+    /// The next (u, y) sample.
+    fn sample(&mut self) -> (f64, f64) {
+        let u = self.sq.next_sample();
+        (u, self.plant.sample(u))
+    }
+
+    /// Feed `est` for `seconds`; largest relative ω/ζ error.
+    fn run<T: Real>(&mut self, est: &mut Small<T>, seconds: f64) -> f64 {
+        for _ in 0..(seconds * 1e4) as usize {
+            let u = self.sq.next_sample();
+            est.step(T::from_f64(u), T::from_f64(self.plant.sample(u)));
+        }
+        let w = [T::from_f64(-2.0), T::from_f64(2.0)];
+        let m = modal_from_tf(&est.transfer_function(), &w).unwrap();
+        (0..2)
+            .map(|i| {
+                let ew = m.omega_rad_s[i].to_f64() / PAPER_OMEGA[i] - 1.0;
+                let ez = m.zeta[i].to_f64() / PAPER_ZETA[i] - 1.0;
+                ew.abs().max(ez.abs())
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+#[test]
+fn identifies_the_paper_plant_noise_free_in_both_precisions() {
+    let mut e64 = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    assert_eq!(e64.phase(), Phase::Startup);
+    assert!(rig.run(&mut e64, 0.25) < 1e-6);
+    assert_eq!(e64.phase(), Phase::Refining);
+    let err = rig.run(&mut e64, 2.0);
+    assert_eq!(e64.phase(), Phase::Steady);
+    assert!(err < 1e-9, "f64: {err}");
+    assert!(e64.noise_rms().unwrap() < 1e-12);
+    assert!(e64.excitation_level().unwrap() > 0.0);
+    let mut e32 = Small::<f32>::new(&filter(), &RobustConfig::default()).unwrap();
+    let err = Rig::new().run(&mut e32, 2.3);
+    assert!(err < 1e-5, "f32: {err}");
+    let h = e32.health();
+    assert!(h.state_ok && h.skipped == 0 && h.samples == 23_000);
+}
+
+#[test]
+fn bad_samples_never_enter_the_state() {
+    let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 1.0);
+    let before = est.theta();
+    for bad in [f64::NAN, f64::INFINITY, 1e30] {
+        let (u, _) = rig.sample();
+        assert_eq!(est.step(u, bad), StepStatus::Rejected);
+    }
+    let (u, y) = rig.sample();
+    assert_eq!(est.step(u, y), StepStatus::Frozen);
+    assert_eq!(est.theta(), before);
+    assert_eq!(est.health().rejected, 3);
+    assert!(est.health().state_ok);
+    let err = rig.run(&mut est, 1.0);
+    assert!(err < 1e-9, "{err}");
+}
+
+#[test]
+fn frozen_adaptation_holds_the_estimate() {
+    let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 0.5);
+    est.set_frozen(true);
+    let before = est.theta();
+    rig.run(&mut est, 0.2);
+    assert_eq!(est.theta(), before);
+    est.set_frozen(false);
+    assert!(rig.run(&mut est, 0.5) < 1e-9);
+}
+
+#[test]
+fn manual_updates_and_stale_or_final_ones() {
+    let cfg = RobustConfig {
+        update_every: 0,
+        ..RobustConfig::default()
+    };
+    let mut est = Small::<f64>::new(&filter(), &cfg).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 0.1);
+    // First candidate is stored, the second (unchanged) one starts.
+    let p = est.prepare_update().unwrap();
+    assert_eq!(est.apply(p), Err(UpdateError::NotConverged));
+    let p = est.prepare_update().unwrap();
+    rig.run(&mut est, 0.01); // applied late: the samples since are replayed
+    assert_eq!(est.apply(p.clone()), Ok(()));
+    assert_eq!(est.phase(), Phase::Refining);
+    assert_eq!(est.apply(p), Err(UpdateError::Stale));
+    let p = est.prepare_update().unwrap();
+    est.reset();
+    assert_eq!(est.apply(p), Err(UpdateError::Stale));
+    assert_eq!(est.phase(), Phase::Startup);
+    let mut est = Small::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
+    Rig::new().run(&mut est, 0.5);
+    assert_eq!(est.prepare_update().err(), Some(UpdateError::RecordFull));
+    assert!(!UpdateError::Unstable.to_string().is_empty());
+}
+
+#[test]
+fn rejects_invalid_settings() {
+    let bad = [
+        RobustConfig::<7> {
+            gain: 0.0,
+            ..RobustConfig::default()
+        },
+        RobustConfig::<7> {
+            forgetting: f64::NAN,
+            ..RobustConfig::default()
+        },
+        RobustConfig::<7> {
+            theta_update_every: 0,
+            ..RobustConfig::default()
+        },
+        RobustConfig::<7> {
+            start_tolerance: -1.0,
+            ..RobustConfig::default()
+        },
+    ];
+    for cfg in &bad {
+        assert_eq!(
+            Small::<f32>::new(&filter(), cfg).err(),
+            Some(ConfigError::Gain)
+        );
+    }
+    let f = FilterConfig {
+        lambda_rad_s: 0.0,
+        ..filter()
+    };
+    assert!(Small::<f32>::new(&f, &RobustConfig::default()).is_err());
+}
