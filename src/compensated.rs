@@ -56,6 +56,51 @@ fn split<T: Real>(a: T) -> (T, T) {
     (hi, a - hi)
 }
 
+/// A double word h + l prepared for [`Factor::mul`]: its leading word h,
+/// the Veltkamp high half `hh` of h (⌈p/2⌉ significant bits) and the tail
+/// t = (h − hh) + l. Preparing costs 5 flops, once per operand; every
+/// product with another factor then costs 5 flops (Dekker's product with
+/// pre-split operands would cost 9, plus 4 for the low words).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Factor<T> {
+    h: T,
+    hh: T,
+    t: T,
+}
+
+impl<T: Real> Factor<T> {
+    /// Prepare the double word `h + l` (`l` may be zero, or unnormalized:
+    /// only h + l matters, with |l| ≲ 2⁻ᵖ⁄²·|h|).
+    #[inline(always)]
+    pub fn new(h: T, l: T) -> Self {
+        let c = T::SPLITTER * h;
+        let hh = c - (c - h);
+        Self {
+            h,
+            hh,
+            t: (h - hh) + l,
+        }
+    }
+
+    /// The product of two double words as an unevaluated sum p + e with
+    /// p = fl(h·h′): Dekker's exact error term hh·hh′ − p (exact, as in
+    /// [`two_prod`]) plus the remaining partial products t·hh′ + h·t′ in
+    /// working precision. Only the products of a tail with a tail's lower
+    /// half are dropped, so p + e is the product to about 2^(3−3p/2)
+    /// relative (≈ 2⁻³³ in `f32`) instead of the 2⁻²⁴ of
+    /// a rounded product: in `f32` each increment of P, Q (eq. 33) and each
+    /// term of W (eq. 35) is then ~5e5 times more accurate than rounding
+    /// alone, and their rounding errors are random, so over the law's
+    /// memory of 1/(l·Ts) ≈ 2e5 samples they add up to ~2⁻⁴² of P. Only
+    /// used when `T::COMPENSATED`.
+    #[inline(always)]
+    pub fn mul(&self, o: &Self) -> (T, T) {
+        let p = self.h * o.h;
+        let e = ((self.hh * o.hh - p) + self.t * o.hh) + self.h * o.t;
+        (p, e)
+    }
+}
+
 /// A double-word accumulator: the value is `hi + lo`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Compensated<T> {
@@ -97,12 +142,48 @@ impl<T: Real> Compensated<T> {
     }
 }
 
-/// (xh + xl)·(yh + yl) as a double word (p, e), dropping xl·yl (below the
-/// working precision squared).
+/// A double word prepared for exact products: h = hh + hl (Veltkamp) and
+/// the trailing word l.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExactFactor<T> {
+    h: T,
+    hh: T,
+    hl: T,
+    l: T,
+}
+
+impl<T: Real> ExactFactor<T> {
+    /// Prepare the double word `h + l`.
+    #[inline(always)]
+    pub fn new(h: T, l: T) -> Self {
+        let (hh, hl) = split(h);
+        Self { h, hh, hl, l }
+    }
+
+    /// (h + l)(h′ + l′) as p + e with p = fl(h·h′): Dekker's exact
+    /// h·h′ − p, then the cross terms h·l′ + l·h′ in the same chain (l·l′
+    /// dropped). e is exact up to the rounding of the two cross terms and
+    /// of the last two additions, ≲ 2⁻²ᵖ·|p|.
+    #[inline(always)]
+    pub fn mul(&self, o: &Self) -> (T, T) {
+        let p = self.h * o.h;
+        let e = ((self.hh * o.hh - p) + self.hh * o.hl + self.hl * o.hh) + self.hl * o.hl;
+        (p, (e + self.h * o.l) + self.l * o.h)
+    }
+}
+
+/// hi + lo += p + e for a double word (hi, lo) and an unevaluated sum
+/// p + e: the two-sum of the leading words is exact and its error joins `e`
+/// in the trailing word, which is **not** renormalized (3 flops fewer than
+/// [`CompensatedArray::add`]). The trailing word then grows like a random
+/// walk of half-ulps of the leading one, ~√n·ulp(hi) after n additions;
+/// call [`CompensatedArray::renormalize`] every few dozen additions and
+/// before the words are read one at a time.
 #[inline(always)]
-pub fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
-    let (p, e) = two_prod(xh, yh);
-    (p, e + (xh * yl + xl * yh))
+pub fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
+    let (s, err) = two_sum(*hi, p);
+    *hi = s;
+    *lo += err + e;
 }
 
 /// An array of double-word accumulators stored as two word arrays
@@ -139,17 +220,13 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
         }
     }
 
-    /// Element `i` += (p + e), a double word (see [`Compensated::add`]).
+    /// Restore |lo| ≤ ulp(hi)/2 for every element (exact: a two-sum).
     #[inline(always)]
-    pub fn add_dw(&mut self, i: usize, p: T, e: T) {
-        if T::COMPENSATED {
-            let (s, e2) = two_sum(self.hi[i], p);
-            let lo = self.lo[i] + (e + e2);
-            let hi = s + lo;
-            self.lo[i] = lo - (hi - s);
-            self.hi[i] = hi;
-        } else {
-            self.hi[i] += p + e;
+    pub fn renormalize(&mut self) {
+        for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
+            let (s, err) = two_sum(*h, *l);
+            *h = s;
+            *l = err;
         }
     }
 
@@ -223,6 +300,22 @@ impl<T: Real> Dot2<T> {
         } else {
             self.p += x.hi * y.hi;
         }
+    }
+
+    /// Start at the double word hi + lo.
+    #[inline(always)]
+    pub fn from_dw(hi: T, lo: T) -> Self {
+        Self { p: hi, s: lo }
+    }
+
+    /// Accumulate the unevaluated sum p + e (a product from
+    /// [`Factor::mul`]): an exact two-sum of the leading words, whose error
+    /// joins `e` in the trailing sum.
+    #[inline(always)]
+    pub fn add_dw(&mut self, p: T, e: T) {
+        let (s, q) = two_sum(self.p, p);
+        self.p = s;
+        self.s += q + e;
     }
 
     /// Accumulate a double-word value.
