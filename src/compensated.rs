@@ -38,6 +38,16 @@ pub fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
     (s, e)
 }
 
+/// s + e = a + b exactly when |a| ≥ |b| (Dekker's Fast2Sum, 3 flops).
+/// Used to renormalize a double word (hi, lo) whose trailing word is a few
+/// ulp of hi; should hi have been cancelled below |lo|, the result is still
+/// hi + lo to within ulp(lo)·2⁻ᵖ.
+#[inline(always)]
+pub fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
+    let s = a + b;
+    (s, b - (s - a))
+}
+
 /// p + e = a·b exactly, with p = fl(a·b) (Dekker's product with Veltkamp
 /// splitting, 17 flops, no fused multiply-add required).
 #[inline(always)]

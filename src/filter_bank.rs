@@ -257,6 +257,17 @@ impl<const NP: usize> Scaling<NP> {
     }
 }
 
+/// Σ x_i·y_i summed from the first product (not from zero, which costs an
+/// instruction per dot product and changes nothing but the sign of an
+/// exact zero). Used on the `f32` path; the `f64` path keeps
+/// `linalg::dot` so its results stay bit-identical.
+#[inline(always)]
+fn dot_from_first<T: Real, const N: usize>(x: &[T; N], y: &[T; N]) -> T {
+    let mut terms = x.iter().zip(y.iter()).map(|(a, b)| *a * *b);
+    let first = terms.next().unwrap_or(T::ZERO);
+    terms.fold(first, |s, t| s + t)
+}
+
 /// One regressor sample: φ (scaled Ψ) and the matching scaled output y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Regressor<T, const NP: usize> {
@@ -407,9 +418,10 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     fn free_response(&self, x: &CompensatedArray<T, D>) -> [T; D] {
         let mut d = [T::ZERO; D];
         for (di, row) in d.iter_mut().zip(self.phi_minus_i.iter()) {
-            *di = dot(row, &x.hi);
             if T::COMPENSATED {
-                *di += dot(row, &x.lo);
+                *di = dot_from_first(row, &x.hi) + dot_from_first(row, &x.lo);
+            } else {
+                *di = dot(row, &x.hi);
             }
         }
         d

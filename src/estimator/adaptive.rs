@@ -54,7 +54,9 @@
 //!   reports [`LawError::Singular`].
 
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
-use crate::compensated::{add_lazy, Compensated, CompensatedArray, Dot2, ExactFactor, Factor};
+use crate::compensated::{
+    add_lazy, fast_two_sum, Compensated, CompensatedArray, Dot2, ExactFactor, Factor,
+};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, ldlt_solve_packed_floored};
 use crate::scalar::Real;
@@ -195,6 +197,62 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     theta: CompensatedArray<T, NP>,
 }
 
+/// W̃ = P̃θ − Q̃ (eq. 35 over P's lazy scale) for `T::COMPENSATED`, from
+/// the packed double-word P̃ (`p`), Q̃ (`q`) and θ, renormalizing `p` and
+/// `q` in place on the way (they are accumulated lazily; measured: the
+/// trailing words left at ~√64 ulp instead of renormalizing at every θ
+/// step cost a factor 2–2.5 in the ω, ζ errors of the plants with the
+/// worst-conditioned P, random plant #3 and the 3-mode plant). Every term
+/// P̃_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁶
+/// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
+/// P̃ adds P̃_ij·θ_j to W̃_i and, by symmetry, P̃_ij·θ_i to W̃_j (j > i).
+fn w_exact<T: Real, const NP: usize, const NS: usize>(
+    p: &mut CompensatedArray<T, NS>,
+    q: &mut CompensatedArray<T, NP>,
+    theta: &CompensatedArray<T, NP>,
+) -> [T; NP] {
+    let mut th = [ExactFactor::default(); NP];
+    for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
+        *f = ExactFactor::new(h, l);
+    }
+    let mut acc = [Dot2::<T>::new(); NP];
+    for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
+        (*qh, *ql) = fast_two_sum(*qh, *ql);
+        *a = Dot2::from_dw(-*qh, -*ql);
+    }
+    // (Loops run to a fixed bound NP with an early exit, so the compiler
+    // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
+    let mut off = 0;
+    for i in 0..NP {
+        let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
+            break;
+        };
+        let mut acc_i = acc_start;
+        for t in 0..NP {
+            let (Some(h), Some(l), Some(th_j)) =
+                (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
+            else {
+                break;
+            };
+            (*h, *l) = fast_two_sum(*h, *l);
+            let pij = ExactFactor::new(*h, *l);
+            let (p, e) = pij.mul(th_j);
+            acc_i.add_dw(p, e);
+            if t > 0 {
+                if let Some(acc_j) = acc.get_mut(i + t) {
+                    let (p, e) = pij.mul(&th_i);
+                    acc_j.add_dw(p, e);
+                }
+            }
+        }
+        if let Some(a) = acc.get_mut(i) {
+            *a = acc_i;
+        }
+        off += NP - i;
+    }
+    acc.map(Dot2::value)
+}
+
 /// Expand a packed upper triangle into a full symmetric matrix, times `k`.
 fn unpack<T: Real, const NP: usize, const NS: usize>(
     packed: &CompensatedArray<T, NS>,
@@ -297,7 +355,8 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     /// renormalized).
     fn w_unscaled(&self) -> [T; NP] {
         if T::COMPENSATED {
-            return self.w_unscaled_exact();
+            let (mut p, mut q) = (self.p.sum, self.q);
+            return w_exact(&mut p, &mut q, &self.theta);
         }
         let mut acc = [Dot2::<T>::new(); NP];
         let mut idx = 0;
@@ -323,52 +382,6 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         w
     }
 
-    /// [`w_unscaled`](Self::w_unscaled) for `T::COMPENSATED`: every term
-    /// P̃_ij·θ_j a near-exact product of two double words ([`Factor::mul`]),
-    /// summed by [`Dot2::add_dw`].
-    fn w_unscaled_exact(&self) -> [T; NP] {
-        let mut th = [ExactFactor::default(); NP];
-        for ((f, &h), &l) in th.iter_mut().zip(self.theta.hi.iter()).zip(self.theta.lo.iter()) {
-            *f = ExactFactor::new(h, l);
-        }
-        // acc_i starts at −Q̃_i; row i of the packed P̃ adds P̃_ij·θ_j to
-        // acc_i and, by symmetry, P̃_ij·θ_i to acc_j (j > i).
-        let mut acc = [Dot2::<T>::new(); NP];
-        for ((a, &qh), &ql) in acc.iter_mut().zip(self.q.hi.iter()).zip(self.q.lo.iter()) {
-            *a = Dot2::from_dw(-qh, -ql);
-        }
-        // (Loops run to a fixed bound NP with an early exit, so the
-        // compiler unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
-        let mut off = 0;
-        for i in 0..NP {
-            let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
-                break;
-            };
-            let mut acc_i = acc_start;
-            for t in 0..NP {
-                let (Some(&h), Some(&l), Some(th_j)) =
-                    (self.p.sum.hi.get(off + t), self.p.sum.lo.get(off + t), th.get(i + t))
-                else {
-                    break;
-                };
-                let pij = ExactFactor::new(h, l);
-                let (p, e) = pij.mul(th_j);
-                acc_i.add_dw(p, e);
-                if t > 0 {
-                    if let Some(acc_j) = acc.get_mut(i + t) {
-                        let (p, e) = pij.mul(&th_i);
-                        acc_j.add_dw(p, e);
-                    }
-                }
-            }
-            if let Some(a) = acc.get_mut(i) {
-                *a = acc_i;
-            }
-            off += NP - i;
-        }
-        acc.map(Dot2::value)
-    }
-
     /// One backward-Euler θ step (eq. 41, see the module docs):
     /// (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale. Runs
     /// every K samples; kept out of line so that the per-sample path stays
@@ -376,15 +389,12 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     #[inline(never)]
     fn theta_step(&mut self) -> Result<(), LawError> {
         // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
-        // W needs the double words renormalized (measured: unnormalized
-        // trailing words, ~√K ulp, cost a factor ~2 in the ω, ζ error of
-        // the 3-mode plant, cond(P) ≈ 2e9).
-        if T::COMPENSATED {
-            self.p.sum.renormalize();
-            self.q.renormalize();
+        let w = if T::COMPENSATED {
             self.unnormalized = 0;
-        }
-        let w = self.w_unscaled();
+            w_exact(&mut self.p.sum, &mut self.q, &self.theta)
+        } else {
+            self.w_unscaled()
+        };
         // S = R/g_P + K·TsΓ·P̃, packed like P̃ (diagonal: see below).
         let mut s = [T::ZERO; NS];
         if self.tied {
