@@ -328,7 +328,12 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         // Row i of the packed upper triangle is the next NP − i entries.
         let mut rest_h: &mut [T] = &mut self.p.sum.hi;
         let mut rest_l: &mut [T] = &mut self.p.sum.lo;
-        let rows = self.q.hi.iter_mut().zip(self.q.lo.iter_mut()).zip(cols.iter());
+        let rows = self
+            .q
+            .hi
+            .iter_mut()
+            .zip(self.q.lo.iter_mut())
+            .zip(cols.iter());
         for (i, ((qh, ql), ci)) in rows.enumerate() {
             // a = w·φ_i, itself a double word, prepared once per row.
             let (ah, al) = wf.mul(ci);
@@ -339,7 +344,11 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             ) else {
                 return;
             };
-            for ((h, l), cj) in row_h.iter_mut().zip(row_l.iter_mut()).zip(cols.iter().skip(i)) {
+            for ((h, l), cj) in row_h
+                .iter_mut()
+                .zip(row_l.iter_mut())
+                .zip(cols.iter().skip(i))
+            {
                 let (p, e) = a.mul(cj);
                 add_lazy(h, l, p, e);
             }
@@ -403,7 +412,11 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             }
         } else {
             let ratio = self.r.scale / self.p.scale;
-            for ((v, &h), &r) in s.iter_mut().zip(self.p.sum.hi.iter()).zip(self.r.sum.hi.iter()) {
+            for ((v, &h), &r) in s
+                .iter_mut()
+                .zip(self.p.sum.hi.iter())
+                .zip(self.r.sum.hi.iter())
+            {
                 *v = ratio * r + self.step_gain * h;
             }
         }
