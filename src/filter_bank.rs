@@ -73,8 +73,12 @@ impl OutputHold {
         // Vandermonde V[i][m] = τ_i^m; coefficients c = V⁻¹y; p^{(m)}(0) = m!·c_m.
         let mut v = [[0.0f64; EXPM_MAX]; EXPM_MAX];
         for (i, &t) in nodes.iter().enumerate() {
+            // τ^m by repeated multiplication: exact for these small
+            // integers (as libm's `pow` was), without linking `pow`.
+            let mut p = 1.0;
             for m in 0..q {
-                v[i][m] = libm::pow(t, m as f64);
+                v[i][m] = p;
+                p *= t;
             }
         }
         let mut out = [[0.0f64; WINDOW]; WINDOW];
