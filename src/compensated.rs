@@ -16,8 +16,14 @@
 //! which fits a Cortex-M4F (no software `f64`).
 //!
 //! # What
-//! * [`two_sum`] (Knuth) and [`two_prod`] (Dekker/Veltkamp, no FMA needed)
-//!   are error-free transformations.
+//! * [`two_sum`] (Knuth), [`fast_two_sum`] (Dekker) and [`two_prod`]
+//!   (Dekker/Veltkamp, no FMA needed) are error-free transformations.
+//! * [`Factor`] and [`ExactFactor`] are double-word operands split once so
+//!   that each product with another costs 5 (near-exact, ~2⁻³³) or 8
+//!   (exact up to ~2⁻⁴⁶) flops: the adaptive law's per-sample increments
+//!   use the first, its residual W ([`residual_exact`]) the second.
+//! * [`add_lazy`] adds such a product to a double word without
+//!   renormalizing it ([`CompensatedArray::renormalize`] does that later).
 //! * [`Compensated`] is a (hi, lo) accumulator: `add` is exact up to the
 //!   second-order term.
 //! * [`Dot2`] is the Ogita–Rump–Oishi dot product "as if in twice the
@@ -347,6 +353,64 @@ impl<T: Real> Dot2<T> {
     }
 }
 
+/// The residual W = Pθ − Q of eq. 35 (the adaptive law's W̃ over its lazy
+/// scale) for a symmetric P stored as a packed upper triangle (row by row,
+/// `NS = NP(NP+1)/2`) of double words, and double-word Q and θ: P and Q
+/// are renormalized in place on the way (the law accumulates them lazily
+/// with [`add_lazy`], and renormalizing them at every θ step keeps its
+/// accuracy: leaving the trailing words at ~√64 ulp cost up to 2.5× in the
+/// ω, ζ errors of the worst-conditioned plants, docs/NUMERICS.md). Every
+/// term P_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁶
+/// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
+/// P adds P_ij·θ_j to W_i and, by symmetry, P_ij·θ_i to W_j (j > i).
+/// Meant for `T::COMPENSATED` (in `f64` it is merely exact and slow).
+pub fn residual_exact<T: Real, const NP: usize, const NS: usize>(
+    p: &mut CompensatedArray<T, NS>,
+    q: &mut CompensatedArray<T, NP>,
+    theta: &CompensatedArray<T, NP>,
+) -> [T; NP] {
+    let mut th = [ExactFactor::default(); NP];
+    for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
+        *f = ExactFactor::new(h, l);
+    }
+    let mut acc = [Dot2::<T>::new(); NP];
+    for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
+        (*qh, *ql) = fast_two_sum(*qh, *ql);
+        *a = Dot2::from_dw(-*qh, -*ql);
+    }
+    // (Loops run to a fixed bound NP with an early exit, so the compiler
+    // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
+    let mut off = 0;
+    for i in 0..NP {
+        let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
+            break;
+        };
+        let mut acc_i = acc_start;
+        for t in 0..NP {
+            let (Some(h), Some(l), Some(th_j)) =
+                (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
+            else {
+                break;
+            };
+            (*h, *l) = fast_two_sum(*h, *l);
+            let pij = ExactFactor::new(*h, *l);
+            let (p, e) = pij.mul(th_j);
+            acc_i.add_dw(p, e);
+            if t > 0 {
+                if let Some(acc_j) = acc.get_mut(i + t) {
+                    let (p, e) = pij.mul(&th_i);
+                    acc_j.add_dw(p, e);
+                }
+            }
+        }
+        if let Some(a) = acc.get_mut(i) {
+            *a = acc_i;
+        }
+        off += NP - i;
+    }
+    acc.map(Dot2::value)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -379,6 +443,121 @@ mod tests {
         assert_eq!(plain, 1.0);
         let expect = 1.0 + 1e6 * (1e-8f32 as f64);
         assert!((c.hi as f64 + c.lo as f64 - expect).abs() < 1e-9);
+    }
+
+    /// xorshift64 in [-1, 1) (tests only).
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    /// A random f32 double word (h, l) with |l| ≤ ulp(h)/2, and its value.
+    fn random_dw(next: &mut impl FnMut() -> f64) -> (f32, f32, f64) {
+        let v = next() * 2f64.powi((next() * 20.0) as i32);
+        let h = v as f32;
+        let l = (v - h as f64) as f32;
+        (h, l, h as f64 + l as f64)
+    }
+
+    #[test]
+    fn factor_products_are_as_accurate_as_documented() {
+        let mut next = rng(7);
+        for _ in 0..100_000 {
+            let (ah, al, a) = random_dw(&mut next);
+            let (bh, bl, b) = random_dw(&mut next);
+            let exact = a * b; // exact in f64 up to 2^-53 relative
+            let (p, e) = Factor::new(ah, al).mul(&Factor::new(bh, bl));
+            let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
+            assert!(err < 2f64.powi(-32), "Factor: {err:e}");
+            let (p, e) = ExactFactor::new(ah, al).mul(&ExactFactor::new(bh, bl));
+            let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
+            assert!(err < 2f64.powi(-44), "ExactFactor: {err:e}");
+        }
+    }
+
+    #[test]
+    fn lazy_accumulation_keeps_the_exact_sum() {
+        // 10 000 near-exact increments into a lazily renormalized double
+        // word, renormalized every 10 additions as the law does.
+        let mut next = rng(11);
+        let (mut h, mut l) = (0.0f32, 0.0f32);
+        let mut exact = 0.0f64;
+        let w = Factor::new(1.0e-4f32, 0.0);
+        for k in 0..10_000 {
+            let (xh, xl, _) = random_dw(&mut next);
+            let (p, e) = w.mul(&Factor::new(xh, xl));
+            exact += (p as f64) + (e as f64);
+            add_lazy(&mut h, &mut l, p, e);
+            if k % 10 == 9 {
+                (h, l) = fast_two_sum(h, l);
+            }
+        }
+        let got = h as f64 + l as f64;
+        assert!(
+            (got - exact).abs() <= 1e-13 * exact.abs().max(1e-3),
+            "{got} vs {exact}"
+        );
+    }
+
+    #[test]
+    fn exact_residual_of_a_packed_symmetric_system() {
+        // W = Pθ − Q for a random symmetric 7×7 P (packed double words) and
+        // Q = Pθ* with θ ≠ θ*: compared with the same sum in f64 from the
+        // exact values; P and Q come back renormalized with the same value.
+        let mut next = rng(3);
+        let mut p = CompensatedArray::<f32, 28>::default();
+        let mut dense = [[0.0f64; 7]; 7];
+        let mut idx = 0;
+        for i in 0..7 {
+            for j in i..7 {
+                let (h, l, v) = random_dw(&mut next);
+                p.hi[idx] = h;
+                p.lo[idx] = l + l; // unnormalized trailing word
+                let v = v + l as f64;
+                dense[i][j] = v;
+                dense[j][i] = v;
+                idx += 1;
+            }
+        }
+        let mut theta = CompensatedArray::<f32, 7>::default();
+        let mut q = CompensatedArray::<f32, 7>::default();
+        let mut th64 = [0.0f64; 7];
+        for i in 0..7 {
+            let (h, l, v) = random_dw(&mut next);
+            (theta.hi[i], theta.lo[i], th64[i]) = (h, l, v);
+        }
+        for i in 0..7 {
+            let pq: f64 = (0..7).map(|j| dense[i][j] * (th64[j] * (1.0 + 1e-6))).sum();
+            let h = pq as f32;
+            q.hi[i] = h;
+            q.lo[i] = (pq - h as f64) as f32;
+        }
+        let q_before = q;
+        let w = residual_exact(&mut p, &mut q, &theta);
+        for i in 0..7 {
+            let terms: Vec<f64> = (0..7).map(|j| dense[i][j] * th64[j]).collect();
+            let q64 = q_before.hi[i] as f64 + q_before.lo[i] as f64;
+            let want = terms.iter().sum::<f64>() - q64;
+            let scale: f64 = terms.iter().map(|t| t.abs()).sum();
+            assert!(
+                ((w[i] as f64) - want).abs() <= 2f64.powi(-42) * scale,
+                "W{i}"
+            );
+            assert_eq!(q.hi[i] as f64 + q.lo[i] as f64, q64);
+        }
+        let mut idx = 0;
+        for i in 0..7 {
+            for j in i..7 {
+                assert_eq!(p.hi[idx] as f64 + p.lo[idx] as f64, dense[i][j]);
+                assert!(p.lo[idx].abs() <= p.hi[idx].abs() * f32::EPSILON);
+                idx += 1;
+            }
+        }
     }
 
     #[test]

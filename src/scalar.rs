@@ -78,7 +78,8 @@ pub trait Real:
     /// 0.5 ulp + 2⁻³⁰ relative of the exact value; no `f64` arithmetic
     /// beyond the split, no libm).
     fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self;
-    /// Square root (correctly rounded; `f32` without libm or `f64`, see
+    /// Square root (correctly rounded; for `f32` without `f64`: the
+    /// hardware instruction where libm has a path to it, else
     /// [`sqrt_f32`]).
     fn sqrt(self) -> Self;
     /// Absolute value.
@@ -242,7 +243,7 @@ impl_real!(
     "f32",
     true,
     4097.0,
-    sqrt_f32,
+    sqrtf_select,
     libm::expf,
     libm::logf,
     libm::sinf,
@@ -271,6 +272,29 @@ impl_real!(
     libm::round,
     scaled_powi_f64
 );
+
+/// √x for `f32` (correctly rounded either way): `libm::sqrtf` where libm
+/// maps it to a hardware instruction (x86 SSE2, AArch64 NEON), else
+/// [`sqrt_f32`] (e.g. `thumbv7em-none-eabihf`, where `libm::sqrtf` is a
+/// bit-by-bit loop). Both round correctly, so results are the same on every
+/// target.
+#[inline(always)]
+fn sqrtf_select(x: f32) -> f32 {
+    #[cfg(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon")
+    ))]
+    {
+        libm::sqrtf(x)
+    }
+    #[cfg(not(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon")
+    )))]
+    {
+        sqrt_f32(x)
+    }
+}
 
 /// coef·pow(base, n) in `f64` (libm; the form `model::lambda_poly` has
 /// always used, kept so that `f64` results stay bit-identical).
@@ -392,7 +416,7 @@ pub fn hypot_f32(x: f32, y: f32) -> f32 {
     let (ps, es) = two_prod(s, s);
     let (sh, sl) = fast_two_sum(pb, ps);
     let sl = sl + (eb + es);
-    let r = sqrt_f32(sh);
+    let r = sqrtf_select(sh);
     let (rr, re) = two_prod(r, r);
     let residual = ((sh - rr) - re) + sl;
     (r + residual / (r + r)) * unscale

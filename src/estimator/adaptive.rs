@@ -42,10 +42,15 @@
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
 //!   evaluated with a double-word dot product (`src/compensated.rs`) when
-//!   `T::COMPENSATED` (`f32`). The step matrix only sets the speed, so it is
-//!   formed and factored in working precision, with a pivot floor so a
-//!   rounding-level indefiniteness slows a direction instead of stopping the
-//!   law. In `f64` the same code compiles to plain arithmetic.
+//!   `T::COMPENSATED` (`f32`). Per sample, each of the NS + NP increments
+//!   is a near-exact product of operands split once (`Factor`) added
+//!   lazily (`add_lazy`); P̃, Q̃ are renormalized inside the W pass at each
+//!   θ step (`residual_exact`); the cost/accuracy trade-offs behind this
+//!   are measured in docs/NUMERICS.md. The step matrix only sets the
+//!   speed, so it is formed and factored in working precision, with a
+//!   pivot floor so a rounding-level indefiniteness slows a direction
+//!   instead of stopping the law. In `f64` the same code compiles to plain
+//!   arithmetic.
 //! * **Storage.** Symmetric matrices are packed (upper triangle, row by row:
 //!   `NS = NP(NP+1)/2` entries), which keeps the two-mode `f32` estimator
 //!   under 1 KiB.
@@ -54,9 +59,7 @@
 //!   reports [`LawError::Singular`].
 
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
-use crate::compensated::{
-    add_lazy, fast_two_sum, Compensated, CompensatedArray, Dot2, ExactFactor, Factor,
-};
+use crate::compensated::{add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, ldlt_solve_packed_floored};
 use crate::scalar::Real;
@@ -197,62 +200,6 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     theta: CompensatedArray<T, NP>,
 }
 
-/// W̃ = P̃θ − Q̃ (eq. 35 over P's lazy scale) for `T::COMPENSATED`, from
-/// the packed double-word P̃ (`p`), Q̃ (`q`) and θ, renormalizing `p` and
-/// `q` in place on the way (they are accumulated lazily; measured: the
-/// trailing words left at ~√64 ulp instead of renormalizing at every θ
-/// step cost a factor 2–2.5 in the ω, ζ errors of the plants with the
-/// worst-conditioned P, random plant #3 and the 3-mode plant). Every term
-/// P̃_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁶
-/// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
-/// P̃ adds P̃_ij·θ_j to W̃_i and, by symmetry, P̃_ij·θ_i to W̃_j (j > i).
-fn w_exact<T: Real, const NP: usize, const NS: usize>(
-    p: &mut CompensatedArray<T, NS>,
-    q: &mut CompensatedArray<T, NP>,
-    theta: &CompensatedArray<T, NP>,
-) -> [T; NP] {
-    let mut th = [ExactFactor::default(); NP];
-    for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
-        *f = ExactFactor::new(h, l);
-    }
-    let mut acc = [Dot2::<T>::new(); NP];
-    for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
-        (*qh, *ql) = fast_two_sum(*qh, *ql);
-        *a = Dot2::from_dw(-*qh, -*ql);
-    }
-    // (Loops run to a fixed bound NP with an early exit, so the compiler
-    // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
-    let mut off = 0;
-    for i in 0..NP {
-        let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
-            break;
-        };
-        let mut acc_i = acc_start;
-        for t in 0..NP {
-            let (Some(h), Some(l), Some(th_j)) =
-                (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
-            else {
-                break;
-            };
-            (*h, *l) = fast_two_sum(*h, *l);
-            let pij = ExactFactor::new(*h, *l);
-            let (p, e) = pij.mul(th_j);
-            acc_i.add_dw(p, e);
-            if t > 0 {
-                if let Some(acc_j) = acc.get_mut(i + t) {
-                    let (p, e) = pij.mul(&th_i);
-                    acc_j.add_dw(p, e);
-                }
-            }
-        }
-        if let Some(a) = acc.get_mut(i) {
-            *a = acc_i;
-        }
-        off += NP - i;
-    }
-    acc.map(Dot2::value)
-}
-
 /// Expand a packed upper triangle into a full symmetric matrix, times `k`.
 fn unpack<T: Real, const NP: usize, const NS: usize>(
     packed: &CompensatedArray<T, NS>,
@@ -365,7 +312,7 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     fn w_unscaled(&self) -> [T; NP] {
         if T::COMPENSATED {
             let (mut p, mut q) = (self.p.sum, self.q);
-            return w_exact(&mut p, &mut q, &self.theta);
+            return residual_exact(&mut p, &mut q, &self.theta);
         }
         let mut acc = [Dot2::<T>::new(); NP];
         let mut idx = 0;
@@ -400,7 +347,7 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
         let w = if T::COMPENSATED {
             self.unnormalized = 0;
-            w_exact(&mut self.p.sum, &mut self.q, &self.theta)
+            residual_exact(&mut self.p.sum, &mut self.q, &self.theta)
         } else {
             self.w_unscaled()
         };
