@@ -5,10 +5,15 @@
 //! (single-precision only) and the host.
 //!
 //! # Design
-//! Only the operations the core really uses are here. Conversions go through
-//! `f64` ([`Real::from_f64`], [`Real::to_f64`]): constants and one-off
+//! Only the operations the core really uses are here. Constants and one-off
 //! start-up computations (matrix exponentials, scale factors) are done in
-//! `f64` and rounded once, the per-sample path never converts.
+//! `f64` and rounded once ([`Real::from_f64`], [`Real::to_f64`]); the
+//! per-sample path never converts. Code that runs on the firmware after
+//! start-up (modal recovery) avoids `f64` altogether, because it is software
+//! on a single-precision FPU: counts convert directly
+//! ([`Real::from_usize`], [`Real::from_i32`]), tables are stored in `f32`
+//! ([`Real::from_f32`]), and `f32` has its own square root and hypot
+//! ([`sqrt_f32`], [`hypot_f32`]; libm's `hypotf` widens to `f64`).
 
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
