@@ -16,8 +16,14 @@
 //! which fits a Cortex-M4F (no software `f64`).
 //!
 //! # What
-//! * [`two_sum`] (Knuth) and [`two_prod`] (Dekker/Veltkamp, no FMA needed)
-//!   are error-free transformations.
+//! * [`two_sum`] (Knuth), [`fast_two_sum`] (Dekker) and [`two_prod`]
+//!   (Dekker/Veltkamp, no FMA needed) are error-free transformations.
+//! * [`Factor`] and [`ExactFactor`] are double-word operands split once so
+//!   that each product with another costs 5 (near-exact, ~2⁻³³) or 8
+//!   (exact up to ~2⁻⁴⁶) flops: the adaptive law's per-sample increments
+//!   use the first, its residual W ([`residual_exact`]) the second.
+//! * [`add_lazy`] adds such a product to a double word without
+//!   renormalizing it ([`CompensatedArray::renormalize`] does that later).
 //! * [`Compensated`] is a (hi, lo) accumulator: `add` is exact up to the
 //!   second-order term.
 //! * [`Dot2`] is the Ogita–Rump–Oishi dot product "as if in twice the
@@ -38,6 +44,16 @@ pub fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
     (s, e)
 }
 
+/// s + e = a + b exactly when |a| ≥ |b| (Dekker's Fast2Sum, 3 flops).
+/// Used to renormalize a double word (hi, lo) whose trailing word is a few
+/// ulp of hi; should hi have been cancelled below |lo|, the result is still
+/// hi + lo to within ulp(lo)·2⁻ᵖ.
+#[inline(always)]
+pub fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
+    let s = a + b;
+    (s, b - (s - a))
+}
+
 /// p + e = a·b exactly, with p = fl(a·b) (Dekker's product with Veltkamp
 /// splitting, 17 flops, no fused multiply-add required).
 #[inline(always)]
@@ -54,6 +70,51 @@ fn split<T: Real>(a: T) -> (T, T) {
     let c = T::SPLITTER * a;
     let hi = c - (c - a);
     (hi, a - hi)
+}
+
+/// A double word h + l prepared for [`Factor::mul`]: its leading word h,
+/// the Veltkamp high half `hh` of h (⌈p/2⌉ significant bits) and the tail
+/// t = (h − hh) + l. Preparing costs 5 flops, once per operand; every
+/// product with another factor then costs 5 flops (Dekker's product with
+/// pre-split operands would cost 9, plus 4 for the low words).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Factor<T> {
+    h: T,
+    hh: T,
+    t: T,
+}
+
+impl<T: Real> Factor<T> {
+    /// Prepare the double word `h + l` (`l` may be zero, or unnormalized:
+    /// only h + l matters, with |l| ≲ 2⁻ᵖ⁄²·|h|).
+    #[inline(always)]
+    pub fn new(h: T, l: T) -> Self {
+        let c = T::SPLITTER * h;
+        let hh = c - (c - h);
+        Self {
+            h,
+            hh,
+            t: (h - hh) + l,
+        }
+    }
+
+    /// The product of two double words as an unevaluated sum p + e with
+    /// p = fl(h·h′): Dekker's exact error term hh·hh′ − p (exact, as in
+    /// [`two_prod`]) plus the remaining partial products t·hh′ + h·t′ in
+    /// working precision. Only the products of a tail with a tail's lower
+    /// half are dropped, so p + e is the product to about 2^(3−3p/2)
+    /// relative (≈ 2⁻³³ in `f32`) instead of the 2⁻²⁴ of
+    /// a rounded product: in `f32` each increment of P, Q (eq. 33) and each
+    /// term of W (eq. 35) is then ~5e5 times more accurate than rounding
+    /// alone, and their rounding errors are random, so over the law's
+    /// memory of 1/(l·Ts) ≈ 2e5 samples they add up to ~2⁻⁴² of P. Only
+    /// used when `T::COMPENSATED`.
+    #[inline(always)]
+    pub fn mul(&self, o: &Self) -> (T, T) {
+        let p = self.h * o.h;
+        let e = ((self.hh * o.hh - p) + self.t * o.hh) + self.h * o.t;
+        (p, e)
+    }
 }
 
 /// A double-word accumulator: the value is `hi + lo`.
@@ -95,6 +156,50 @@ impl<T: Real> Compensated<T> {
     pub fn value(self) -> T {
         self.hi + self.lo
     }
+}
+
+/// A double word prepared for exact products: h = hh + hl (Veltkamp) and
+/// the trailing word l.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExactFactor<T> {
+    h: T,
+    hh: T,
+    hl: T,
+    l: T,
+}
+
+impl<T: Real> ExactFactor<T> {
+    /// Prepare the double word `h + l`.
+    #[inline(always)]
+    pub fn new(h: T, l: T) -> Self {
+        let (hh, hl) = split(h);
+        Self { h, hh, hl, l }
+    }
+
+    /// (h + l)(h′ + l′) as p + e with p = fl(h·h′): Dekker's exact
+    /// h·h′ − p, then the cross terms h·l′ + l·h′ in the same chain (l·l′
+    /// dropped). e is exact up to the rounding of the two cross terms and
+    /// of the last two additions, ≲ 2⁻²ᵖ·|p|.
+    #[inline(always)]
+    pub fn mul(&self, o: &Self) -> (T, T) {
+        let p = self.h * o.h;
+        let e = ((self.hh * o.hh - p) + self.hh * o.hl + self.hl * o.hh) + self.hl * o.hl;
+        (p, (e + self.h * o.l) + self.l * o.h)
+    }
+}
+
+/// hi + lo += p + e for a double word (hi, lo) and an unevaluated sum
+/// p + e: the two-sum of the leading words is exact and its error joins `e`
+/// in the trailing word, which is **not** renormalized (3 flops fewer than
+/// [`CompensatedArray::add`]). The trailing word then grows like a random
+/// walk of half-ulps of the leading one, ~√n·ulp(hi) after n additions;
+/// call [`CompensatedArray::renormalize`] every few dozen additions and
+/// before the words are read one at a time.
+#[inline(always)]
+pub fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
+    let (s, err) = two_sum(*hi, p);
+    *hi = s;
+    *lo += err + e;
 }
 
 /// (xh + xl)·(yh + yl) as a double word (p, e), dropping xl·yl (below the
@@ -139,7 +244,9 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
         }
     }
 
-    /// Element `i` += (p + e), a double word (see [`Compensated::add`]).
+    /// Element `i` += (p + e), a double word, renormalized at once (see
+    /// [`Compensated::add`]; the adaptive law adds lazily instead, with
+    /// [`add_lazy`], and renormalizes at its θ step).
     #[inline(always)]
     pub fn add_dw(&mut self, i: usize, p: T, e: T) {
         if T::COMPENSATED {
@@ -150,6 +257,16 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
             self.hi[i] = hi;
         } else {
             self.hi[i] += p + e;
+        }
+    }
+
+    /// Restore |lo| ≤ ulp(hi)/2 for every element (exact: a two-sum).
+    #[inline(always)]
+    pub fn renormalize(&mut self) {
+        for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
+            let (s, err) = two_sum(*h, *l);
+            *h = s;
+            *l = err;
         }
     }
 
@@ -225,6 +342,22 @@ impl<T: Real> Dot2<T> {
         }
     }
 
+    /// Start at the double word hi + lo.
+    #[inline(always)]
+    pub fn from_dw(hi: T, lo: T) -> Self {
+        Self { p: hi, s: lo }
+    }
+
+    /// Accumulate the unevaluated sum p + e (a product from
+    /// [`Factor::mul`]): an exact two-sum of the leading words, whose error
+    /// joins `e` in the trailing sum.
+    #[inline(always)]
+    pub fn add_dw(&mut self, p: T, e: T) {
+        let (s, q) = two_sum(self.p, p);
+        self.p = s;
+        self.s += q + e;
+    }
+
     /// Accumulate a double-word value.
     #[inline(always)]
     pub fn add_value(&mut self, x: Compensated<T>) {
@@ -242,6 +375,64 @@ impl<T: Real> Dot2<T> {
     pub fn value(self) -> T {
         self.p + self.s
     }
+}
+
+/// The residual W = Pθ − Q of eq. 35 (the adaptive law's W̃ over its lazy
+/// scale) for a symmetric P stored as a packed upper triangle (row by row,
+/// `NS = NP(NP+1)/2`) of double words, and double-word Q and θ: P and Q
+/// are renormalized in place on the way (the law accumulates them lazily
+/// with [`add_lazy`], and renormalizing them at every θ step keeps its
+/// accuracy: leaving the trailing words at ~√64 ulp cost up to 2.5× in the
+/// ω, ζ errors of the worst-conditioned plants, docs/NUMERICS.md). Every
+/// term P_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁶
+/// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
+/// P adds P_ij·θ_j to W_i and, by symmetry, P_ij·θ_i to W_j (j > i).
+/// Meant for `T::COMPENSATED` (in `f64` it is merely exact and slow).
+pub fn residual_exact<T: Real, const NP: usize, const NS: usize>(
+    p: &mut CompensatedArray<T, NS>,
+    q: &mut CompensatedArray<T, NP>,
+    theta: &CompensatedArray<T, NP>,
+) -> [T; NP] {
+    let mut th = [ExactFactor::default(); NP];
+    for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
+        *f = ExactFactor::new(h, l);
+    }
+    let mut acc = [Dot2::<T>::new(); NP];
+    for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
+        (*qh, *ql) = fast_two_sum(*qh, *ql);
+        *a = Dot2::from_dw(-*qh, -*ql);
+    }
+    // (Loops run to a fixed bound NP with an early exit, so the compiler
+    // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
+    let mut off = 0;
+    for i in 0..NP {
+        let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
+            break;
+        };
+        let mut acc_i = acc_start;
+        for t in 0..NP {
+            let (Some(h), Some(l), Some(th_j)) =
+                (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
+            else {
+                break;
+            };
+            (*h, *l) = fast_two_sum(*h, *l);
+            let pij = ExactFactor::new(*h, *l);
+            let (p, e) = pij.mul(th_j);
+            acc_i.add_dw(p, e);
+            if t > 0 {
+                if let Some(acc_j) = acc.get_mut(i + t) {
+                    let (p, e) = pij.mul(&th_i);
+                    acc_j.add_dw(p, e);
+                }
+            }
+        }
+        if let Some(a) = acc.get_mut(i) {
+            *a = acc_i;
+        }
+        off += NP - i;
+    }
+    acc.map(Dot2::value)
 }
 
 #[cfg(test)]
@@ -276,6 +467,121 @@ mod tests {
         assert_eq!(plain, 1.0);
         let expect = 1.0 + 1e6 * (1e-8f32 as f64);
         assert!((c.hi as f64 + c.lo as f64 - expect).abs() < 1e-9);
+    }
+
+    /// xorshift64 in [-1, 1) (tests only).
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    /// A random f32 double word (h, l) with |l| ≤ ulp(h)/2, and its value.
+    fn random_dw(next: &mut impl FnMut() -> f64) -> (f32, f32, f64) {
+        let v = next() * 2f64.powi((next() * 20.0) as i32);
+        let h = v as f32;
+        let l = (v - h as f64) as f32;
+        (h, l, h as f64 + l as f64)
+    }
+
+    #[test]
+    fn factor_products_are_as_accurate_as_documented() {
+        let mut next = rng(7);
+        for _ in 0..100_000 {
+            let (ah, al, a) = random_dw(&mut next);
+            let (bh, bl, b) = random_dw(&mut next);
+            let exact = a * b; // exact in f64 up to 2^-53 relative
+            let (p, e) = Factor::new(ah, al).mul(&Factor::new(bh, bl));
+            let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
+            assert!(err < 2f64.powi(-32), "Factor: {err:e}");
+            let (p, e) = ExactFactor::new(ah, al).mul(&ExactFactor::new(bh, bl));
+            let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
+            assert!(err < 2f64.powi(-44), "ExactFactor: {err:e}");
+        }
+    }
+
+    #[test]
+    fn lazy_accumulation_keeps_the_exact_sum() {
+        // 10 000 near-exact increments into a lazily renormalized double
+        // word, renormalized every 10 additions as the law does.
+        let mut next = rng(11);
+        let (mut h, mut l) = (0.0f32, 0.0f32);
+        let mut exact = 0.0f64;
+        let w = Factor::new(1.0e-4f32, 0.0);
+        for k in 0..10_000 {
+            let (xh, xl, _) = random_dw(&mut next);
+            let (p, e) = w.mul(&Factor::new(xh, xl));
+            exact += (p as f64) + (e as f64);
+            add_lazy(&mut h, &mut l, p, e);
+            if k % 10 == 9 {
+                (h, l) = fast_two_sum(h, l);
+            }
+        }
+        let got = h as f64 + l as f64;
+        assert!(
+            (got - exact).abs() <= 1e-13 * exact.abs().max(1e-3),
+            "{got} vs {exact}"
+        );
+    }
+
+    #[test]
+    fn exact_residual_of_a_packed_symmetric_system() {
+        // W = Pθ − Q for a random symmetric 7×7 P (packed double words) and
+        // Q = Pθ* with θ ≠ θ*: compared with the same sum in f64 from the
+        // exact values; P and Q come back renormalized with the same value.
+        let mut next = rng(3);
+        let mut p = CompensatedArray::<f32, 28>::default();
+        let mut dense = [[0.0f64; 7]; 7];
+        let mut idx = 0;
+        for i in 0..7 {
+            for j in i..7 {
+                let (h, l, v) = random_dw(&mut next);
+                p.hi[idx] = h;
+                p.lo[idx] = l + l; // unnormalized trailing word
+                let v = v + l as f64;
+                dense[i][j] = v;
+                dense[j][i] = v;
+                idx += 1;
+            }
+        }
+        let mut theta = CompensatedArray::<f32, 7>::default();
+        let mut q = CompensatedArray::<f32, 7>::default();
+        let mut th64 = [0.0f64; 7];
+        for i in 0..7 {
+            let (h, l, v) = random_dw(&mut next);
+            (theta.hi[i], theta.lo[i], th64[i]) = (h, l, v);
+        }
+        for i in 0..7 {
+            let pq: f64 = (0..7).map(|j| dense[i][j] * (th64[j] * (1.0 + 1e-6))).sum();
+            let h = pq as f32;
+            q.hi[i] = h;
+            q.lo[i] = (pq - h as f64) as f32;
+        }
+        let q_before = q;
+        let w = residual_exact(&mut p, &mut q, &theta);
+        for i in 0..7 {
+            let terms: Vec<f64> = (0..7).map(|j| dense[i][j] * th64[j]).collect();
+            let q64 = q_before.hi[i] as f64 + q_before.lo[i] as f64;
+            let want = terms.iter().sum::<f64>() - q64;
+            let scale: f64 = terms.iter().map(|t| t.abs()).sum();
+            assert!(
+                ((w[i] as f64) - want).abs() <= 2f64.powi(-42) * scale,
+                "W{i}"
+            );
+            assert_eq!(q.hi[i] as f64 + q.lo[i] as f64, q64);
+        }
+        let mut idx = 0;
+        for i in 0..7 {
+            for j in i..7 {
+                assert_eq!(p.hi[idx] as f64 + p.lo[idx] as f64, dense[i][j]);
+                assert!(p.lo[idx].abs() <= p.hi[idx].abs() * f32::EPSILON);
+                idx += 1;
+            }
+        }
     }
 
     #[test]

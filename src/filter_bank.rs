@@ -32,7 +32,7 @@
 //!   (`linalg::expm`, computed in f64 at construction, never Euler).
 
 use crate::compensated::CompensatedArray;
-use crate::linalg::{expm, mat_vec, solve_dense, EXPM_MAX};
+use crate::linalg::{dot, expm, solve_dense, EXPM_MAX};
 use crate::model::binomial;
 use crate::scalar::Real;
 
@@ -73,8 +73,12 @@ impl OutputHold {
         // Vandermonde V[i][m] = τ_i^m; coefficients c = V⁻¹y; p^{(m)}(0) = m!·c_m.
         let mut v = [[0.0f64; EXPM_MAX]; EXPM_MAX];
         for (i, &t) in nodes.iter().enumerate() {
+            // τ^m by repeated multiplication: exact for these small
+            // integers (as libm's `pow` was), without linking `pow`.
+            let mut p = 1.0;
             for m in 0..q {
-                v[i][m] = libm::pow(t, m as f64);
+                v[i][m] = p;
+                p *= t;
             }
         }
         let mut out = [[0.0f64; WINDOW]; WINDOW];
@@ -257,6 +261,17 @@ impl<const NP: usize> Scaling<NP> {
     }
 }
 
+/// Σ x_i·y_i summed from the first product (not from zero, which costs an
+/// instruction per dot product and changes nothing but the sign of an
+/// exact zero). Used on the `f32` path; the `f64` path keeps
+/// `linalg::dot` so its results stay bit-identical.
+#[inline(always)]
+fn dot_from_first<T: Real, const N: usize>(x: &[T; N], y: &[T; N]) -> T {
+    let mut terms = x.iter().zip(y.iter()).map(|(a, b)| *a * *b);
+    let first = terms.next().unwrap_or(T::ZERO);
+    terms.fold(first, |s, t| s + t)
+}
+
 /// One regressor sample: φ (scaled Ψ) and the matching scaled output y/Y0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Regressor<T, const NP: usize> {
@@ -400,35 +415,50 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     /// screens inputs); with finite inputs this never panics.
     #[inline]
     pub fn push(&mut self, u: T, y: T) -> Regressor<T, NP> {
-        // Shift the new sample (scaled) into the windows.
-        self.y_win.copy_within(1.., 0);
-        self.y_win[WINDOW - 1] = y * self.inv_y_scale;
+        // Shift the new sample (scaled) into the windows (by value: a
+        // `copy_within` here costs a `memmove` call per sample).
+        let w = self.y_win;
+        self.y_win = core::array::from_fn(|k| match w.get(k + 1) {
+            Some(&v) => v,
+            None => y * self.inv_y_scale,
+        });
         let u_k = self.u_win[0];
         self.u_win = [self.u_win[1], self.u_win[2], u * self.inv_u_scale];
-        // Advance both filters over [t_{n−3}, t_{n−2}].
+        // Advance both filters over [t_{n−3}, t_{n−2}]:
         // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last
-        // (with the low word's share when compensated).
-        let mut dy = mat_vec(&self.phi_minus_i, &self.x_y.hi);
-        let mut du = mat_vec(&self.phi_minus_i, &self.x_u.hi);
-        if T::COMPENSATED {
-            let ly = mat_vec(&self.phi_minus_i, &self.x_y.lo);
-            let lu = mat_vec(&self.phi_minus_i, &self.x_u.lo);
-            for i in 0..D {
-                dy[i] += ly[i];
-                du[i] += lu[i];
+        // (with the low word's share when compensated). One channel at a
+        // time, so that few values are live at once (on a 32-register FPU
+        // the interleaved form spilled).
+        let mut dy = self.free_response(&self.x_y);
+        for (i, d) in dy.iter_mut().enumerate() {
+            for (tap, yv) in self.taps_y.iter().zip(self.y_win.iter()) {
+                *d += tap[i] * *yv;
             }
         }
-        for (tap, yv) in self.taps_y.iter().zip(self.y_win.iter()) {
-            for i in 0..D {
-                dy[i] += tap[i] * *yv;
-            }
+        for (i, d) in dy.iter().enumerate() {
+            self.x_y.add(i, *d);
         }
-        for i in 0..D {
-            du[i] += self.gain_u[i] * u_k;
-            self.x_y.add(i, dy[i]);
-            self.x_u.add(i, du[i]);
+        let mut du = self.free_response(&self.x_u);
+        for ((d, g), i) in du.iter_mut().zip(self.gain_u.iter()).zip(0..D) {
+            *d += *g * u_k;
+            self.x_u.add(i, *d);
         }
         self.regressor()
+    }
+
+    /// (Φ − I)·x for a double-word state x (its low word's share added
+    /// when `T::COMPENSATED`).
+    #[inline(always)]
+    fn free_response(&self, x: &CompensatedArray<T, D>) -> [T; D] {
+        let mut d = [T::ZERO; D];
+        for (di, row) in d.iter_mut().zip(self.phi_minus_i.iter()) {
+            if T::COMPENSATED {
+                *di = dot_from_first(row, &x.hi) + dot_from_first(row, &x.lo);
+            } else {
+                *di = dot(row, &x.hi);
+            }
+        }
+        d
     }
 
     /// The current regressor (φ at t_{n−2} and y_{n−2}/Y0).

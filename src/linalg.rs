@@ -9,10 +9,12 @@
 //! * [`expm`] (matrix exponential) is only used at start-up to discretize the
 //!   filter bank and the plant, so it runs in `f64` on a runtime-sized block
 //!   of a fixed maximum size ([`EXPM_MAX`]).
-//! * [`ldlt_solve_floored`] solves the implicit parameter step (see
+//! * [`ldlt_solve_packed_floored`] solves the implicit parameter step (see
 //!   `estimator::adaptive`) once per θ step: a root-free LDLᵀ whose pivots
 //!   are floored, so a rounding-level loss of definiteness cannot produce
-//!   NaN or stop the law.
+//!   NaN or stop the law. It works on the packed upper triangle; the dense
+//!   `ldlt_solve_floored` it was derived from is kept (tests only) as its
+//!   bit-for-bit reference.
 //! * [`symmetric_eigenvalues`] (cyclic Jacobi) backs the excitation monitor of
 //!   Lemma 1 (λmin(P)); it is run at the telemetry rate, not per sample.
 
@@ -61,6 +63,141 @@ pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
 
+/// [`ldlt_solve_floored`] on packed storage: `s` holds the upper triangle
+/// of the symmetric S row by row (S_ii, S_i,i+1, …, S_i,N−1 for i = 0, 1,
+/// …; `NS = N(N+1)/2`) and is overwritten by the factors (row j: the pivot,
+/// then L_ij for i > j). The same floating-point operations in the same
+/// order as the dense function, so the same result bit for bit (test
+/// `packed_ldlt_is_bit_identical_to_dense`), but every inner loop runs over
+/// a contiguous row: column j of L is row j of the packed upper triangle,
+/// the trailing update of row k is an axpy with the multipliers L_·j, and
+/// the forward substitution runs column by column (each x_i still receives
+/// its terms in ascending order). Loops run to the fixed bound N with an
+/// early exit, which the compiler unrolls completely; on the Cortex-M4F the
+/// adaptive law's 7×7 solve went from ~1,590 to ~400 instructions
+/// (BENCHMARKS.md, firmware section).
+///
+/// Like the dense form: a pivot below `N·ε·max_i S_ii` is raised to that
+/// floor (a modified Cholesky factorization), so a rounding-level loss of
+/// definiteness slows one direction of the step instead of stopping it.
+///
+/// # Errors
+/// [`LinalgError::NotPositiveDefinite`] if S has no positive diagonal or
+/// contains non-finite values (or the solution does not come out finite),
+/// or if `NS ≠ N(N+1)/2`.
+pub fn ldlt_solve_packed_floored<T: Real, const N: usize, const NS: usize>(
+    s: &mut [T; NS],
+    b: &[T; N],
+) -> Result<[T; N], LinalgError> {
+    if NS != N * (N + 1) / 2 {
+        return Err(LinalgError::NotPositiveDefinite);
+    }
+    let mut max_diag = T::ZERO;
+    let mut start = 0;
+    for i in 0..N {
+        if let Some(&d) = s.get(start) {
+            max_diag = max_diag.max(d);
+        }
+        start += N - i;
+    }
+    let floor = T::from_usize(N) * T::EPSILON * max_diag;
+    if !(floor > T::ZERO) || !floor.is_finite() {
+        return Err(LinalgError::NotPositiveDefinite);
+    }
+    let mut inv_d = [T::ZERO; N];
+    let mut rest: &mut [T] = s;
+    for (j, inv_j) in inv_d.iter_mut().enumerate() {
+        let Some((row_j, below)) = core::mem::take(&mut rest).split_at_mut_checked(N - j) else {
+            break;
+        };
+        let Some((pivot, l_j)) = row_j.split_first_mut() else {
+            break;
+        };
+        let mut d = *pivot;
+        if d < floor {
+            d = floor;
+        }
+        if !d.is_finite() {
+            return Err(LinalgError::NotPositiveDefinite);
+        }
+        let inv = T::ONE / d;
+        *inv_j = inv;
+        // col = S_·j below the pivot (L_·j·d_j); row j becomes l = col·inv.
+        // (Loops over a fixed bound N with an early exit: their trip count
+        // is known to be ≤ N, so the compiler unrolls them completely
+        // instead of emitting a generic unrolled loop with remainder.)
+        let n = l_j.len();
+        let mut col = [T::ZERO; N];
+        let mut l = [T::ZERO; N];
+        for t in 0..N {
+            let Some(v) = l_j.get_mut(t) else { break };
+            col[t] = *v;
+            l[t] = col[t] * inv;
+            *v = l[t];
+        }
+        // Row k > j of the upper triangle holds S_k,k … S_k,N−1:
+        // S_ik −= l_i·col_k for i ≥ k.
+        let mut rows: &mut [T] = &mut *below;
+        for m in 0..N {
+            if m >= n {
+                break;
+            }
+            let ck = col[m];
+            let Some((row_k, after)) = core::mem::take(&mut rows).split_at_mut_checked(n - m)
+            else {
+                break;
+            };
+            for t in 0..N {
+                let (Some(sk), Some(&li)) = (row_k.get_mut(t), l.get(m + t)) else {
+                    break;
+                };
+                *sk -= li * ck;
+            }
+            rows = after;
+        }
+        rest = below;
+    }
+    // L·z = b (unit lower, column by column), z ← D⁻¹z, Lᵀ·x = z.
+    let mut x = *b;
+    let mut rest: &[T] = s;
+    for j in 0..N {
+        let Some((row_j, below)) = rest.split_at_checked(N - j) else {
+            break;
+        };
+        let xj = x[j];
+        for t in 1..N {
+            let (Some(&l), Some(xi)) = (row_j.get(t), x.get_mut(j + t)) else {
+                break;
+            };
+            *xi -= l * xj;
+        }
+        rest = below;
+    }
+    for (xi, inv) in x.iter_mut().zip(inv_d.iter()) {
+        *xi *= *inv;
+    }
+    let mut end = NS;
+    for i in (0..N).rev() {
+        let start = end - (N - i);
+        if let Some(row_i) = s.get(start..end) {
+            let mut acc = x[i];
+            for t in 1..N {
+                let (Some(&l), Some(&xk)) = (row_i.get(t), x.get(i + t)) else {
+                    break;
+                };
+                acc -= l * xk;
+            }
+            x[i] = acc;
+        }
+        end = start;
+    }
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(x)
+    } else {
+        Err(LinalgError::NotPositiveDefinite)
+    }
+}
+
 /// Solve S·x = b for symmetric S by a root-free LDLᵀ factorization in which
 /// a pivot below `N·ε·max_i S_ii` is raised to that floor instead of failing
 /// (a modified Cholesky factorization). Used where S only sets a step's
@@ -75,6 +212,8 @@ pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
 /// On the benchmark host a 7×7 solve measured 273 ns against 314 ns for the
 /// textbook Cholesky–Crout loop; the remaining cost is the serial
 /// divide/update chain, which is why the θ step runs every K samples.
+/// The dense form of [`ldlt_solve_packed_floored`] (bit-identical), for
+/// the laws that keep full matrices (the robust estimator).
 pub fn ldlt_solve_floored<T: Real, const N: usize>(
     s: &mut [[T; N]; N],
     b: &[T; N],
@@ -276,8 +415,15 @@ pub fn solve_dense(a: &Block, b: &[f64; EXPM_MAX], n: usize) -> Option<[f64; EXP
         if !(m[piv][col].abs() > 1e-14 * scale) {
             return None;
         }
-        m.swap(col, piv);
-        x.swap(col, piv);
+        if piv != col {
+            // Row swap in place (`m.swap` on whole rows compiles to a
+            // `memmove` call, ~1.5 KB of flash on the firmware target).
+            let (upper, lower) = m.split_at_mut(piv);
+            if let (Some(a), Some(b)) = (upper.get_mut(col), lower.first_mut()) {
+                a.swap_with_slice(b);
+            }
+            x.swap(col, piv);
+        }
         for r in col + 1..n {
             let f = m[r][col] / m[col][col];
             for c in col..n {
@@ -365,6 +511,61 @@ mod tests {
         assert!(ldlt_solve_floored(&mut nan, &[1.0, 1.0]).is_err());
         let mut inf = [[1.0, f64::INFINITY], [f64::INFINITY, 1.0]];
         assert!(ldlt_solve_floored(&mut inf, &[1.0, 1.0]).is_err());
+    }
+
+    /// Pack the upper triangle of a dense symmetric matrix row by row.
+    fn pack<T: Real, const N: usize, const NS: usize>(m: &[[T; N]; N]) -> [T; NS] {
+        let mut p = [T::ZERO; NS];
+        let mut idx = 0;
+        for i in 0..N {
+            for j in i..N {
+                p[idx] = m[i][j];
+                idx += 1;
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn packed_ldlt_is_bit_identical_to_dense() {
+        // Random SPD-ish (and some indefinite, floored) 7×7 systems in f64
+        // and f32: the packed solver must reproduce the dense one exactly.
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for trial in 0..200 {
+            let mut a = [[0.0f64; 7]; 7];
+            for row in a.iter_mut() {
+                for v in row.iter_mut() {
+                    *v = next();
+                }
+            }
+            // S = AAᵀ + shift·I (shift < 0 for some trials: floored pivots).
+            let shift = if trial % 5 == 0 { -0.05 } else { 1e-6 };
+            let mut s = [[0.0f64; 7]; 7];
+            for i in 0..7 {
+                for j in 0..7 {
+                    s[i][j] = (0..7).map(|k| a[i][k] * a[j][k]).sum::<f64>();
+                }
+                s[i][i] += shift;
+            }
+            let b: [f64; 7] = core::array::from_fn(|_| next());
+            let dense = ldlt_solve_floored(&mut s.clone(), &b);
+            let packed = ldlt_solve_packed_floored(&mut pack::<f64, 7, 28>(&s), &b);
+            assert_eq!(dense, packed, "f64 trial {trial}");
+            let s32 = s.map(|r| r.map(|v| v as f32));
+            let b32 = b.map(|v| v as f32);
+            let dense = ldlt_solve_floored(&mut s32.clone(), &b32);
+            let packed = ldlt_solve_packed_floored(&mut pack::<f32, 7, 28>(&s32), &b32);
+            assert_eq!(dense, packed, "f32 trial {trial}");
+        }
+        let mut nan = [f64::NAN, 0.0, 1.0];
+        assert!(ldlt_solve_packed_floored::<f64, 2, 3>(&mut nan, &[1.0, 1.0]).is_err());
+        assert!(ldlt_solve_packed_floored::<f64, 2, 4>(&mut [1.0; 4], &[1.0, 1.0]).is_err());
     }
 
     #[test]

@@ -80,11 +80,11 @@ impl<T: Real> TransferFunction<T> {
         if d == 0 || d > MAX_ORDER || theta.len() != 2 * d - 1 {
             return None;
         }
-        let k = lambda_poly(d, lambda);
+        let k = lambda_poly_in::<T>(d, lambda);
         let nb = d - 1;
         theta[..nb].copy_from_slice(&self.b[..nb]);
         for j in 0..d {
-            theta[nb + j] = T::from_f64(k[j]) - self.a[j];
+            theta[nb + j] = k[j] - self.a[j];
         }
         Some(())
     }
@@ -98,7 +98,7 @@ impl<T: Real> TransferFunction<T> {
         }
         let modes = (np + 1) / 4;
         let d = 2 * modes;
-        let k = lambda_poly(d, lambda);
+        let k = lambda_poly_in::<T>(d, lambda);
         let mut tf = Self {
             modes,
             a: [T::ZERO; MAX_ORDER],
@@ -107,7 +107,7 @@ impl<T: Real> TransferFunction<T> {
         let nb = d - 1;
         tf.b[..nb].copy_from_slice(&theta[..nb]);
         for j in 0..d {
-            tf.a[j] = T::from_f64(k[j]) - theta[nb + j];
+            tf.a[j] = k[j] - theta[nb + j];
         }
         Some(tf)
     }
@@ -146,6 +146,31 @@ pub fn lambda_poly(d: usize, lambda: f64) -> [f64; MAX_ORDER] {
         *ki = binomial(d, j) * libm::pow(lambda, (d - j) as f64);
     }
     k
+}
+
+/// [`lambda_poly`] rounded to `T`, each coefficient C(d, j)·λ^{d−j}
+/// formed by [`Real::scaled_powi_from_f64`]: in `f64` exactly the values
+/// of [`lambda_poly`] (libm `pow`), in `f32` integer powers in double-word
+/// single precision (no `f64` `pow`, which cost ~3 KB of flash and a
+/// software-double call per recovery on the Cortex-M4F). Entries past `d`
+/// are zero.
+pub fn lambda_poly_in<T: Real>(d: usize, lambda: f64) -> [T; MAX_ORDER] {
+    let mut k = [T::ZERO; MAX_ORDER];
+    for (i, ki) in k.iter_mut().enumerate().take(d) {
+        let j = d - 1 - i;
+        *ki = T::scaled_powi_from_f64(lambda, (d - j) as u32, binomial_u32(d, j));
+    }
+    k
+}
+
+/// Binomial coefficient C(n, k) for small n (exact; C(6, 3) = 20 at most
+/// here).
+fn binomial_u32(n: usize, k: usize) -> u32 {
+    let mut c = 1u32;
+    for i in 0..k.min(n) {
+        c = c * (n - i) as u32 / (i + 1) as u32;
+    }
+    c
 }
 
 /// Binomial coefficient C(n, k) as f64 (small n).
@@ -352,5 +377,20 @@ mod tests {
     fn lambda_poly_is_binomial() {
         let k = lambda_poly(4, 100.0);
         assert_eq!(&k[..4], &[400.0, 6e4, 4e6, 1e8]);
+        // The typed form: bit-identical in f64, within an ulp in f32.
+        for &lam in &[100.0, 164.04669, 485.2, 53.3] {
+            for d in [2, 4, 6] {
+                let k64 = lambda_poly(d, lam);
+                assert_eq!(lambda_poly_in::<f64>(d, lam), k64);
+                let k32 = lambda_poly_in::<f32>(d, lam);
+                for i in 0..d {
+                    let want = k64[i] as f32;
+                    let ulps = (k32[i].to_bits() as i64 - want.to_bits() as i64).abs();
+                    assert!(ulps <= 1, "d {d} λ {lam} k{i}: {} vs {want}", k32[i]);
+                }
+            }
+        }
+        assert_eq!(binomial_u32(6, 3), 20);
+        assert_eq!(binomial_u32(4, 0), 1);
     }
 }

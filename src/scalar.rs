@@ -5,10 +5,15 @@
 //! (single-precision only) and the host.
 //!
 //! # Design
-//! Only the operations the core really uses are here. Conversions go through
-//! `f64` ([`Real::from_f64`], [`Real::to_f64`]): constants and one-off
+//! Only the operations the core really uses are here. Constants and one-off
 //! start-up computations (matrix exponentials, scale factors) are done in
-//! `f64` and rounded once, the per-sample path never converts.
+//! `f64` and rounded once ([`Real::from_f64`], [`Real::to_f64`]); the
+//! per-sample path never converts. Code that runs on the firmware after
+//! start-up (modal recovery) avoids `f64` altogether, because it is software
+//! on a single-precision FPU: counts convert directly
+//! ([`Real::from_usize`], [`Real::from_i32`]), tables are stored in `f32`
+//! ([`Real::from_f32`]), and `f32` has its own square root and hypot
+//! ([`sqrt_f32`], [`hypot_f32`]; libm's `hypotf` widens to `f64`).
 
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
@@ -49,6 +54,9 @@ pub trait Real:
     const COMPENSATED: bool;
     /// Veltkamp splitting constant 2^⌈p/2⌉ + 1 for Dekker's exact product.
     const SPLITTER: Self;
+    /// One more than the largest binary exponent: `MAX` < 2^`MAX_EXP`
+    /// (`f32::MAX_EXP` = 128, `f64::MAX_EXP` = 1024).
+    const MAX_EXP: i32;
 
     /// Round an `f64` to this type.
     fn from_f64(x: f64) -> Self;
@@ -58,11 +66,26 @@ pub trait Real:
     /// `f64`; a single integer-to-float instruction on an FPU (no detour
     /// through `f64`, which is software on a single-precision FPU).
     fn from_i32(n: i32) -> Self;
-    /// Convert a small count.
-    fn from_usize(n: usize) -> Self {
-        Self::from_f64(n as f64)
-    }
-    /// Square root.
+    /// Convert a small count (one integer-to-float conversion: no detour
+    /// through `f64`, which is software on a single-precision FPU).
+    fn from_usize(n: usize) -> Self;
+    /// Exact: a single-precision constant (start-value tables) in this
+    /// type, with no `f64` on the way.
+    fn from_f32(x: f32) -> Self;
+    /// Round to the nearest integer, half away from zero.
+    fn round(self) -> Self;
+    /// Truncate toward zero to `i32`, saturating, NaN → 0 (as `as i32`).
+    fn to_i32(self) -> i32;
+    /// coef·baseⁿ rounded to this type, from an `f64` base (the filter pole
+    /// λ of eq. 29's Λ(s) = (s + λ)^{2n}). `f64`: `coef·pow(base, n)` (libm);
+    /// `f32`: the base split into two single words and the power formed
+    /// in double-word single-precision arithmetic, rounded once (within
+    /// 0.5 ulp + 2⁻³⁰ relative of the exact value; no `f64` arithmetic
+    /// beyond the split, no libm).
+    fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self;
+    /// Square root (correctly rounded; for `f32` without `f64`: the
+    /// hardware instruction where libm has a path to it, else
+    /// [`sqrt_f32`]).
     fn sqrt(self) -> Self;
     /// Absolute value.
     fn abs(self) -> Self;
@@ -80,7 +103,8 @@ pub trait Real:
     fn cosh(self) -> Self;
     /// Four-quadrant arctangent.
     fn atan2(self, x: Self) -> Self;
-    /// √(x² + y²) without undue overflow.
+    /// √(x² + y²) without undue overflow (`f32`: [`hypot_f32`], within
+    /// 1 ulp, no `f64`).
     fn hypot(self, other: Self) -> Self;
     /// x^n for a small integer exponent.
     fn powi(self, n: i32) -> Self {
@@ -120,7 +144,7 @@ pub trait Real:
 
 macro_rules! impl_real {
     ($t:ty, $name:literal, $comp:literal, $split:literal, $sqrt:path, $exp:path, $ln:path, $sin:path, $cos:path,
-     $sinh:path, $cosh:path, $atan2:path, $hypot:path) => {
+     $sinh:path, $cosh:path, $atan2:path, $hypot:path, $round:path, $spowi:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -129,6 +153,7 @@ macro_rules! impl_real {
             const NAME: &'static str = $name;
             const COMPENSATED: bool = $comp;
             const SPLITTER: Self = $split;
+            const MAX_EXP: i32 = <$t>::MAX_EXP;
 
             #[inline(always)]
             fn from_f64(x: f64) -> Self {
@@ -141,6 +166,26 @@ macro_rules! impl_real {
             #[inline(always)]
             fn from_i32(n: i32) -> Self {
                 n as $t
+            }
+            #[inline(always)]
+            fn from_usize(n: usize) -> Self {
+                n as $t
+            }
+            #[inline(always)]
+            fn from_f32(x: f32) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn round(self) -> Self {
+                $round(self)
+            }
+            #[inline(always)]
+            fn to_i32(self) -> i32 {
+                self as i32
+            }
+            #[inline(always)]
+            fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self {
+                $spowi(base, n, coef)
             }
             #[inline(always)]
             fn sqrt(self) -> Self {
@@ -203,7 +248,7 @@ impl_real!(
     "f32",
     true,
     4097.0,
-    libm::sqrtf,
+    sqrtf_select,
     libm::expf,
     libm::logf,
     libm::sinf,
@@ -211,7 +256,9 @@ impl_real!(
     libm::sinhf,
     libm::coshf,
     libm::atan2f,
-    libm::hypotf
+    hypot_f32,
+    libm::roundf,
+    scaled_powi_f32
 );
 impl_real!(
     f64,
@@ -226,8 +273,176 @@ impl_real!(
     libm::sinh,
     libm::cosh,
     libm::atan2,
-    libm::hypot
+    libm::hypot,
+    libm::round,
+    scaled_powi_f64
 );
+
+/// √x for `f32` (correctly rounded either way): `libm::sqrtf` where libm
+/// maps it to a hardware instruction (x86 SSE2, AArch64 NEON), else
+/// [`sqrt_f32`] (e.g. `thumbv7em-none-eabihf`, where `libm::sqrtf` is a
+/// bit-by-bit loop). Both round correctly, so results are the same on every
+/// target.
+#[inline(always)]
+fn sqrtf_select(x: f32) -> f32 {
+    #[cfg(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon")
+    ))]
+    {
+        libm::sqrtf(x)
+    }
+    #[cfg(not(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon")
+    )))]
+    {
+        sqrt_f32(x)
+    }
+}
+
+/// coef·pow(base, n) in `f64` (libm; the form `model::lambda_poly` has
+/// always used, kept so that `f64` results stay bit-identical).
+#[inline]
+fn scaled_powi_f64(base: f64, n: u32, coef: u32) -> f64 {
+    f64::from(coef) * libm::pow(base, f64::from(n))
+}
+
+/// coef·baseⁿ rounded to `f32` without `f64` arithmetic beyond splitting
+/// the base into hi + lo (hi = base rounded, lo = the rest rounded: the
+/// pair carries ~48 bits of the base): the power is formed as a double
+/// word in single precision (Dekker products), times the exact small
+/// integer coef, and rounded once. Error ≲ 0.5 ulp + n·2⁻⁴⁴ relative.
+/// (`libm::pow` in `f64` here cost ~3 KB of flash and a software-double
+/// `pow` call per recovery on the Cortex-M4F.)
+fn scaled_powi_f32(base: f64, n: u32, coef: u32) -> f32 {
+    use crate::compensated::{fast_two_sum, two_prod};
+    let hi = base as f32;
+    let lo = (base - f64::from(hi)) as f32;
+    let (mut ph, mut pl) = (coef as f32, 0.0f32);
+    for _ in 0..n {
+        let (p, e) = two_prod(ph, hi);
+        let e = e + (ph * lo + pl * hi);
+        (ph, pl) = fast_two_sum(p, e);
+    }
+    ph + pl
+}
+
+/// Correctly rounded √x in single precision, without libm or `f64`
+/// (`libm::sqrtf` is a bit-by-bit software loop on targets where libm has
+/// no hardware path, such as `thumbv7em-none-eabihf`, and stable Rust has
+/// no `f32::sqrt` in `core`).
+///
+/// x = x′·4ᵏ with x′ ∈ [1, 4) (exact); three Newton steps
+/// y ← (y + x′/y)/2 from the classic bit-level seed bring y within about
+/// an ulp of √x′; then the 24-bit candidate R = y·2²³ is corrected in
+/// exact integer arithmetic so that (R − ½)² < x′·2⁴⁶ < (R + ½)² (an
+/// exact midpoint is impossible), i.e. R·2⁻²³ is √x′ correctly rounded;
+/// the result is R·2^(k−23), an exact scaling. Special values as IEEE 754:
+/// ±0 → ±0, +∞ → +∞, x < 0 or NaN → NaN. Verified against the correctly
+/// rounded `f64` square root for every positive `f32` (test
+/// `sqrt_f32_is_correctly_rounded_exhaustive`, ignored by default, ~1 min
+/// in release) and on a strided sample in the default test run.
+pub fn sqrt_f32(x: f32) -> f32 {
+    if !(x > 0.0) || x == f32::INFINITY {
+        return if x == 0.0 || x == f32::INFINITY {
+            x
+        } else {
+            f32::NAN
+        };
+    }
+    let mut bits = x.to_bits();
+    let mut e = (bits >> 23) as i32 - 127;
+    if bits < 0x0080_0000 {
+        // Subnormal: scale by 2^24 (exact) first.
+        bits = (x * 16_777_216.0).to_bits();
+        e = (bits >> 23) as i32 - 127 - 24;
+    }
+    let m = (bits & 0x007f_ffff) | 0x0080_0000;
+    let k = e >> 1; // ⌊e/2⌋
+    let odd = (e & 1) as u32; // e − 2k
+    let xp = f32::from_bits(((127 + odd) << 23) | (m & 0x007f_ffff));
+    let mut y = f32::from_bits(0x1fbd_1df5 + (xp.to_bits() >> 1));
+    for _ in 0..3 {
+        y = 0.5 * (y + xp / y);
+    }
+    // √x′ ∈ [1, 2): candidate R in units of 2^-23; x′ in units of 2^-46.
+    let mut r = (y * 8_388_608.0) as u32;
+    let x4 = u64::from(m) << (25 + odd);
+    for _ in 0..2 {
+        let r64 = u64::from(r);
+        let sq = 4 * r64 * r64;
+        if x4 > sq + 4 * r64 + 1 {
+            r += 1;
+        } else if x4 + 4 * r64 < sq + 1 {
+            r -= 1;
+        } else {
+            break;
+        }
+    }
+    // R·2^(k−23): k − 23 ∈ [−98, 40], a normal power of two.
+    r as f32 * f32::from_bits(((k - 23 + 127) as u32) << 23)
+}
+
+/// √(x² + y²) in single precision without `f64` (`libm::hypotf` widens to
+/// `f64`, software on a single-precision FPU): the squares and their sum as
+/// double words (Dekker products, a two-sum), the square root of the
+/// leading word ([`sqrt_f32`]) and one Newton correction with the exact
+/// residual. Inputs are first scaled by 2^±90 (exact) when the larger is
+/// outside [2⁻⁶⁰, 2⁶⁰), so nothing overflows or underflows. Within 1 ulp of
+/// the exact value (test `hypot_f32_within_one_ulp`; in practice correctly
+/// rounded but for rare near-midpoint cases). ±∞ in either argument gives
+/// +∞, otherwise NaN gives NaN.
+pub fn hypot_f32(x: f32, y: f32) -> f32 {
+    use crate::compensated::{fast_two_sum, two_prod};
+    let (ax, ay) = (x.abs(), y.abs());
+    if ax == f32::INFINITY || ay == f32::INFINITY {
+        return f32::INFINITY;
+    }
+    if ax.is_nan() || ay.is_nan() {
+        return f32::NAN;
+    }
+    let (big, small) = if ax >= ay { (ax, ay) } else { (ay, ax) };
+    if small == 0.0 {
+        return big;
+    }
+    const TWO_60: f32 = 1_152_921_504_606_846_976.0;
+    const TWO_90: f32 = 1_237_940_039_285_380_274_899_124_224.0;
+    const TWO_M90: f32 = 1.0 / TWO_90;
+    let (scale, unscale) = if big >= TWO_60 {
+        (TWO_M90, TWO_90)
+    } else if big < 1.0 / TWO_60 {
+        (TWO_90, TWO_M90)
+    } else {
+        (1.0, 1.0)
+    };
+    let (b, s) = (big * scale, small * scale);
+    let (pb, eb) = two_prod(b, b);
+    let (ps, es) = two_prod(s, s);
+    let (sh, sl) = fast_two_sum(pb, ps);
+    let sl = sl + (eb + es);
+    let r = sqrtf_select(sh);
+    let (rr, re) = two_prod(r, r);
+    let residual = ((sh - rr) - re) + sl;
+    (r + residual / (r + r)) * unscale
+}
+
+/// 2^e for e = round(`log2`), clamped to ±(`T::MAX_EXP` − 4) so the result
+/// is a normal number well inside the exponent range (NaN gives 1): the
+/// exact power-of-two scale factors of the root finder and the b̄ solver.
+/// Entirely in `T`: on a single-precision FPU no `f64` is involved.
+pub(crate) fn pow2_nearest<T: Real>(log2: T) -> T {
+    let emax = T::from_i32(T::MAX_EXP - 4);
+    let mut e = log2.round();
+    if e.is_nan() {
+        e = T::ZERO;
+    } else if e < -emax {
+        e = -emax;
+    } else if e > emax {
+        e = emax;
+    }
+    T::from_f64(2.0).powi(e.to_i32())
+}
 
 /// Relative closeness check used by tests and validation:
 /// `|a − b| ≤ atol + rtol·|b|`.
@@ -244,6 +459,135 @@ mod tests {
         assert_eq!(2.0f64.powi(10), 1024.0);
         assert_eq!(Real::powi(2.0f32, -2), 0.25);
         assert_eq!(Real::powi(3.0f64, 0), 1.0);
+    }
+
+    /// Correctly rounded reference: the `f64` square root rounded to `f32`
+    /// (53 ≥ 2·24 + 2 bits: the double rounding is innocuous).
+    fn sqrt_ref(x: f32) -> f32 {
+        (x as f64).sqrt() as f32
+    }
+
+    #[test]
+    fn sqrt_f32_is_correctly_rounded_on_a_strided_sample() {
+        // Every 997th bit pattern of the positive finite floats (2.1e6
+        // values, subnormals included), plus the edges.
+        let mut bits = 1u32;
+        while bits < 0x7f80_0000 {
+            let x = f32::from_bits(bits);
+            assert_eq!(sqrt_f32(x).to_bits(), sqrt_ref(x).to_bits(), "x = {x:e}");
+            bits += 997;
+        }
+        for x in [
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            1.0,
+            4.0,
+            4.0 - 2e-7,
+            2.0,
+            f32::from_bits(1),
+            f32::from_bits(0x007f_ffff),
+        ] {
+            assert_eq!(sqrt_f32(x).to_bits(), sqrt_ref(x).to_bits(), "x = {x:e}");
+        }
+        assert_eq!(sqrt_f32(0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(sqrt_f32(-0.0).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
+        assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
+        assert!(sqrt_f32(f32::NEG_INFINITY).is_nan());
+    }
+
+    /// All 2,139,095,039 positive finite floats. `cargo test --release -p
+    /// beamest --lib sqrt_f32_is_correctly_rounded_exhaustive -- --ignored`
+    #[test]
+    #[ignore = "exhaustive: ~2.1e9 square roots (about a minute in release)"]
+    fn sqrt_f32_is_correctly_rounded_exhaustive() {
+        let mut wrong = 0u64;
+        for bits in 1..0x7f80_0000u32 {
+            let x = f32::from_bits(bits);
+            if sqrt_f32(x).to_bits() != sqrt_ref(x).to_bits() {
+                wrong += 1;
+            }
+        }
+        assert_eq!(wrong, 0);
+    }
+
+    #[test]
+    fn hypot_f32_within_one_ulp() {
+        // Pseudo-random pairs over the whole exponent range, and the
+        // scaling boundaries.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            f32::from_bits((state >> 33) as u32 & 0x7f7f_ffff)
+        };
+        let mut exact = 0u32;
+        let n = 200_000;
+        for i in 0..n {
+            let (x, mut y) = (next(), next());
+            if i % 3 == 0 {
+                // Similar magnitudes (the common case in modal recovery).
+                y = x * (0.5 + (i as f32 / n as f32));
+            }
+            let got = hypot_f32(x, -y);
+            let want = (x as f64).hypot(y as f64) as f32;
+            let ulps = (got.to_bits() as i64 - want.to_bits() as i64).abs();
+            assert!(ulps <= 1, "hypot({x:e}, {y:e}) = {got:e}, want {want:e}");
+            if ulps == 0 {
+                exact += 1;
+            }
+        }
+        assert!(
+            exact as f64 > 0.999 * n as f64,
+            "{exact} of {n} correctly rounded"
+        );
+        for (x, y) in [
+            (3.0f32, 4.0),
+            (1e30, 1e30),
+            (1e-30, 3e-30),
+            (f32::MAX, 1.0),
+            (1e-45, 1e-45),
+        ] {
+            let want = (x as f64).hypot(y as f64) as f32;
+            assert_eq!(hypot_f32(x, y), want, "hypot({x:e}, {y:e})");
+        }
+        assert_eq!(hypot_f32(f32::INFINITY, f32::NAN), f32::INFINITY);
+        assert!(hypot_f32(f32::NAN, 1.0).is_nan());
+        assert_eq!(hypot_f32(0.0, -2.5), 2.5);
+    }
+
+    #[test]
+    fn scaled_powers_of_the_filter_pole() {
+        // Exact cases agree with the f64 path bit for bit; inexact ones are
+        // within an ulp of the correctly rounded value.
+        assert_eq!(<f32 as Real>::scaled_powi_from_f64(100.0, 4, 1), 1e8);
+        assert_eq!(<f32 as Real>::scaled_powi_from_f64(100.0, 3, 4), 4e6);
+        for &lam in &[164.0467, 249.27, 53.31, 485.2, 1e-3, 7.0] {
+            for n in 0..=6u32 {
+                for coef in [1u32, 4, 6, 15, 20] {
+                    let exact = f64::from(coef) * libm::pow(lam, f64::from(n));
+                    let want = exact as f32;
+                    let got = <f32 as Real>::scaled_powi_from_f64(lam, n, coef);
+                    let ulps = (got.to_bits() as i64 - want.to_bits() as i64).abs();
+                    assert!(ulps <= 1, "{coef}·{lam}^{n}: {got:e} vs {want:e}");
+                    let g64 = <f64 as Real>::scaled_powi_from_f64(lam, n, coef);
+                    assert_eq!(g64, exact);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rounding_and_conversions() {
+        assert_eq!(Real::round(2.5f32), 3.0);
+        assert_eq!(Real::round(-2.5f64), -3.0);
+        assert_eq!(Real::to_i32(-7.9f32), -7);
+        assert_eq!(Real::to_i32(f32::NAN), 0);
+        assert_eq!(Real::to_i32(1e30f64), i32::MAX);
+        assert_eq!(<f32 as Real>::from_usize(16_777_217), 16_777_216.0);
+        assert_eq!(<f64 as Real>::from_f32(0.1f32), 0.1f32 as f64);
+        assert_eq!(<f32 as Real>::MAX_EXP, 128);
     }
 
     #[test]

@@ -42,10 +42,15 @@
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
 //!   evaluated with a double-word dot product (`src/compensated.rs`) when
-//!   `T::COMPENSATED` (`f32`). The step matrix only sets the speed, so it is
-//!   formed and factored in working precision, with a pivot floor so a
-//!   rounding-level indefiniteness slows a direction instead of stopping the
-//!   law. In `f64` the same code compiles to plain arithmetic.
+//!   `T::COMPENSATED` (`f32`). Per sample, each of the NS + NP increments
+//!   is a near-exact product of operands split once (`Factor`) added
+//!   lazily (`add_lazy`); P̃, Q̃ are renormalized inside the W pass at each
+//!   θ step (`residual_exact`); the cost/accuracy trade-offs behind this
+//!   are measured in docs/NUMERICS.md. The step matrix only sets the
+//!   speed, so it is formed and factored in working precision, with a
+//!   pivot floor so a rounding-level indefiniteness slows a direction
+//!   instead of stopping the law. In `f64` the same code compiles to plain
+//!   arithmetic.
 //! * **Storage.** Symmetric matrices are packed (upper triangle, row by row:
 //!   `NS = NP(NP+1)/2` entries), which keeps the two-mode `f32` estimator
 //!   under 1 KiB.
@@ -54,10 +59,17 @@
 //!   reports [`LawError::Singular`].
 
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
-use crate::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
+use crate::compensated::{add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor};
 use crate::filter_bank::{Regressor, Scaling};
-use crate::linalg::{all_finite, ldlt_solve_floored};
+use crate::linalg::{all_finite, ldlt_solve_packed_floored};
 use crate::scalar::Real;
+
+/// With `T::COMPENSATED`, the trailing words of P̃ and Q̃ are renormalized
+/// every this many samples (they are accumulated lazily, see
+/// `compensated::add_lazy`; after 64 additions they hold at most ~8 ulp of
+/// the leading words, typically ~2, still ≪ 2^(p/2)·ulp as
+/// `compensated::Factor` needs).
+const RENORMALIZE_EVERY: u8 = 64;
 
 /// Gains of the proposed law, in scaled coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -143,10 +155,17 @@ impl<T: Real, const N: usize> DecayingSum<T, N> {
         let half = T::from_f64(0.5);
         let halved = self.scale < half;
         if halved {
-            self.scale += self.scale;
-            self.sum.halve();
+            self.halve();
         }
         (T::ONE / self.scale, halved)
+    }
+
+    /// scale·2, sum/2 (exact); every ln 2/(decay rate) seconds.
+    #[cold]
+    #[inline(never)]
+    fn halve(&mut self) {
+        self.scale += self.scale;
+        self.sum.halve();
     }
 }
 
@@ -157,6 +176,10 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     step_gain: T,
     update_every: u32,
     pending: u32,
+    /// Samples since the trailing words of P̃, Q̃ were last renormalized
+    /// (`T::COMPENSATED` only, see `compensated::add_lazy`; ≤
+    /// [`RENORMALIZE_EVERY`], a byte that shares the padding of `tied`).
+    unnormalized: u8,
     ts: T,
     r0_diag: [T; NP],
     theta0: [T; NP],
@@ -218,11 +241,13 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     /// triangle, which is diagonal entry `i` when `diag` is `Some(i)`.
     #[inline(always)]
     fn r_over_p_scale(&self, idx: usize, diag: Option<usize>) -> T {
+        let at = |a: &[T; NS]| a.get(idx).copied().unwrap_or(T::ZERO);
         if self.tied {
-            let d = diag.map_or(T::ZERO, |i| self.r0_weight * self.r0_diag[i]);
-            self.p.sum.hi[idx] + d
+            let r0 = |i: usize| self.r0_diag.get(i).copied().unwrap_or(T::ZERO);
+            let d = diag.map_or(T::ZERO, |i| self.r0_weight * r0(i));
+            at(&self.p.sum.hi) + d
         } else {
-            self.r.scale / self.p.scale * self.r.sum.hi[idx]
+            self.r.scale / self.p.scale * at(&self.r.sum.hi)
         }
     }
 
@@ -235,9 +260,60 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         q
     }
 
+    /// P̃ += w·φφᵀ, Q̃ += w·φ·y with every increment formed from the
+    /// double-word φ as a near-exact product ([`Factor::mul`]) and added by
+    /// an exact two-sum into lazily renormalized double words
+    /// ([`add_lazy`]). `T::COMPENSATED` only.
+    #[inline(always)]
+    fn accumulate_exact(&mut self, w: T, reg: &Regressor<T, NP>) {
+        let mut cols = [Factor::default(); NP];
+        for ((c, &h), &l) in cols.iter_mut().zip(reg.phi.iter()).zip(reg.phi_lo.iter()) {
+            *c = Factor::new(h, l);
+        }
+        let yf = Factor::new(reg.y, T::ZERO);
+        let wf = Factor::new(w, T::ZERO);
+        // Row i of the packed upper triangle is the next NP − i entries.
+        let mut rest_h: &mut [T] = &mut self.p.sum.hi;
+        let mut rest_l: &mut [T] = &mut self.p.sum.lo;
+        let rows = self
+            .q
+            .hi
+            .iter_mut()
+            .zip(self.q.lo.iter_mut())
+            .zip(cols.iter());
+        for (i, ((qh, ql), ci)) in rows.enumerate() {
+            // a = w·φ_i, itself a double word, prepared once per row.
+            let (ah, al) = wf.mul(ci);
+            let a = Factor::new(ah, al);
+            let (Some((row_h, tail_h)), Some((row_l, tail_l))) = (
+                core::mem::take(&mut rest_h).split_at_mut_checked(NP - i),
+                core::mem::take(&mut rest_l).split_at_mut_checked(NP - i),
+            ) else {
+                return;
+            };
+            for ((h, l), cj) in row_h
+                .iter_mut()
+                .zip(row_l.iter_mut())
+                .zip(cols.iter().skip(i))
+            {
+                let (p, e) = a.mul(cj);
+                add_lazy(h, l, p, e);
+            }
+            let (p, e) = a.mul(&yf);
+            add_lazy(qh, ql, p, e);
+            rest_h = tail_h;
+            rest_l = tail_l;
+        }
+    }
+
     /// W = Pθ − Q (eq. 35) divided by the lazy scale of P, evaluated with a
-    /// double-word dot product when `T::COMPENSATED`.
+    /// double-word dot product when `T::COMPENSATED` (P̃ and Q̃ must be
+    /// renormalized).
     fn w_unscaled(&self) -> [T; NP] {
+        if T::COMPENSATED {
+            let (mut p, mut q) = (self.p.sum, self.q);
+            return residual_exact(&mut p, &mut q, &self.theta);
+        }
         let mut acc = [Dot2::<T>::new(); NP];
         let mut idx = 0;
         for i in 0..NP {
@@ -260,6 +336,66 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             w[i] = a.value();
         }
         w
+    }
+
+    /// One backward-Euler θ step (eq. 41, see the module docs):
+    /// (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale. Runs
+    /// every K samples; kept out of line so that the per-sample path stays
+    /// small (its registers are not spent on this).
+    #[inline(never)]
+    fn theta_step(&mut self) -> Result<(), LawError> {
+        // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
+        let w = if T::COMPENSATED {
+            self.unnormalized = 0;
+            residual_exact(&mut self.p.sum, &mut self.q, &self.theta)
+        } else {
+            self.w_unscaled()
+        };
+        // S = R/g_P + K·TsΓ·P̃, packed like P̃ (diagonal: see below).
+        let mut s = [T::ZERO; NS];
+        if self.tied {
+            for (v, &h) in s.iter_mut().zip(self.p.sum.hi.iter()) {
+                *v = (h + T::ZERO) + self.step_gain * h;
+            }
+        } else {
+            let ratio = self.r.scale / self.p.scale;
+            for ((v, &h), &r) in s
+                .iter_mut()
+                .zip(self.p.sum.hi.iter())
+                .zip(self.r.sum.hi.iter())
+            {
+                *v = ratio * r + self.step_gain * h;
+            }
+        }
+        if self.tied {
+            // R/g_P = P̃ + e^{−lt}/g_P·R(0) on the diagonal.
+            let mut idx = 0;
+            for i in 0..NP {
+                if let (Some(v), Some(&h), Some(&r0)) =
+                    (s.get_mut(idx), self.p.sum.hi.get(idx), self.r0_diag.get(i))
+                {
+                    *v = (h + self.r0_weight * r0) + self.step_gain * h;
+                }
+                idx += NP - i;
+            }
+        }
+        let mut rhs = [T::ZERO; NP];
+        for (r, wi) in rhs.iter_mut().zip(w.iter()) {
+            *r = -self.step_gain * *wi;
+        }
+        let delta = ldlt_solve_packed_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
+        if !all_finite(&delta) {
+            return Err(LawError::NonFinite);
+        }
+        let mut next = self.theta;
+        for (i, d) in delta.iter().enumerate() {
+            next.add(i, *d);
+        }
+        if !next.is_finite() {
+            return Err(LawError::NonFinite);
+        }
+        self.theta = next;
+        Ok(())
     }
 
     /// W = Pθ − Q (eq. 35), scaled.
@@ -296,6 +432,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             step_gain: T::from_f64(ts_s * cfg.gain * cfg.theta_update_every as f64),
             update_every: cfg.theta_update_every,
             pending: 0,
+            unnormalized: 0,
             ts: T::from_f64(ts_s),
             r0_diag,
             theta0,
@@ -320,22 +457,11 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             self.r0_weight *= T::from_f64(0.5);
         }
         let wp = self.ts * inv_p;
-        let lo = &reg.phi_lo;
-        let mut idx = 0;
-        for i in 0..NP {
-            if T::COMPENSATED {
-                // P decides the fixed point: form w·φ_iφ_j from the
-                // double-word φ without rounding. a = w·φ_i once per row.
-                let (ah, al) = two_prod(wp, phi[i]);
-                let al = al + wp * lo[i];
-                for j in i..NP {
-                    let (p, e) = product_dd(ah, al, phi[j], lo[j]);
-                    self.p.sum.add_dw(idx, p, e);
-                    idx += 1;
-                }
-                let (p, e) = product_dd(ah, al, reg.y, T::ZERO);
-                self.q.add_dw(i, p, e);
-            } else {
+        if T::COMPENSATED {
+            self.accumulate_exact(wp, reg);
+        } else {
+            let mut idx = 0;
+            for i in 0..NP {
                 let pi = wp * phi[i];
                 for j in i..NP {
                     self.p.sum.add(idx, pi * phi[j]);
@@ -356,41 +482,20 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
                 }
             }
         }
+        if T::COMPENSATED {
+            self.unnormalized += 1;
+            if self.unnormalized >= RENORMALIZE_EVERY {
+                self.unnormalized = 0;
+                self.p.sum.renormalize();
+                self.q.renormalize();
+            }
+        }
         self.pending += 1;
         if self.pending < self.update_every {
             return Ok(());
         }
         self.pending = 0;
-        // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
-        let w = self.w_unscaled();
-        let mut s = [[T::ZERO; NP]; NP];
-        let mut idx = 0;
-        for i in 0..NP {
-            for j in i..NP {
-                let diag = if i == j { Some(i) } else { None };
-                let v = self.r_over_p_scale(idx, diag) + self.step_gain * self.p.sum.hi[idx];
-                s[i][j] = v;
-                s[j][i] = v;
-                idx += 1;
-            }
-        }
-        let mut rhs = [T::ZERO; NP];
-        for i in 0..NP {
-            rhs[i] = -self.step_gain * w[i];
-        }
-        let delta = ldlt_solve_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
-        if !all_finite(&delta) {
-            return Err(LawError::NonFinite);
-        }
-        let mut next = self.theta;
-        for (i, d) in delta.iter().enumerate() {
-            next.add(i, *d);
-        }
-        if !next.is_finite() {
-            return Err(LawError::NonFinite);
-        }
-        self.theta = next;
-        Ok(())
+        self.theta_step()
     }
 
     fn theta_scaled(&self) -> [T; NP] {
@@ -412,6 +517,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             self.theta.set(i, *t);
         }
         self.pending = 0;
+        self.unnormalized = 0;
     }
 
     fn information(&self) -> Option<[[T; NP]; NP]> {

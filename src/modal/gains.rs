@@ -35,7 +35,7 @@
 
 use super::{ModalError, Modes};
 use crate::model::{poly_mul_quadratic, MAX_MODES, MAX_ORDER};
-use crate::scalar::Real;
+use crate::scalar::{pow2_nearest, Real};
 
 /// Largest number of numerator coefficients, 2·[`MAX_MODES`] − 1.
 const MAX_NUM: usize = MAX_ORDER - 1;
@@ -108,9 +108,7 @@ pub fn gains_from_numerator<T: Real>(
     }
     // Keep ρ a normal power of two; the weights below only ever divide by
     // ρ (ρ ≥ 1) or multiply by it (ρ < 1), so they cannot overflow.
-    let emax = (T::MAX.ln() / ln2).to_f64() - 4.0;
-    let e = libm::round((lsum / (T::from_usize(n) * ln2)).to_f64()).clamp(-emax, emax);
-    let rho = T::from_f64(2.0).powi(e as i32);
+    let rho = pow2_nearest(lsum / (T::from_usize(n) * ln2));
     let inv_rho = T::ONE / rho;
 
     // Scaled mode polynomials q̃_j(σ) = σ² + 2ζ_j(ω_j/ρ)σ + (ω_j/ρ)².

@@ -36,7 +36,7 @@ mod solve;
 pub use complex::Complex;
 
 use crate::model::MAX_ORDER;
-use crate::scalar::Real;
+use crate::scalar::{pow2_nearest, Real};
 
 /// Largest number of Aberth–Ehrlich sweeps before giving up.
 pub const MAX_ITERATIONS: usize = 100;
@@ -178,9 +178,7 @@ fn scale_factor<T: Real>(a: &[T]) -> T {
         }
     }
     // Keep ρ a normal number well inside the exponent range.
-    let emax = (T::MAX.ln() / ln2).to_f64() - 4.0;
-    let e = libm::round((best / ln2).to_f64()).clamp(-emax, emax);
-    T::from_f64(2.0).powi(e as i32)
+    pow2_nearest(best / ln2)
 }
 
 /// Sort into the documented [`Roots`] order: groups (a real root, or a

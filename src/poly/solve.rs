@@ -148,30 +148,116 @@ fn initial_points<T: Real>(c: &[T; MAX_ORDER + 1], m: usize, z: &mut [Complex<T>
         hull[h] = k;
         h += 1;
     }
-    let tau = T::from_f64(2.0 * core::f64::consts::PI);
-    let offset = T::from_f64(0.7); // rad, Bini's σ: keeps points off the real axis
-    let mf = T::from_usize(m);
+    // Angle 2π·(i/cnt + g/m) + σ = 2π·j/60 + σ with j an integer (cnt and
+    // m divide 60): read from a table, no trigonometry.
+    let turn = |i: usize, per: usize, g: usize| {
+        let j = (TURNS / per.max(1) * i + TURNS / m.max(1) * g) % TURNS;
+        let (c, s) = START_CIS.get(j).copied().unwrap_or((1.0, 0.0));
+        (T::from_f32(c), T::from_f32(s))
+    };
     let mut idx = 0;
     for g in 1..h {
         let (ka, kb) = (hull[g - 1], hull[g]);
-        let cnt = T::from_usize(kb - ka);
-        let radius = ((lg[ka] - lg[kb]) / cnt).exp();
-        for i in 0..kb - ka {
+        let cnt = kb - ka;
+        let radius = ((lg[ka] - lg[kb]) / T::from_usize(cnt)).exp();
+        for i in 0..cnt {
             if idx >= m {
                 break;
             }
-            let ang = tau * T::from_usize(i) / cnt + tau * T::from_usize(g) / mf + offset;
-            z[idx] = Complex::new(radius * ang.cos(), radius * ang.sin());
+            let (c, s) = turn(i, cnt, g);
+            z[idx] = Complex::new(radius * c, radius * s);
             idx += 1;
         }
     }
     // Defensive: if the hull were degenerate, fill the rest on the unit circle.
     while idx < m {
-        let ang = tau * T::from_usize(idx) / mf + offset;
-        z[idx] = Complex::new(ang.cos(), ang.sin());
+        let (c, s) = turn(idx, m, 0);
+        z[idx] = Complex::new(c, s);
         idx += 1;
     }
 }
+
+/// Number of table angles per turn: the least common multiple of 1..=6, so
+/// every start angle 2π·(i/cnt + g/m) with cnt, m ≤ [`MAX_ORDER`] is one of
+/// them.
+const TURNS: usize = 60;
+const _: () = {
+    let mut k = 1;
+    while k <= MAX_ORDER {
+        assert!(TURNS % k == 0, "TURNS must be a multiple of 1..=MAX_ORDER");
+        k += 1;
+    }
+};
+
+/// (cos, sin) of 2π·j/60 + 0.7 for j = 0..59: the start points of
+/// [`initial_points`] on the unit circle, Bini's offset σ = 0.7 rad keeping
+/// them off the real axis. Single precision is plenty for start values; the
+/// table replaces `sin`/`cos` calls (in `f32` on a Cortex-M4F, libm's
+/// `sinf`/`cosf` and their argument reduction were ~7 KB of flash). Checked
+/// against `libm::cos`/`sin` in `start_table_matches_trigonometry`.
+#[rustfmt::skip]
+const START_CIS: [(f32, f32); TURNS] = [
+    (0.7648422, 0.64421767),
+    (0.69331324, 0.72063637),
+    (0.61418813, 0.7891596),
+    (0.52833396, 0.84903663),
+    (0.43669116, 0.8996115),
+    (0.34026393, 0.94032997),
+    (0.24010867, 0.97074604),
+    (0.13732274, 0.9905264),
+    (0.033032276, 0.99945426),
+    (-0.0716201, 0.997432),
+    (-0.17548779, 0.98448163),
+    (-0.2774328, 0.96074504),
+    (-0.37633818, 0.9264824),
+    (-0.47112036, 0.88206893),
+    (-0.5607408, 0.82799137),
+    (-0.64421767, 0.7648422),
+    (-0.72063637, 0.69331324),
+    (-0.7891596, 0.61418813),
+    (-0.84903663, 0.52833396),
+    (-0.8996115, 0.43669116),
+    (-0.94032997, 0.34026393),
+    (-0.97074604, 0.24010867),
+    (-0.9905264, 0.13732274),
+    (-0.99945426, 0.033032276),
+    (-0.997432, -0.0716201),
+    (-0.98448163, -0.17548779),
+    (-0.96074504, -0.2774328),
+    (-0.9264824, -0.37633818),
+    (-0.88206893, -0.47112036),
+    (-0.82799137, -0.5607408),
+    (-0.7648422, -0.64421767),
+    (-0.69331324, -0.72063637),
+    (-0.61418813, -0.7891596),
+    (-0.52833396, -0.84903663),
+    (-0.43669116, -0.8996115),
+    (-0.34026393, -0.94032997),
+    (-0.24010867, -0.97074604),
+    (-0.13732274, -0.9905264),
+    (-0.033032276, -0.99945426),
+    (0.0716201, -0.997432),
+    (0.17548779, -0.98448163),
+    (0.2774328, -0.96074504),
+    (0.37633818, -0.9264824),
+    (0.47112036, -0.88206893),
+    (0.5607408, -0.82799137),
+    (0.64421767, -0.7648422),
+    (0.72063637, -0.69331324),
+    (0.7891596, -0.61418813),
+    (0.84903663, -0.52833396),
+    (0.8996115, -0.43669116),
+    (0.94032997, -0.34026393),
+    (0.97074604, -0.24010867),
+    (0.9905264, -0.13732274),
+    (0.99945426, -0.033032276),
+    (0.997432, 0.0716201),
+    (0.98448163, 0.17548779),
+    (0.96074504, 0.2774328),
+    (0.9264824, 0.37633818),
+    (0.88206893, 0.47112036),
+    (0.82799137, 0.5607408),
+];
 
 /// Aberth–Ehrlich iteration, Gauss–Seidel style. A root is frozen once its
 /// residual is within the *running* Horner rounding bound and its correction
@@ -329,6 +415,20 @@ fn polish<T: Real>(c: &[T; MAX_ORDER + 1], m: usize, z: &mut [Complex<T>; MAX_OR
         } else {
             z[i] = zi;
             i += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn start_table_matches_trigonometry() {
+        for (j, &(c, s)) in START_CIS.iter().enumerate() {
+            let ang = 2.0 * core::f64::consts::PI * j as f64 / TURNS as f64 + 0.7;
+            assert_eq!(c, libm::cos(ang) as f32, "cos, j = {j}");
+            assert_eq!(s, libm::sin(ang) as f32, "sin, j = {j}");
         }
     }
 }
