@@ -5,13 +5,13 @@
 //! The SNR is relative to the RMS of the noise-free y over the whole record,
 //! the definition the Cramér–Rao bound uses (`beamest::crlb`).
 
-use beamest::rig::{noise_sd_for_snr, GaussianNoise};
 use beamest::estimator::Estimator;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::plant::ModalPlant;
+use beamest::rig::{noise_sd_for_snr, GaussianNoise};
 use beamest::Real;
 
 /// Sample period of the studies (the paper's 0.1 ms).
