@@ -230,6 +230,11 @@ pub struct EstimateContext<'a> {
     /// Telemetry dropped since the previous estimate outside the records'
     /// counters (frames dropped on the TX ring).
     pub dropped_elsewhere: bool,
+    /// The law has not updated since the estimator (re)started: Θ̂ is its
+    /// initial value, not an estimate. The modes are then left out (and
+    /// PHYSICALLY_VALID clear): Θ̂ = 0 would read as λ's own poles
+    /// (ω = λ, ζ = 1), which a monitor would plot as an estimate.
+    pub no_update_yet: bool,
 }
 
 /// The [`Estimate`] of one record and its recovery, with the CONVERGED
@@ -241,7 +246,12 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     convergence: &mut Convergence,
 ) -> Estimate {
     let rules = ctx.rules;
-    let modal = recovered.modal.as_ref().ok().map(modal_f32);
+    let modal = recovered
+        .modal
+        .as_ref()
+        .ok()
+        .filter(|_| !ctx.no_update_yet)
+        .map(modal_f32);
     let valid = modal
         .as_ref()
         .is_some_and(|m| physically_valid(m, ctx.model_modes));
@@ -441,6 +451,7 @@ mod tests {
             rules: &rules,
             previous,
             dropped_elsewhere: false,
+            no_update_yet: false,
         };
         // Same counters, good modes, excited: EXCITED | PHYSICALLY_VALID.
         let rec = record(1000, 0, prev);
@@ -527,6 +538,19 @@ mod tests {
         assert!(e.modes.is_empty());
         assert_eq!(e.flags, StatusFlags::default());
         assert!(e.is_consistent());
+        // Before the law's first update the modes are left out.
+        let fresh = EstimateContext {
+            no_update_yet: true,
+            ..ctx(&prev)
+        };
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 1e-6),
+            &fresh,
+            &mut conv,
+        );
+        assert!(e.modes.is_empty() && e.theta.len() == 7 && e.is_consistent());
+        assert_eq!(e.flags, StatusFlags::EXCITED);
         // Unphysical modes are sent, flagged invalid.
         let e = estimate(
             &rec,

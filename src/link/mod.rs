@@ -173,6 +173,11 @@ pub struct DeviceLink {
     rejected: u32,
     frozen_by_command: bool,
     started_at: Option<u64>,
+    /// The first sample of an estimator (re)start whose law has not
+    /// updated yet (see `EstimateContext::no_update_yet`).
+    fresh_since: Option<u64>,
+    /// Sample index of the previous record.
+    last_record: Option<u64>,
     previous: Counters,
     convergence: Convergence,
     raw: RawAssembler,
@@ -197,6 +202,8 @@ impl DeviceLink {
             rejected: 0,
             frozen_by_command: false,
             started_at: None,
+            fresh_since: None,
+            last_record: None,
             previous: Counters::default(),
             convergence: Convergence::default(),
             raw: RawAssembler::default(),
@@ -273,8 +280,15 @@ impl DeviceLink {
             }
         }
         self.started_at = Some(at);
-        self.convergence.reset();
+        self.restarted(at);
         Ok(at)
+    }
+
+    /// The estimator (re)started at sample `at`: no modes until its law has
+    /// updated, a new CONVERGED window.
+    fn restarted(&mut self, at: u64) {
+        self.fresh_since = Some(at);
+        self.convergence.reset();
     }
 
     /// One telemetry record from the sample task: recovers it (eqs. 30–32,
@@ -289,6 +303,18 @@ impl DeviceLink {
     ) -> Option<Recovered<T>> {
         let index = record.sample_index;
         let fs = self.config.limits.sample_rate_hz;
+        // The record's step counts cover the samples after the previous
+        // record: once those all follow the restart, an update is the new
+        // law's.
+        if let Some(since) = self.fresh_since {
+            let after = self
+                .last_record
+                .is_some_and(|p| p.saturating_add(1) >= since);
+            if after && record.steps.updated > 0 {
+                self.fresh_since = None;
+            }
+        }
+        self.last_record = Some(index);
         let running = self.started_at.is_some_and(|s| index >= s);
         let due = interval_samples(self.settings.telemetry.estimate_rate_hz, fs)
             .filter(|_| running && index >= self.next_estimate_at);
@@ -322,6 +348,7 @@ impl DeviceLink {
             rules: &self.config.rules,
             previous: &self.previous,
             dropped_elsewhere: dropped != self.drops_at_last_estimate,
+            no_update_yet: self.fresh_since.is_some(),
         };
         let msg = estimate::estimate(record, rec, &ctx, &mut self.convergence);
         // A dropped estimate is flagged by the next one that gets through.
@@ -423,7 +450,9 @@ impl DeviceLink {
                 let lambda = s.lambda_rad_s.map_or(self.lambda_rad_s, f64::from);
                 let est = dev.build_estimator(s, lambda)?;
                 if self.started_at.is_some() {
-                    let swap = dev.with_pipeline(|p| p.replace_estimator(est, lambda));
+                    let (swap, at) = dev.with_pipeline(|p| {
+                        (p.replace_estimator(est, lambda), p.next_sample_index())
+                    });
                     match swap {
                         Ok(old) => dev.recycle_estimator(old),
                         Err(refused) => {
@@ -431,7 +460,7 @@ impl DeviceLink {
                             return Err(RejectReason::Lambda);
                         }
                     }
-                    self.convergence.reset();
+                    self.restarted(at);
                 } else {
                     // Before start-up ends: built only to check that the
                     // core accepts it; start() builds it with the scales.
@@ -454,9 +483,12 @@ impl DeviceLink {
             }
             Command::Reset => {
                 if self.started_at.is_some() {
-                    dev.with_pipeline(|p| p.reset_estimator());
+                    let at = dev.with_pipeline(|p| {
+                        p.reset_estimator();
+                        p.next_sample_index()
+                    });
+                    self.restarted(at);
                 }
-                self.convergence.reset();
             }
             Command::Freeze => {
                 self.frozen_by_command = true;

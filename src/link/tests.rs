@@ -365,6 +365,22 @@ fn a_rejected_command_changes_nothing() {
 }
 
 #[test]
+fn raw_decimation_two_fits_next_to_the_defaults() {
+    // docs/PROTOCOL.md §7 at 921,600 baud: 5 kHz of raw samples next to
+    // estimates at 100 Hz and status at 1 Hz, not 10 kHz.
+    let (mut l, mut d) = (link(), device());
+    let rates = |raw_decimation| {
+        Command::SetTelemetry(TelemetryRates {
+            raw_decimation,
+            ..TelemetryRates::default()
+        })
+    };
+    assert_eq!(l.execute(&rates(1), &mut d), Err(RejectReason::LinkBudget));
+    assert_eq!(l.execute(&rates(2), &mut d), Ok(()));
+    assert_eq!(d.p.calls, ["every 100", "raw 2"]);
+}
+
+#[test]
 fn freeze_during_start_up_survives_the_start() {
     let mut q: Queue<u8, 512> = Queue::new();
     let (mut tx, mut rx) = q.split();
@@ -493,6 +509,41 @@ fn estimates_and_status_follow_the_record_clock() {
     }
     assert!(h.drain(&mut rx).is_empty());
     assert_eq!(h.dec.counters().lost, 0);
+}
+
+#[test]
+fn no_modes_before_the_laws_first_update() {
+    let mut q: Queue<u8, 4096> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let (mut l, mut d, mut h) = (link(), device(), Host::new());
+    let w = [-2.0f32, 2.0];
+    let rec = |index, updated| TelemetryRecord {
+        steps: StepCounts {
+            updated,
+            ..StepCounts::default()
+        },
+        ..record(index, Counters::default())
+    };
+    d.p.next = 500;
+    l.start(&mut d).unwrap();
+    let mut modes = Vec::new();
+    let mut feed = |l: &mut DeviceLink, r, tx: &mut _, h: &mut Host, rx: &mut _| {
+        l.on_record(&r, &w, tx);
+        let e = estimates(&h.drain(rx));
+        modes.push(e[0].modes.len());
+    };
+    // Held (no update), then updates: Θ̂ = 0 gives Λ's poles as "modes".
+    feed(&mut l, rec(599, 0), &mut tx, &mut h, &mut rx);
+    feed(&mut l, rec(699, 100), &mut tx, &mut h, &mut rx);
+    // A Reset at sample 750: the record at 799 spans it, its updates may
+    // be the old law's; the one at 899 is all new law.
+    d.p.next = 750;
+    l.execute(&Command::Reset, &mut d).unwrap();
+    feed(&mut l, rec(799, 100), &mut tx, &mut h, &mut rx);
+    feed(&mut l, rec(899, 0), &mut tx, &mut h, &mut rx);
+    feed(&mut l, rec(999, 100), &mut tx, &mut h, &mut rx);
+    feed(&mut l, rec(1099, 0), &mut tx, &mut h, &mut rx);
+    assert_eq!(modes, [0, 2, 0, 0, 2, 2]);
 }
 
 #[test]

@@ -13,6 +13,11 @@
 //! wire itself loses nothing (host test `link`). A message that breaks a
 //! structural rule is refused by the encoder before it takes a number
 //! ([`TxStats::encode_errors`]; the link never builds one).
+//!
+//! The first frame is preceded by a delimiter (`docs/PROTOCOL.md` §1.1),
+//! so a receiver that joins the stream at its start, not knowing it is the
+//! start (e.g. `beamctl monitor --tcp`), does not take the first frame for
+//! the tail of an earlier one.
 
 use crate::protocol::frame::EncodeError;
 use crate::protocol::{Encoder, Message, MAX_ENCODED_LEN};
@@ -76,6 +81,8 @@ pub struct Transmitter {
     encoder: Encoder,
     buf: [u8; MAX_ENCODED_LEN],
     stats: TxStats,
+    /// A frame has been queued (the leading delimiter is sent).
+    started: bool,
 }
 
 impl Default for Transmitter {
@@ -96,6 +103,7 @@ impl Transmitter {
                 bytes_sent: 0,
                 encode_errors: 0,
             },
+            started: false,
         }
     }
 
@@ -121,13 +129,18 @@ impl Transmitter {
             self.stats.encode_errors = self.stats.encode_errors.saturating_add(1);
             return Sent::Refused(EncodeError::BufferTooSmall);
         };
-        if tx.free() < n.saturating_add(reserve) {
+        let lead = usize::from(!self.started);
+        if tx.free() < n.saturating_add(lead).saturating_add(reserve) {
             self.stats.frames_dropped = self.stats.frames_dropped.saturating_add(1);
             return Sent::Dropped;
         }
+        if !self.started {
+            tx.push(&[crate::protocol::DELIMITER]);
+            self.started = true;
+        }
         tx.push(frame);
         self.stats.frames_sent = self.stats.frames_sent.saturating_add(1);
-        self.stats.bytes_sent = self.stats.bytes_sent.saturating_add(n as u64);
+        self.stats.bytes_sent = self.stats.bytes_sent.saturating_add((n + lead) as u64);
         Sent::Queued(n)
     }
 
@@ -157,14 +170,34 @@ mod tests {
     }
 
     #[test]
+    fn a_delimiter_leads_so_a_joining_receiver_keeps_the_first_frame() {
+        let mut q: Queue<u8, 64> = Queue::new();
+        let (mut p, mut c) = q.split();
+        let mut t = Transmitter::new();
+        assert_eq!(t.send(&ack(0), 0, &mut p), Sent::Queued(16));
+        assert_eq!(t.send(&ack(1), 0, &mut p), Sent::Queued(16));
+        let mut bytes = Vec::new();
+        while let Some(b) = c.dequeue() {
+            bytes.push(b);
+        }
+        assert_eq!((bytes[0], bytes.len()), (0, 33));
+        assert_eq!(t.stats().bytes_sent, 33);
+        let mut joining: Decoder = Decoder::joining();
+        let seqs: Vec<u32> = joining.feed(&bytes).map(|f| f.unwrap().seq).collect();
+        assert_eq!(seqs, [0, 1]);
+        assert_eq!(joining.counters().skipped_bytes, 0);
+    }
+
+    #[test]
     fn whole_frames_or_nothing_and_gaps_equal_drops() {
         let mut q: Queue<u8, 64> = Queue::new();
         let (mut p, mut c) = q.split();
         let mut t = Transmitter::new();
         let mut dec: Decoder = Decoder::new();
         let mut got = Vec::new();
-        // A 16-byte Ack frame: 3 fit in 63 bytes, the 4th and 5th are
-        // dropped; after draining, the 6th goes through.
+        // A 16-byte Ack frame (the first with its leading delimiter): 3
+        // fit in 63 bytes, the 4th and 5th are dropped; after draining,
+        // the 6th goes through.
         let mut outcomes = Vec::new();
         for i in 0..5 {
             outcomes.push(t.send(&ack(i), 0, &mut p));
@@ -179,7 +212,7 @@ mod tests {
                 Sent::Dropped
             ]
         );
-        assert_eq!(p.free(), 63 - 48);
+        assert_eq!(p.free(), 63 - 49);
         while let Some(b) = c.dequeue() {
             if let Some(f) = dec.push(b) {
                 got.push(f.unwrap());
@@ -197,7 +230,7 @@ mod tests {
         assert_eq!(dec.counters().lost, 2);
         assert_eq!(u64::from(t.stats().frames_dropped), dec.counters().lost);
         assert_eq!(t.stats().frames_sent, 4);
-        assert_eq!(t.stats().bytes_sent, 64);
+        assert_eq!(t.stats().bytes_sent, 65);
         assert_eq!(dec.counters().errors(), 0);
     }
 
@@ -207,8 +240,8 @@ mod tests {
         let (mut p, _c) = q.split();
         let mut t = Transmitter::new();
         assert_eq!(t.send(&ack(0), 40, &mut p), Sent::Queued(16));
-        // 47 free: a frame with a 32-byte reserve no longer fits, an
-        // answer without reserve does.
+        // 46 free (frame and leading delimiter): a frame with a 32-byte
+        // reserve no longer fits, an answer without reserve does.
         assert_eq!(t.send(&ack(1), 32, &mut p), Sent::Dropped);
         assert_eq!(t.send(&ack(2), 0, &mut p), Sent::Queued(16));
         assert_eq!(t.next_seq(), 3);

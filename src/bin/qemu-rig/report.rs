@@ -283,6 +283,7 @@ fn frame_cost(r: &Record, ipt: f32) {
         rules: &rules,
         previous: &r.counters,
         dropped_elsewhere: false,
+        no_update_yet: false,
     };
     let mut ring: Queue<u8, 256> = Queue::new();
     let (mut p, mut c) = ring.split();
