@@ -243,6 +243,12 @@ impl DeviceLink {
         self.started_at
     }
 
+    /// The estimator's law has updated since it (re)started: its Θ̂ is an
+    /// estimate, and Estimates carry modes (PROTOCOL.md §9.3).
+    pub fn has_estimate(&self) -> bool {
+        self.started_at.is_some() && self.fresh_since.is_none()
+    }
+
     /// The sending side's counters.
     pub fn tx_stats(&self) -> &TxStats {
         self.tx.stats()

@@ -185,7 +185,12 @@ fn main() -> ! {
     loop {
         while let Some(record) = consumer.dequeue() {
             let recovered = link.on_record(&record, &OUTPUT_WEIGHT, &mut tx);
-            log(&record, recovered.as_ref(), &mut next_log);
+            log(
+                &record,
+                recovered.as_ref(),
+                link.has_estimate(),
+                &mut next_log,
+            );
             last = Some(record);
         }
         while let Some(block) = raw_consumer.dequeue() {
@@ -201,7 +206,12 @@ fn main() -> ! {
             // queued: they go out too.
             while let Some(record) = consumer.dequeue() {
                 let recovered = link.on_record(&record, &OUTPUT_WEIGHT, &mut tx);
-                log(&record, recovered.as_ref(), &mut next_log);
+                log(
+                    &record,
+                    recovered.as_ref(),
+                    link.has_estimate(),
+                    &mut next_log,
+                );
                 last = Some(record);
             }
             while let Some(block) = raw_consumer.dequeue() {

@@ -39,8 +39,15 @@ pub const LOG_EVERY: u64 = 2_500;
 /// Repetitions of the timed Estimate-frame production.
 const FRAME_REPS: u32 = 100;
 
-/// A log line at the first recovered record from `next_log` on.
-pub fn log(record: &Record, recovered: Option<&Recovered<f32>>, next_log: &mut u64) {
+/// A log line at the first recovered record from `next_log` on;
+/// `estimating`: the law has updated since it started (else Θ̂ is its
+/// initial value, not an estimate).
+pub fn log(
+    record: &Record,
+    recovered: Option<&Recovered<f32>>,
+    estimating: bool,
+    next_log: &mut u64,
+) {
     let Some(rec) = recovered else {
         return;
     };
@@ -49,6 +56,15 @@ pub fn log(record: &Record, recovered: Option<&Recovered<f32>>, next_log: &mut u
     }
     *next_log = (record.sample_index / LOG_EVERY + 1) * LOG_EVERY;
     let t_s = Fixed(record.sample_index as f64 * bench::TS_S, 2);
+    if !estimating {
+        hprintln!(
+            "t = {} s  no estimate yet: the new law is held while its filters settle \
+             (last 100 steps: {} held)",
+            t_s,
+            record.steps.frozen
+        );
+        return;
+    }
     let lmin = rec.excitation_min_eig.map_or(f64::NAN, f64::from);
     let Ok(m) = rec.modal else {
         hprintln!(
