@@ -24,7 +24,10 @@
 //!   estimator step, telemetry records for the low-priority task;
 //! * [`scalar`] — the `f32`/`f64` abstraction;
 //! * [`protocol`] — the serial link: messages, framing and the stream decoder
-//!   shared by the firmware and the host (`docs/PROTOCOL.md`).
+//!   shared by the firmware and the host (`docs/PROTOCOL.md`);
+//! * [`link`] — the device end of the serial link: telemetry records →
+//!   frames in a bounded TX ring, command frames → validated changes of the
+//!   pipeline between samples, acknowledgements (any board).
 //!
 //! Internal helpers (`linalg`: small fixed-size matrices; `compensated`:
 //! double-word arithmetic for `f32`) are crate-private.
@@ -92,6 +95,7 @@ pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;
 pub(crate) mod linalg;
+pub mod link;
 pub mod modal;
 pub mod model;
 pub mod pipeline;

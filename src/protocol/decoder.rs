@@ -14,8 +14,8 @@
 //! and counting continues from the new number.
 
 use super::budget::MAX_ENCODED_LEN;
-use super::frame::{parse_frame, DecodeError};
-use super::{Frame, DELIMITER};
+use super::frame::{parse_command_frame, parse_frame, DecodeError};
+use super::{Command, Frame, DELIMITER};
 
 /// What the decoder has seen. All counts since creation (or
 /// [`Decoder::reset_counters`]).
@@ -154,6 +154,31 @@ impl<const N: usize> Decoder<N> {
     /// frame, or why it was dropped (already counted). Empty frames
     /// (consecutive delimiters) are ignored.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, DecodeError>> {
+        let len = match self.collect(byte)? {
+            Ok(len) => len,
+            Err(e) => return Some(Err(e)),
+        };
+        Some(self.finish(len, parse_frame, |f| f.seq))
+    }
+
+    /// [`Decoder::push`] for a receiver of commands only (the device): the
+    /// frame must carry a [`Command`]; any other kind, although this
+    /// protocol's, is refused as [`DecodeError::UnknownKind`] (counted as
+    /// malformed). Only the command's payload decoder is linked, not the
+    /// four device → host ones. Returns the frame's sequence number and
+    /// the command.
+    pub fn push_command(&mut self, byte: u8) -> Option<Result<(u32, Command), DecodeError>> {
+        let len = match self.collect(byte)? {
+            Ok(len) => len,
+            Err(e) => return Some(Err(e)),
+        };
+        Some(self.finish(len, parse_command_frame, |f| f.0))
+    }
+
+    /// The framing state machine: `Some(Ok(len))` when `byte` ends a frame
+    /// of `len` collected bytes, `Some(Err)` when it ends an oversize one
+    /// (counted), `None` otherwise.
+    fn collect(&mut self, byte: u8) -> Option<Result<usize, DecodeError>> {
         self.counters.bytes = self.counters.bytes.saturating_add(1);
         match (self.state, byte == DELIMITER) {
             (State::Joining, false) => {
@@ -181,10 +206,7 @@ impl<const N: usize> Decoder<N> {
                 None
             }
             (State::Collecting, true) if self.len == 0 => None,
-            (State::Collecting, true) => {
-                let len = core::mem::take(&mut self.len);
-                Some(self.finish(len))
-            }
+            (State::Collecting, true) => Some(Ok(core::mem::take(&mut self.len))),
         }
     }
 
@@ -202,14 +224,19 @@ impl<const N: usize> Decoder<N> {
         e
     }
 
-    /// Decode the `len` collected bytes.
-    fn finish(&mut self, len: usize) -> Result<Frame, DecodeError> {
+    /// Decode the `len` collected bytes with `parse`.
+    fn finish<F>(
+        &mut self,
+        len: usize,
+        parse: fn(&[u8]) -> Result<F, DecodeError>,
+        seq: fn(&F) -> u32,
+    ) -> Result<F, DecodeError> {
         let encoded = self.buf.get_mut(..len).ok_or(DecodeError::Oversize);
         let decoded = encoded.and_then(|e| cobs::decode_in_place(e).map_err(|_| DecodeError::Cobs));
-        let frame = decoded.and_then(|n| parse_frame(self.buf.get(..n).ok_or(DecodeError::Cobs)?));
+        let frame = decoded.and_then(|n| parse(self.buf.get(..n).ok_or(DecodeError::Cobs)?));
         match frame {
             Ok(f) => {
-                self.sequence(f.seq);
+                self.sequence(seq(&f));
                 self.counters.frames_ok = self.counters.frames_ok.saturating_add(1);
                 Ok(f)
             }
@@ -385,6 +412,34 @@ mod tests {
             );
             assert_eq!(d.last_seq(), seqs.last().copied());
         }
+    }
+
+    #[test]
+    fn command_receiver_takes_commands_only() {
+        let mut bytes = Vec::new();
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        for (seq, c) in [(7u32, Command::Freeze), (9, Command::RequestStatus)] {
+            let n = encode(&c, seq, &mut out).unwrap();
+            bytes.extend_from_slice(&out[..n]);
+        }
+        // A device → host frame in between: refused, counted malformed.
+        let n = encode(&ack(3), 10, &mut out).unwrap();
+        bytes.splice(15..15, out[..n].iter().copied());
+        let mut d = Decoder::<{ super::super::budget::MAX_COMMAND_ENCODED_LEN }>::new();
+        let r: Vec<_> = bytes.iter().filter_map(|&b| d.push_command(b)).collect();
+        assert_eq!(
+            r,
+            [
+                Ok((7, Command::Freeze)),
+                Err(DecodeError::UnknownKind(Kind::Ack as u8)),
+                Ok((9, Command::RequestStatus))
+            ]
+        );
+        let c = d.counters();
+        assert_eq!(
+            (c.frames_ok, c.malformed, c.lost, c.out_of_order),
+            (2, 1, 1, 0)
+        );
     }
 
     #[test]

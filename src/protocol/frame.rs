@@ -347,10 +347,10 @@ impl Encoder {
     }
 }
 
-/// Check and decode one frame given its COBS-decoded bytes (header,
-/// payload, CRC; no delimiter). The checks run in this order: length, CRC,
-/// magic, version, kind, payload; the first that fails is the error.
-pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
+/// Check one frame given its COBS-decoded bytes (header, payload, CRC; no
+/// delimiter): length, CRC, magic, version, kind, in this order. Returns
+/// the sequence number, the kind and the payload bytes.
+fn check_frame(raw: &[u8]) -> Result<(u32, Kind, &[u8]), DecodeError> {
     let body_len = raw
         .len()
         .checked_sub(CRC_LEN)
@@ -377,6 +377,14 @@ pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
         });
     }
     let kind = Kind::from_u8(h.kind).ok_or(DecodeError::UnknownKind(h.kind))?;
+    Ok((h.seq, kind, payload))
+}
+
+/// Check and decode one frame given its COBS-decoded bytes (header,
+/// payload, CRC; no delimiter). The checks run in this order: length, CRC,
+/// magic, version, kind, payload; the first that fails is the error.
+pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
+    let (seq, kind, payload) = check_frame(raw)?;
     let message = match kind {
         Kind::Estimate => Message::Estimate(payload_as(payload)?),
         Kind::RawSamples => Message::RawSamples(payload_as(payload)?),
@@ -384,10 +392,18 @@ pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
         Kind::Ack => Message::Ack(payload_as(payload)?),
         Kind::Command => Message::Command(payload_as(payload)?),
     };
-    Ok(Frame {
-        seq: h.seq,
-        message,
-    })
+    Ok(Frame { seq, message })
+}
+
+/// [`parse_frame`] for a receiver of commands (the device): the same
+/// checks, but a kind other than [`Kind::Command`] is
+/// [`DecodeError::UnknownKind`], and only the command's payload decoder
+/// is used. Returns the sequence number and the command.
+pub fn parse_command_frame(raw: &[u8]) -> Result<(u32, Command), DecodeError> {
+    match check_frame(raw)? {
+        (seq, Kind::Command, payload) => Ok((seq, payload_as(payload)?)),
+        (_, kind, _) => Err(DecodeError::UnknownKind(kind as u8)),
+    }
 }
 
 /// Deserialize a whole payload as `T`: every byte used, rules kept.

@@ -79,7 +79,8 @@ pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform};
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{
-    encode, encode_raw, parse_frame, DecodeError, EncodeError, Encoder, Header, Payload,
+    encode, encode_raw, parse_command_frame, parse_frame, DecodeError, EncodeError, Encoder,
+    Header, Payload,
 };
 pub use telemetry::{
     Ack, AckResult, DeviceCounters, Estimate, EstimatorKind, FirmwareVersion, ModeEstimate,

@@ -26,13 +26,16 @@
 use super::plant::{ModalPlant, PlantError};
 use crate::drivers::ad5761r;
 use crate::drivers::ads131m02::{self, PgaGain};
-use crate::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
+use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
 use crate::filter_bank::{FilterConfig, SignalScales};
+use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use crate::pipeline::{
     adc_scales, BridgeConfig, ConversionConfig, DacLatch, Eq17, InputSource, Linearisation,
     OutputQuantity, PipelineConfig,
 };
+use crate::protocol::budget::uart_bytes_per_s;
+use crate::protocol::{self, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
 use crate::scalar::Real;
 
 /// Sample rate (Hz): the paper's Ts = 0.1 ms.
@@ -149,6 +152,56 @@ pub fn filter_config(y0: f64) -> FilterConfig {
     }
 }
 
+/// What the bench's firmware accepts over the serial link at `baud`
+/// (8N1): its sample rate, the piezo window ±[`WINDOW_V`], every
+/// generator's range (multisine ≤ 16 tones, PRBS orders 2–24), the
+/// adaptive law only, two modes, and the whole line rate as the link
+/// budget (`docs/PROTOCOL.md` §7).
+pub fn link_limits(baud: u32) -> Limits {
+    Limits {
+        sample_rate_hz: SAMPLE_RATE_HZ as f32,
+        piezo_min_v: -WINDOW_V as f32,
+        piezo_max_v: WINDOW_V as f32,
+        max_multisine_tones: multisine::MAX_TONES as u8,
+        prbs_bits_min: prbs::MIN_ORDER,
+        prbs_bits_max: prbs::MAX_ORDER,
+        estimators: EstimatorKind::Adaptive.bit(),
+        modes: 2,
+        link_bytes_per_s: uart_bytes_per_s(baud) as f32,
+    }
+}
+
+/// The link's fixed properties for the bench at `baud`.
+pub fn link_config(baud: u32) -> LinkConfig {
+    LinkConfig {
+        limits: link_limits(baud),
+        firmware: FIRMWARE_VERSION,
+        rules: FlagRules::default(),
+    }
+}
+
+/// The bench's start-up settings as the protocol states them: the
+/// excitation of [`excitation`], the core's default gains with
+/// λ = [`LAMBDA_RAD_S`], the default telemetry rates (estimates 100 Hz —
+/// one record every [`TELEMETRY_EVERY`] samples —, status 1 Hz, no raw
+/// samples).
+pub fn link_settings() -> Settings {
+    Settings {
+        excitation: protocol::Excitation {
+            waveform: protocol::Waveform::Square {
+                freq_hz: EXCITATION_HZ as f32,
+            },
+            amplitude_v: EXCITATION_V as f32,
+            offset_v: 0.0,
+        },
+        estimator: EstimatorSettings {
+            lambda_rad_s: Some(LAMBDA_RAD_S as f32),
+            ..EstimatorSettings::default()
+        },
+        telemetry: TelemetryRates::default(),
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -166,5 +219,55 @@ mod tests {
         let fe = c.analog_front_end().unwrap();
         assert!(fe.monitor_volts(10.0 * AMPLIFIER_GAIN).abs() < 1.2);
         assert_eq!(pipeline_config().conversion, c);
+    }
+
+    #[test]
+    fn link_settings_describe_the_bench() {
+        let s = link_settings();
+        let l = link_limits(921_600);
+        assert!(protocol::Command::SetExcitation(s.excitation)
+            .validate(&l)
+            .is_ok());
+        assert!(protocol::Command::SetEstimator(s.estimator)
+            .validate(&l)
+            .is_ok());
+        assert!(protocol::Command::SetTelemetry(s.telemetry)
+            .validate(&l)
+            .is_ok());
+        assert_eq!(
+            crate::link::record_interval(&s.telemetry, l.sample_rate_hz),
+            TELEMETRY_EVERY
+        );
+        assert_eq!(pipeline_config().raw_decimation, s.telemetry.raw_decimation);
+        // The protocol's estimator defaults are the core's.
+        let (_, law) = crate::link::estimator_configs::<7>(
+            &s.estimator,
+            LAMBDA_RAD_S,
+            TS_S,
+            filter_config(1.0).scales,
+        );
+        let core = crate::estimator::AdaptiveConfig::<7>::default();
+        assert_eq!(law.gain, core.gain);
+        assert_eq!(law.theta_update_every, core.theta_update_every);
+        // The same excitation as the generator the pipeline starts with.
+        let mut built = excitation::<f32>().unwrap();
+        let window = SafeWindow {
+            min_v: -WINDOW_V as f32,
+            max_v: WINDOW_V as f32,
+        };
+        let mut planned =
+            Excitation::<f32>::new(&Shape::Off, 0.0, 0.0, window, SAMPLE_RATE_HZ).unwrap();
+        let off = protocol::Excitation {
+            waveform: protocol::Waveform::Off,
+            amplitude_v: 0.0,
+            offset_v: 0.0,
+        };
+        crate::link::ExcitationPlan::<f32>::new(&s.excitation, &off, SAMPLE_RATE_HZ)
+            .unwrap()
+            .apply(&mut planned)
+            .unwrap();
+        for _ in 0..5000 {
+            assert_eq!(built.next_sample(), planned.next_sample());
+        }
     }
 }

@@ -7,9 +7,12 @@
 //!   address inside flash); for the reference board, also check from the
 //!   disassembly that the sample interrupt's call graph reaches no panic
 //!   and no software floating point ([`callgraph`]).
-//! * `qemu [--timeout S] [--uart0 PATH]` — build the QEMU image and run it in
-//!   `qemu-system-arm -machine mps2-an386` with deterministic instruction
-//!   counting; exit with QEMU's status (the firmware's verdict).
+//! * `qemu [--timeout S] [--seconds S] [--uart0 PATH]` — build the QEMU
+//!   image and run it in `qemu-system-arm -machine mps2-an386` with
+//!   deterministic instruction counting; decode the serial-link frames it
+//!   sent on UART0 and check them; exit with QEMU's status (the
+//!   firmware's verdict). `--e2e`: the end-to-end test over a loopback
+//!   socket ([`e2e`]); `--monitor`: `beamctl monitor` attached ([`qemu`]).
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -17,17 +20,18 @@
 //!   `mps2-an386` (Cortex-M4F) and `mps2-an500` (Cortex-M7).
 
 mod callgraph;
+mod e2e;
 mod image;
 mod m7;
 mod memory_map;
+mod qemu;
 
 use std::env;
 use std::fs;
-use std::io::{self, Read, Write};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
 use std::thread;
-use std::time::{Duration, Instant};
 
 /// The firmware target triple (Cortex-M4F/M7, hard float).
 const TARGET: &str = "thumbv7em-none-eabihf";
@@ -105,14 +109,12 @@ const IMAGES: &[Image] = &[
 /// QEMU's image for `cargo xtask qemu`.
 const QEMU_IMAGE: &str = "qemu-rig";
 const QEMU: &str = "qemu-system-arm";
-/// Default wall-clock limit for one emulated run, s.
-const QEMU_TIMEOUT_S: u64 = 300;
 
 fn main() -> ExitCode {
     let args: Vec<String> = env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("firmware") => firmware(),
-        Some("qemu") => qemu(&args[1..]),
+        Some("qemu") => qemu::run(&args[1..]),
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
         Some("help" | "-h" | "--help") | None => {
@@ -135,10 +137,23 @@ usage: cargo xtask <command>
 
   firmware                 build every firmware image (release, thumbv7em-none-eabihf),
                            print flash / static RAM, check the vector tables
-  qemu [--timeout S] [--uart0 PATH]
-                           build and run the QEMU image (mps2-an386, -icount shift=0);
-                           UART0 goes to PATH (default target/qemu/uart0.txt); exits
-                           with the firmware's status
+  qemu [--timeout S] [--seconds S] [--uart0 PATH]
+                           build and run the QEMU image (mps2-an386, -icount shift=0) for
+                           S simulated seconds (default 5); UART0 (the serial-link frames)
+                           goes to PATH (default target/qemu/uart0.bin) and is decoded and
+                           checked afterwards; exits with the firmware's status
+  qemu --e2e [--timeout S]
+                           the end-to-end test: the image's UART0 on a loopback TCP socket
+                           to a host decoder that checks the estimates against the
+                           simulated beam's truth, the sequence numbers (nothing lost,
+                           no CRC error), an accepted command taking effect and a refused
+                           one changing nothing
+  qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
+                           run the image (default 60 simulated s, 0 = until the monitor
+                           quits) with UART0 on a loopback TCP socket and `beamctl monitor
+                           --tcp 127.0.0.1:PORT MONITOR-ARGS` attached (cargo run --release
+                           -p beamctl, or the binary PATH); the firmware's log goes to
+                           target/qemu/semihosting.log
   flash                    build the NUCLEO-H743ZI2 image (-C target-cpu=cortex-m7),
                            check it, flash and run it with probe-rs (defmt log)
   fp-bench                 estimator step cost in f32 and f64: QEMU mps2-an386
@@ -272,85 +287,6 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
         );
     }
     Ok(())
-}
-
-fn qemu(args: &[String]) -> Result<(), String> {
-    let mut timeout = Duration::from_secs(QEMU_TIMEOUT_S);
-    let mut uart0 = workspace_root().join("target/qemu/uart0.txt");
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--timeout" => {
-                let v = it.next().ok_or("--timeout needs seconds")?;
-                let s: u64 = v
-                    .parse()
-                    .map_err(|_| format!("--timeout: bad number `{v}`"))?;
-                timeout = Duration::from_secs(s);
-            }
-            "--uart0" => {
-                uart0 = PathBuf::from(it.next().ok_or("--uart0 needs a path")?);
-            }
-            other => return Err(format!("qemu: unknown option `{other}`\n\n{USAGE}")),
-        }
-    }
-    require_tool(
-        QEMU,
-        &["--version"],
-        "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
-    )?;
-    let image = IMAGES
-        .iter()
-        .find(|i| i.bin == QEMU_IMAGE)
-        .ok_or("no QEMU image in the image table")?;
-    let elf = build(image)?;
-    if let Some(dir) = uart0.parent() {
-        fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
-    }
-
-    let mut cmd = Command::new(QEMU);
-    cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-monitor", "none"])
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-icount", "shift=0,sleep=off"])
-        .arg("-serial")
-        .arg(format!("file:{}", uart0.display()))
-        .arg("-kernel")
-        .arg(&elf)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    println!("running: {cmd:?}");
-    println!("UART0 → {}", uart0.display());
-    let start = Instant::now();
-    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
-    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
-    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
-    let status = loop {
-        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
-            break status;
-        }
-        if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Err(format!(
-                "{QEMU} still running after {} s: killed",
-                timeout.as_secs()
-            ));
-        }
-        thread::sleep(Duration::from_millis(20));
-    };
-    for t in [out, err].into_iter().flatten() {
-        let _ = t.join();
-    }
-    println!(
-        "{QEMU} exited with {status} after {:.2} s wall time",
-        start.elapsed().as_secs_f64()
-    );
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("the emulated firmware failed ({status})"))
-    }
 }
 
 /// Copy a child's output to ours as it arrives.

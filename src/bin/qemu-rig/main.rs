@@ -1,24 +1,31 @@
 //! The firmware on the emulated board (QEMU `mps2-an386`, Cortex-M4F,
 //! `f32`) with the simulated bench behind the real converter drivers: run
-//! with `cargo xtask qemu`.
+//! with `cargo xtask qemu` (`--e2e`: with the host on the serial link;
+//! `--monitor`: with `beamctl monitor` attached).
 //!
-//! * Boot (thread mode): SysTick calibration; both converters brought up
-//!   through their drivers against the chip models (AD5761R reset, control
-//!   written and read back; ADS131M02 reset with the ID check, configured
-//!   and read back); the rig, a frozen pipeline and the sample task built
-//!   from `beamest::rig::bench`.
+//! * Boot (thread mode): SysTick calibration; the run length from the
+//!   semihosting command line (`seconds=S`, 0 = until stopped; default
+//!   5 s); both converters brought up through their drivers against the
+//!   chip models (AD5761R reset, control written and read back; ADS131M02
+//!   reset with the ID check, configured and read back); the rig, a frozen
+//!   pipeline and the sample task built from `beamest::rig::bench`.
 //! * Timer 0 interrupt, 10 kHz, highest priority: [`sample::SampleTask`] —
 //!   rig tick, then `Pipeline::tick` (the drivers' SPI frames to the
-//!   models, the estimator step, telemetry into the SPSC queue).
-//! * UART0 interrupts, below it: move bytes between the UART and its rings
-//!   (the serial link of issue 7 will use them; today one CSV line per
-//!   record goes out).
-//! * Thread mode, lowest: builds the estimator when the start-up window
-//!   reports Y0, turns each telemetry record into ω, ζ, b̄ and λmin(P)
-//!   (`pipeline::recover`), logs through semihosting as the estimate
-//!   converges, and at the end prints the instruction counts, checks the
-//!   fault counters and ω, ζ against the simulated truth (the one place
-//!   that reads it) and exits with status 0 only if all pass ([`report`]).
+//!   models, the estimator step, telemetry records and raw blocks into
+//!   their SPSC queues), inside the [`Shared`] lock.
+//! * UART0 interrupts, below it: move bytes between the UART and its rings.
+//! * Thread mode, lowest: the serial link ([`beamest::link::DeviceLink`],
+//!   `docs/PROTOCOL.md`) on UART0 at 921,600 baud — each record recovered
+//!   (ω, ζ, b̄, λmin(P)) and sent as an Estimate at the estimate rate
+//!   (default 100 Hz), Status at the status rate (default 1 Hz), raw
+//!   samples when enabled, commands decoded, validated, applied between
+//!   samples (inside the lock, [`device`]) and acknowledged; the estimator
+//!   built and swapped in when the start-up window reports Y0; a
+//!   human-readable log through semihosting as the estimate converges;
+//!   at the end the instruction counts, the link's counters, the cost of an
+//!   Estimate frame, the fault counters against what was injected, and ω, ζ
+//!   against the simulated truth (the one place that reads it), then exit
+//!   status 0 only if all pass ([`report`]).
 
 #![no_std]
 #![no_main]
@@ -29,54 +36,50 @@
     clippy::indexing_slicing
 )]
 
+mod device;
 mod numfmt;
 mod report;
 mod sample;
 
-use core::fmt::Write as _;
-
 use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
-use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned};
+use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
-use beamest::pipeline::{bring_up, NoSink, Pipeline};
+use beamest::link::DeviceLink;
+use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::rig::{bench, ConverterModels, ConverterRig};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
 use panic_semihosting as _;
 
+use device::QemuDevice;
 use numfmt::{Fixed, Sci};
-use report::{finish, handle, LOG_EVERY};
-use sample::{Record, SampleTask, Summary};
+use report::{finish, log, LOG_EVERY, OUTPUT_WEIGHT};
+use sample::{Raw, Record, SampleTask, Summary, RUN_SAMPLES};
 
 /// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 150 ms).
 const TELEMETRY_QUEUE: usize = 16;
+/// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
+const RAW_QUEUE: usize = 8;
 
 static SPI_METER: SpiMeter = SpiMeter::new();
 // Large states are handed over by `&'static mut` into `singleton!` storage:
 // an `Option` of a reference is zero when empty, so these stay in .bss.
-static SAMPLE_TASK: Handoff<IsrOwned<&'static mut SampleTask>> = Handoff::new();
+static SAMPLE_TASK: Shared<IsrOwned<&'static mut SampleTask>> = Shared::new();
 static Y0: Handoff<f32> = Handoff::new();
-static ESTIMATOR: Handoff<&'static mut Adaptive2<f32>> = Handoff::new();
 static SUMMARY: Handoff<Summary> = Handoff::new();
 static TX_DRAIN: Handoff<TxDrain> = Handoff::new();
 static RX_FILL: Handoff<RxFill> = Handoff::new();
 
 #[interrupt]
 fn TIMER0() {
-    static mut TASK: Option<IsrOwned<&'static mut SampleTask>> = None;
     let entry = cycles::now();
     timer::clear_interrupt();
-    if TASK.is_none() {
-        *TASK = SAMPLE_TASK.take();
-    }
-    if let Some(task) = TASK.as_mut() {
-        task.get_mut().on_interrupt(entry);
-    }
+    SAMPLE_TASK.lock(|task| task.get_mut().on_interrupt(entry));
 }
 
 #[interrupt]
@@ -127,11 +130,13 @@ fn main() -> ! {
         );
         board::exit(false);
     }
+    let run_samples = run_length();
 
-    let (Some(tx_ring), Some(rx_ring), Some(queue)) = (
+    let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue)) = (
         cortex_m::singleton!(: TxRing = Queue::new()),
         cortex_m::singleton!(: RxRing = Queue::new()),
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
+        cortex_m::singleton!(: Queue<Raw, RAW_QUEUE> = Queue::new()),
     ) else {
         fail("static buffers already taken")
     };
@@ -140,40 +145,87 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
+    let mut link = DeviceLink::new(
+        bench::link_config(board::UART_BAUD),
+        bench::link_settings(),
+        bench::LAMBDA_RAD_S,
+    );
+    let config = PipelineConfig {
+        telemetry_every: link.record_every(),
+        raw_decimation: link.settings().telemetry.raw_decimation,
+        ..bench::pipeline_config()
+    };
     let (producer, mut consumer) = queue.split();
-    let task = build_sample_task(producer);
+    let (raw_producer, mut raw_consumer) = raw_queue.split();
+    let (task, spare) = build_sample_task(&config, producer, raw_producer, run_samples);
     // SAFETY: the chip models were created inside `build_sample_task` and
     // only the task (its rig and its drivers) refers to them.
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
+    let mut device = QemuDevice::new(&SAMPLE_TASK, spare);
+    hprintln!(
+        "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
+         raw samples off (settable by command); run length {} s{}",
+        board::UART_BAUD,
+        beamest::protocol::VERSION,
+        Fixed(link.settings().telemetry.estimate_rate_hz.into(), 0),
+        Fixed(link.settings().telemetry.status_rate_hz.into(), 0),
+        Fixed(f64::from(run_samples) * bench::TS_S, 1),
+        if run_samples == 0 {
+            " (0: until stopped)"
+        } else {
+            ""
+        }
+    );
     Board::unmask();
     b.timer.start(board::SAMPLE_RELOAD);
-    let _ = writeln!(
-        tx,
-        "# t_s,omega1_rad_s,omega2_rad_s,zeta1,zeta2,lambda_min_p"
-    );
 
-    let mut rx_bytes: u32 = 0;
     let mut next_log: u64 = LOG_EVERY;
     let mut last: Option<Record> = None;
+    let mut started_at: Option<u64> = None;
     loop {
         while let Some(record) = consumer.dequeue() {
-            handle(&record, &mut tx, &mut next_log);
+            let recovered = link.on_record(&record, &OUTPUT_WEIGHT, &mut tx);
+            log(
+                &record,
+                recovered.as_ref(),
+                link.has_estimate(),
+                &mut next_log,
+            );
             last = Some(record);
         }
-        while rx.read().is_some() {
-            rx_bytes = rx_bytes.saturating_add(1);
+        while let Some(block) = raw_consumer.dequeue() {
+            link.on_raw(&block, &mut tx);
         }
+        link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
         if let Some(y0) = Y0.take() {
-            start_estimator(y0);
+            started_at = Some(start_estimator(y0, &mut link, &mut device));
         }
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();
-            // Records pushed before the summary are still queued.
+            // Records and raw blocks pushed before the summary are still
+            // queued: they go out too.
             while let Some(record) = consumer.dequeue() {
-                handle(&record, &mut tx, &mut next_log);
+                let recovered = link.on_record(&record, &OUTPUT_WEIGHT, &mut tx);
+                log(
+                    &record,
+                    recovered.as_ref(),
+                    link.has_estimate(),
+                    &mut next_log,
+                );
                 last = Some(record);
             }
-            finish(&summary, last.as_ref(), &cal, rx_bytes, &mut tx);
+            while let Some(block) = raw_consumer.dequeue() {
+                link.on_raw(&block, &mut tx);
+            }
+            finish(
+                &summary,
+                last.as_ref(),
+                &cal,
+                started_at,
+                &link,
+                &device,
+                &mut tx,
+            );
         }
         // Idle by executing, never WFI: under `-icount sleep=off` QEMU 7.2
         // warps virtual time past the next timer deadline while the CPU
@@ -183,12 +235,60 @@ fn main() -> ! {
     }
 }
 
+/// The run length in samples from the semihosting command line: the word
+/// `seconds=S` (S a decimal number of seconds, 0 = run until stopped);
+/// [`RUN_SAMPLES`] (5 s) without it.
+fn run_length() -> u32 {
+    let mut buf = [0u8; 128];
+    let line = board::command_line(&mut buf).unwrap_or("");
+    let Some(value) = line
+        .split_ascii_whitespace()
+        .find_map(|w| w.strip_prefix("seconds="))
+    else {
+        return RUN_SAMPLES;
+    };
+    match parse_seconds_as_samples(value) {
+        Some(n) => n,
+        None => {
+            hprintln!("error: seconds={}: expected a number of seconds", value);
+            board::exit(false)
+        }
+    }
+}
+
+/// "12" or "2.5" seconds → samples at 10 kHz (whole samples, saturating).
+fn parse_seconds_as_samples(s: &str) -> Option<u32> {
+    let (whole, frac) = s.split_once('.').unwrap_or((s, ""));
+    let digits = |t: &str| t.bytes().all(|c| c.is_ascii_digit());
+    if whole.is_empty() && frac.is_empty() || !digits(whole) || !digits(frac) {
+        return None;
+    }
+    let rate = u64::from(board::SAMPLE_RATE_HZ);
+    let mut samples: u64 = if whole.is_empty() {
+        0
+    } else {
+        whole.parse::<u64>().ok()?.checked_mul(rate)?
+    };
+    // Fraction digits: at most 4 matter at 10 kHz (0.1 ms).
+    let mut scale = rate / 10;
+    for c in frac.bytes().take(4) {
+        samples = samples.checked_add(u64::from(c - b'0') * scale)?;
+        scale /= 10;
+    }
+    u32::try_from(samples).ok()
+}
+
 /// Boot the simulated bench: the chip models, both converters brought up
 /// through their drivers, the rig, a frozen pipeline with a stand-in
 /// estimator (never stepped, replaced once Y0 is known) and the sample
-/// task. Nothing that refers to the models leaves this function except the
-/// task.
-fn build_sample_task(producer: Producer<'static, Record>) -> &'static mut SampleTask {
+/// task; returns the task and the spare estimator slot. Nothing that
+/// refers to the models leaves this function except the task.
+fn build_sample_task(
+    config: &PipelineConfig,
+    producer: Producer<'static, Record>,
+    raw_producer: Producer<'static, Raw>,
+    run_samples: u32,
+) -> (&'static mut SampleTask, &'static mut Adaptive2<f32>) {
     let Some(models) = cortex_m::singleton!(: ConverterModels = ConverterModels::new()) else {
         fail("chip models already placed")
     };
@@ -220,63 +320,67 @@ fn build_sample_task(producer: Producer<'static, Record>) -> &'static mut Sample
     else {
         fail("rig settings")
     };
-    let Ok(stand_in) =
-        Adaptive2::<f32>::new(&bench::filter_config(1.0), &AdaptiveConfig::default())
-    else {
+    // Two estimator slots: the stand-in the frozen pipeline holds, and the
+    // spare the real estimator is built into (then they alternate).
+    let stand_in = || Adaptive2::<f32>::new(&bench::filter_config(1.0), &AdaptiveConfig::default());
+    let (Ok(a), Ok(b)) = (stand_in(), stand_in()) else {
         fail("estimator settings")
     };
-    let Some(stand_in) = cortex_m::singleton!(: Adaptive2<f32> = stand_in) else {
-        fail("stand-in estimator already placed")
+    let (Some(stand_in), Some(spare)) = (
+        cortex_m::singleton!(: Adaptive2<f32> = a),
+        cortex_m::singleton!(: Adaptive2<f32> = b),
+    ) else {
+        fail("estimator slots already placed")
     };
     let Ok(excitation) = bench::excitation::<f32>() else {
         fail("excitation settings")
     };
     let Ok(pipeline) = Pipeline::new(
-        &bench::pipeline_config(),
+        config,
         TimedEstimator::new(stand_in),
         excitation,
         adc,
         dac,
         producer,
-        NoSink,
+        raw_producer,
     ) else {
         fail("pipeline settings")
     };
-    let task = SampleTask::new(rig, pipeline, &SPI_METER, &Y0, &ESTIMATOR, &SUMMARY);
+    let task = SampleTask::new(rig, pipeline, &SPI_METER, &Y0, &SUMMARY, run_samples);
     let Some(task) = cortex_m::singleton!(: SampleTask = task) else {
         fail("sample task already placed")
     };
-    task
+    (task, spare)
 }
 
-/// Y0 from the start-up window: build the estimator (its matrix
-/// exponentials run here, not in the interrupt) and hand it over.
-fn start_estimator(y0: f32) {
-    hprintln!(
-        "start-up: Y0 = {} m (RMS of y over {} samples, excitation running); \
-         U0 = {} V, lambda = {} rad/s",
-        Sci(y0.into(), 4),
-        bench::STARTUP_SAMPLES,
-        Fixed(bench::EXCITATION_V, 2),
-        Fixed(bench::LAMBDA_RAD_S, 0)
-    );
-    match Adaptive2::<f32>::new(
-        &bench::filter_config(f64::from(y0)),
-        &AdaptiveConfig::default(),
-    ) {
-        Ok(est) => match cortex_m::singleton!(: Adaptive2<f32> = est) {
-            Some(e) => ESTIMATOR.put(e),
-            None => fail("a second start-up window"),
-        },
-        Err(_) => {
-            hprintln!("error: estimator configuration rejected Y0");
-            board::exit(false);
+/// Y0 from the start-up window: the estimator is built with it (outside
+/// the lock) and swapped in between two samples; returns the sample from
+/// which it runs.
+fn start_estimator(y0: f32, link: &mut DeviceLink, device: &mut QemuDevice) -> u64 {
+    device.set_output_scale(f64::from(y0));
+    let lambda = link.lambda_rad_s();
+    match link.start(device) {
+        Ok(at) => {
+            hprintln!(
+                "start-up: Y0 = {} m (RMS of y over {} samples, excitation running); \
+                 U0 = {} V, lambda = {} rad/s; estimator running from sample {}",
+                Sci(y0.into(), 4),
+                bench::STARTUP_SAMPLES,
+                Fixed(bench::EXCITATION_V, 2),
+                Fixed(lambda, 0),
+                at
+            );
+            at
+        }
+        Err(e) => {
+            hprintln!("error: the estimator could not be started: {}", e);
+            board::exit(false)
         }
     }
 }
 
-/// Log and exit with failure (boot errors).
-fn fail(what: &str) -> ! {
+/// Log and exit with failure (boot errors, broken invariants).
+pub fn fail(what: &str) -> ! {
     hprintln!("error: {}", what);
     board::exit(false)
 }

@@ -10,9 +10,14 @@
 //!    goes into the SPSC queue every 100 samples.
 //! 3. **Start-up**: the pipeline starts frozen; after
 //!    [`bench::STARTUP_SAMPLES`] valid samples the RMS of y goes to thread
-//!    mode as Y0, which builds the estimator and hands it back; it is
-//!    swapped in and adaptation resumes with the law held until its
-//!    filters have settled (`Pipeline::resume`).
+//!    mode as Y0, which builds the estimator and swaps it in between two
+//!    samples (`DeviceLink::start`, inside the [`Shared`] lock); adaptation
+//!    then resumes with the law held until its filters have settled
+//!    (`Pipeline::resume`).
+//!
+//! Thread mode changes the pipeline only inside the [`Shared`] lock that
+//! this handler also runs in (the serial link's commands), so every change
+//! lands between two samples.
 //! 4. **Faults** ([`FAULTS`]): injected into the ADC model at fixed
 //!    samples, so the drivers' and the pipeline's fault paths run here too.
 //!
@@ -32,12 +37,14 @@
 
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
+#[cfg(doc)]
+use beamest::board::qemu::Shared;
 use beamest::board::qemu::{self as board, Handoff};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::drivers::Rail;
 use beamest::estimator::{Adaptive2, StepStatus};
-use beamest::pipeline::{Counters, NoSink, OutputScaleWindow, Pipeline, TelemetryRecord};
+use beamest::pipeline::{Counters, OutputScaleWindow, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::rig::{bench, ConverterRig};
 use cortex_m::peripheral::NVIC;
@@ -47,7 +54,7 @@ use heapless::spsc::Producer;
 pub const NP: usize = 7;
 /// NP(NP + 1)/2.
 pub const NS: usize = 28;
-/// Simulated run length: 5 s at 10 kHz.
+/// Default simulated run length: 5 s at 10 kHz (the CI run).
 pub const RUN_SAMPLES: u32 = 50_000;
 /// Timer-period check: SysTick across this many periods from sample
 /// `PERIOD_FROM` (the interval stays below SysTick's 0.67 s wrap).
@@ -63,9 +70,19 @@ pub type AdcDriver = Ads131m02<MeteredSpi<Shared<'static, Ads131m02Model>>>;
 pub type DacDriver = Ad5761r<MeteredSpi<Shared<'static, Ad5761rModel>>>;
 /// A telemetry record.
 pub type Record = TelemetryRecord<f32, NP, NS>;
+/// A raw-sample block.
+pub type Raw = RawBlock<f32>;
 /// The pipeline of this image.
-pub type RigPipeline =
-    Pipeline<f32, Est, AdcDriver, DacDriver, Producer<'static, Record>, NoSink, NP, NS>;
+pub type RigPipeline = Pipeline<
+    f32,
+    Est,
+    AdcDriver,
+    DacDriver,
+    Producer<'static, Record>,
+    Producer<'static, Raw>,
+    NP,
+    NS,
+>;
 
 /// A fault injected into the ADC model after the tick of `at`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,6 +105,22 @@ pub const FAULTS: [(u32, Fault); 4] = [
     (30_000, Fault::Stuck(100)),
     (35_000, Fault::Dropped(5)),
 ];
+
+/// Every fault of the schedule has been injected, and its quarantine has
+/// ended, by this sample (4 s): shorter runs skip the counter check.
+pub const FAULTS_DONE_BY: u32 = 40_000;
+
+// Each fault's run plus the 0.4 s quarantine fits before FAULTS_DONE_BY.
+const _: () = {
+    let mut rest: &[(u32, Fault)] = &FAULTS;
+    while let [(at, f), tail @ ..] = rest {
+        let n = match *f {
+            Fault::BadCrc(n) | Fault::Saturate(n) | Fault::Stuck(n) | Fault::Dropped(n) => n,
+        };
+        assert!(*at + n + 4_000 <= FAULTS_DONE_BY);
+        rest = tail;
+    }
+};
 
 /// The counters the schedule must produce: every injected bad conversion
 /// counted once by kind and rejected (a stuck run of n repeats is n + 1
@@ -151,8 +184,6 @@ pub struct Summary {
     pub rig_errors: u32,
     /// The pipeline's counters.
     pub counters: Counters,
-    /// Sample at which the estimator was swapped in.
-    pub started_at: Option<u32>,
     /// Θ at the end.
     pub theta: [f32; NP],
     /// The steps' statuses: [updated, held (frozen), rejected, skipped].
@@ -166,10 +197,9 @@ pub struct SampleTask {
     window: OutputScaleWindow<f32>,
     meter: &'static SpiMeter,
     y0_out: &'static Handoff<f32>,
-    estimator_in: &'static Handoff<&'static mut Adaptive2<f32>>,
     summary_out: &'static Handoff<Summary>,
+    run_samples: u32,
     samples: u32,
-    started_at: Option<u32>,
     steady: Spans,
     all: Spans,
     period_start: u32,
@@ -181,15 +211,15 @@ pub struct SampleTask {
 }
 
 impl SampleTask {
-    /// The task around a rig and a frozen pipeline (see the module docs).
-    #[allow(clippy::too_many_arguments)]
+    /// The task around a rig and a frozen pipeline (see the module docs),
+    /// ending after `run_samples` samples (0: never).
     pub fn new(
         rig: ConverterRig<'static>,
         mut pipeline: RigPipeline,
         meter: &'static SpiMeter,
         y0_out: &'static Handoff<f32>,
-        estimator_in: &'static Handoff<&'static mut Adaptive2<f32>>,
         summary_out: &'static Handoff<Summary>,
+        run_samples: u32,
     ) -> Self {
         pipeline.freeze();
         Self {
@@ -198,10 +228,9 @@ impl SampleTask {
             window: OutputScaleWindow::new(bench::STARTUP_SAMPLES),
             meter,
             y0_out,
-            estimator_in,
             summary_out,
+            run_samples,
             samples: 0,
-            started_at: None,
             steady: Spans::default(),
             all: Spans::default(),
             period_start: 0,
@@ -220,7 +249,7 @@ impl SampleTask {
             return;
         }
         let k = self.samples;
-        if k == RUN_SAMPLES {
+        if k == self.run_samples && k > 0 {
             self.finish();
             return;
         }
@@ -243,22 +272,9 @@ impl SampleTask {
         let tick = self.pipeline.tick();
         let t2 = cycles::now();
         let models = self.meter.ticks().wrapping_sub(m0);
-        // 3. Start-up: Y0 out, the estimator in.
+        // 3. Start-up: Y0 out (thread mode swaps the estimator in).
         if let Some(y0) = self.window.observe(&tick) {
             self.y0_out.put(y0);
-        }
-        if self.started_at.is_none() {
-            if let Some(est) = self.estimator_in.take() {
-                let new = TimedEstimator::new(est);
-                if self
-                    .pipeline
-                    .replace_estimator(new, bench::LAMBDA_RAD_S)
-                    .is_ok()
-                {
-                    self.pipeline.resume();
-                    self.started_at = Some(k);
-                }
-            }
         }
         if NVIC::is_pending(board::Interrupt::TIMER0) {
             self.overruns = self.overruns.saturating_add(1);
@@ -296,7 +312,12 @@ impl SampleTask {
         if slot == Some(0) {
             book(&mut self.steady);
         }
-        self.samples = k + 1;
+        self.samples = k.wrapping_add(1);
+    }
+
+    /// The pipeline (thread mode, inside the [`Shared`] lock).
+    pub fn pipeline_mut(&mut self) -> &mut RigPipeline {
+        &mut self.pipeline
     }
 
     fn inject(&self, k: u32) {
@@ -326,7 +347,6 @@ impl SampleTask {
             overruns: self.overruns,
             rig_errors: self.rig_errors,
             counters: self.pipeline.counters(),
-            started_at: self.started_at,
             theta: beamest::estimator::Estimator::theta(self.pipeline.estimator()),
             step_counts: self.step_counts,
         });

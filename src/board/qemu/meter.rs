@@ -53,6 +53,11 @@ impl<E> TimedEstimator<E> {
     pub fn inner(&self) -> &E {
         &self.inner
     }
+
+    /// Unwrap (e.g. to reuse a replaced estimator's storage).
+    pub fn into_inner(self) -> E {
+        self.inner
+    }
 }
 
 impl<T: Real, E: Estimator<T, NP>, const NP: usize> Estimator<T, NP> for TimedEstimator<E> {

@@ -7,7 +7,10 @@
 //! * [`cycles`] — SysTick instruction counting under `-icount shift=0`;
 //! * [`meter`] — meters that tell the estimator's and the simulated chips'
 //!   instructions apart inside the sample interrupt;
-//! * [`Handoff`] — move a value from thread mode into an interrupt handler.
+//! * [`Handoff`] — move a value from thread mode into an interrupt handler;
+//! * [`Shared`] — state the sample interrupt and thread mode both change,
+//!   each inside a critical section;
+//! * [`command_line`] — the semihosting command line (run options).
 //!
 //! Priorities ([`priority`]): the sample interrupt (timer 0) is the highest;
 //! the UART interrupts run below it; thread mode (telemetry, modal recovery,
@@ -32,7 +35,7 @@ pub mod timer;
 pub mod uart;
 pub mod vectors;
 
-use core::cell::Cell;
+use core::cell::{Cell, RefCell};
 
 use cortex_m::peripheral::NVIC;
 use critical_section::Mutex;
@@ -62,9 +65,12 @@ pub const SAMPLE_RELOAD: u32 = match timer::reload_for(SAMPLE_RATE_HZ) {
     None => panic!("the sample rate must divide the 25 MHz timer clock"),
 };
 
-/// UART0 line rate (bits/s). QEMU transmits at host speed whatever the
-/// divisor; a real UART at this rate carries 11.5 kB/s.
-pub const UART_BAUD: u32 = 115_200;
+/// UART0 line rate (bits/s): the reference board's link rate
+/// (`docs/PROTOCOL.md` §7, 92,160 B/s at 8N1), so the link budget the
+/// firmware enforces is the board's. QEMU's CMSDK UART does not pace bytes
+/// by the divisor: a byte leaves as soon as the character backend takes
+/// it, so in emulation the budget is enforced but never felt.
+pub const UART_BAUD: u32 = 921_600;
 
 /// The board's peripherals, taken once at boot.
 pub struct Board {
@@ -135,6 +141,48 @@ impl<T> Handoff<T> {
     }
 }
 
+/// State that the sample interrupt and thread mode share: each runs on it
+/// inside a critical section (PRIMASK: every interrupt masked), so thread
+/// mode's changes land between two samples and the sample interrupt never
+/// sees one half made. The sample interrupt is the highest priority, so
+/// its own critical section costs it only the few instructions of the
+/// mask; a thread-mode section delays the next sample by its length (keep
+/// it to setters and swaps). A `RefCell` borrowed with `try_borrow_mut`:
+/// no panic path.
+pub struct Shared<T>(Mutex<RefCell<Option<T>>>);
+
+impl<T> Shared<T> {
+    /// An empty slot.
+    pub const fn new() -> Self {
+        Self(Mutex::new(RefCell::new(None)))
+    }
+
+    /// Place the value.
+    pub fn put(&self, value: T) {
+        critical_section::with(|cs| {
+            if let Ok(mut slot) = self.0.borrow(cs).try_borrow_mut() {
+                *slot = Some(value);
+            }
+        });
+    }
+
+    /// Run `f` on the value inside a critical section; `None` if no value
+    /// has been placed (or, impossibly, it is borrowed already).
+    #[inline]
+    pub fn lock<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+        critical_section::with(|cs| {
+            let mut slot = self.0.borrow(cs).try_borrow_mut().ok()?;
+            slot.as_mut().map(f)
+        })
+    }
+}
+
+impl<T> Default for Shared<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// A value the sample interrupt owns once thread mode has built it,
 /// although it is not `Send`: on this board the simulated rig and the
 /// drivers inside the sample task share the chip models through `&RefCell`
@@ -145,9 +193,11 @@ impl<T> Handoff<T> {
 pub struct IsrOwned<T>(T);
 
 // SAFETY: the value is used from one context at a time (thread mode until
-// it is put into a `Handoff`, the interrupt after it takes it), and by the
-// contract of `new` nothing outside it refers to what it borrows, so no
-// `RefCell` it shares is ever touched from two contexts.
+// it is put into a `Handoff` or a `Shared`; then the interrupt, or either
+// side inside the `Shared`'s critical section, which excludes the other),
+// and by the contract of `new` nothing outside it refers to what it
+// borrows, so no `RefCell` it shares is ever touched from two contexts at
+// once.
 unsafe impl<T> Send for IsrOwned<T> {}
 
 impl<T> IsrOwned<T> {
@@ -185,6 +235,29 @@ impl<T> Default for Handoff<T> {
 #[inline]
 pub fn idle() {
     cycles::idle_block(8);
+}
+
+/// The semihosting command line (QEMU: the `-semihosting-config arg=…`
+/// words joined by spaces), read into `buf`; `None` if the host has none
+/// or it is not UTF-8. Thread mode only.
+pub fn command_line(buf: &mut [u8]) -> Option<&str> {
+    // SYS_GET_CMDLINE (0x15): r1 points to {buffer address, buffer
+    // length}; the host writes the line (NUL-terminated) and its length.
+    let mut block: [usize; 2] = [buf.as_mut_ptr() as usize, buf.len().saturating_sub(1)];
+    // SAFETY: the block and the buffer it points to are valid and writable
+    // for the call's duration; the host writes at most block[1] + 1 bytes.
+    // The `bkpt` asm clobbers memory, so the block is re-read after it.
+    let r = unsafe {
+        cortex_m_semihosting::syscall1(
+            cortex_m_semihosting::nr::GET_CMDLINE,
+            block.as_mut_ptr() as usize,
+        )
+    };
+    if r != 0 {
+        return None;
+    }
+    let n = block[1].min(buf.len());
+    core::str::from_utf8(buf.get(..n)?).ok()
 }
 
 /// End the emulation through semihosting: QEMU exits with status 0 for

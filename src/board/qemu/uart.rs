@@ -49,10 +49,13 @@ const INT_RX: u32 = 1 << 1;
 /// Smallest BAUDDIV the TRM allows (QEMU ignores smaller values).
 const BAUDDIV_MIN: u32 = 16;
 
-/// TX ring size in bytes (holds `TX_RING - 1`): several telemetry lines.
-pub const TX_RING: usize = 512;
-/// RX ring size in bytes (holds `RX_RING - 1`): a few commands.
-pub const RX_RING: usize = 64;
+/// TX ring size in bytes (holds `TX_RING - 1`): a full raw-sample frame
+/// (542 bytes), a Status (≤ 142) and a dozen estimates (≤ 87 each), ≈ 22 ms
+/// of the link at 921,600 baud (`docs/PROTOCOL.md` §7).
+pub const TX_RING: usize = 2048;
+/// RX ring size in bytes (holds `RX_RING - 1`): six of the longest command
+/// frames (37 bytes) between two passes of thread mode.
+pub const RX_RING: usize = 256;
 
 /// Transmit ring storage (`static`, split once by [`Uart0::split`]).
 pub type TxRing = Queue<u8, TX_RING>;
@@ -144,16 +147,16 @@ impl UartTx {
     }
 }
 
-impl core::fmt::Write for UartTx {
-    /// Queue the whole string or fail (nothing partial is queued).
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        if s.len() > self.space() {
-            let d = u32::try_from(s.len()).unwrap_or(u32::MAX);
-            TX_DROPPED.fetch_add(d, Ordering::Relaxed);
-            return Err(core::fmt::Error);
-        }
-        self.write(s.as_bytes());
-        Ok(())
+/// The serial link's frames go out through the ring: whole frames only
+/// (the link checks [`TxSink::free`] first), then the TX interrupt is
+/// pended.
+impl crate::link::TxSink for UartTx {
+    fn free(&self) -> usize {
+        self.space()
+    }
+
+    fn push(&mut self, bytes: &[u8]) {
+        self.write(bytes);
     }
 }
 
@@ -183,17 +186,26 @@ pub struct RxFill {
 }
 
 impl RxFill {
-    /// Body of the `UART0RX` handler: move every received byte into the RX
-    /// ring (dropping and counting what does not fit), then acknowledge.
+    /// Body of the `UART0RX` handler: acknowledge, then move every
+    /// received byte into the RX ring (dropping and counting what does not
+    /// fit).
+    ///
+    /// Acknowledge first: a byte that arrives after the last STATE read
+    /// sets the interrupt again. Acknowledging after the loop cleared that
+    /// byte's interrupt, and with nothing to raise it again (the receive
+    /// buffer stays full, so no further byte arrives) reception stopped for
+    /// good — seen under QEMU, whose character backend delivers bytes from
+    /// another host thread while the guest runs: a command stalled after
+    /// two bytes in 3 of 4 end-to-end runs.
     #[inline]
     pub fn on_interrupt(&mut self) {
+        INTCLEAR.write(INT_RX);
         while STATE.read() & STATE_RX_FULL != 0 {
             let b = (DATA.read() & 0xFF) as u8;
             if self.ring.enqueue(b).is_err() {
                 RX_DROPPED.fetch_add(1, Ordering::Relaxed);
             }
         }
-        INTCLEAR.write(INT_RX);
     }
 }
 

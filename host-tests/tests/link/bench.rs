@@ -1,0 +1,278 @@
+//! The QEMU image's device on the host: the simulated bench behind the real
+//! drivers (`rig::bench`, `ConverterRig`), the per-sample pipeline in
+//! `f32`, the start-up window, and the device end of the serial link
+//! (`beamest::link::DeviceLink`) — the same sequence the firmware runs,
+//! with a host on the other end of the byte rings that decodes with the
+//! core's `Decoder`.
+//!
+//! One sample: `rig.tick()`, `pipeline.tick()` (the sample interrupt); the
+//! link runs after every [`SERVICE_EVERY`] samples, as thread mode would
+//! between interrupts. The lock of the firmware is trivial here: the tick
+//! and the link never interleave.
+
+use std::collections::VecDeque;
+
+use beamest::drivers::ad5761r::Ad5761r;
+use beamest::drivers::ads131m02::Ads131m02;
+use beamest::estimator::{Adaptive2, AdaptiveConfig};
+use beamest::filter_bank::SignalScales;
+use beamest::link::control::reject_config;
+use beamest::link::{estimator_configs, Device, DeviceLink, TxSink};
+use beamest::pipeline::{bring_up, OutputScaleWindow, Pipeline, RawBlock, TelemetryRecord, Tick};
+use beamest::protocol::{
+    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
+};
+use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::rig::{bench, ConverterModels, ConverterRig};
+use heapless::spsc::{Consumer, Producer, Queue};
+
+pub type Rec = TelemetryRecord<f32, 7, 28>;
+pub type Raw = RawBlock<f32>;
+pub type Adc<'a> = Ads131m02<Shared<'a, Ads131m02Model>>;
+pub type Dac<'a> = Ad5761r<Shared<'a, Ad5761rModel>>;
+pub type Pipe<'a> =
+    Pipeline<f32, Adaptive2<f32>, Adc<'a>, Dac<'a>, Producer<'a, Rec>, Producer<'a, Raw>, 7, 28>;
+
+/// The link runs every this many samples (thread mode between interrupts).
+pub const SERVICE_EVERY: u64 = 10;
+/// The QEMU image's baud rate.
+pub const BAUD: u32 = 921_600;
+
+struct NoDelay;
+
+impl embedded_hal::delay::DelayNs for NoDelay {
+    fn delay_ns(&mut self, _ns: u32) {}
+}
+
+/// A bounded TX byte ring of any capacity (the UART's).
+pub struct Ring {
+    pub bytes: VecDeque<u8>,
+    pub capacity: usize,
+}
+
+impl Ring {
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            bytes: VecDeque::new(),
+            capacity,
+        }
+    }
+}
+
+impl TxSink for Ring {
+    fn free(&self) -> usize {
+        self.capacity - self.bytes.len()
+    }
+    fn push(&mut self, bytes: &[u8]) {
+        assert!(
+            bytes.len() <= self.free(),
+            "the link pushed more than free()"
+        );
+        self.bytes.extend(bytes);
+    }
+}
+
+/// The board side: the pipeline and the estimator's scales.
+pub struct SimDevice<'a> {
+    pub pipeline: Pipe<'a>,
+    pub scales: SignalScales,
+    /// Estimators built (including trial builds before start-up).
+    pub built: usize,
+}
+
+impl<'a> Device for SimDevice<'a> {
+    type Real = f32;
+    type Estimator = Adaptive2<f32>;
+    type Pipeline = Pipe<'a>;
+    fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut Pipe<'a>) -> R) -> R {
+        f(&mut self.pipeline)
+    }
+    fn build_estimator(
+        &mut self,
+        settings: &EstimatorSettings,
+        lambda_rad_s: f64,
+    ) -> Result<Adaptive2<f32>, RejectReason> {
+        let (f, l) = estimator_configs::<7>(settings, lambda_rad_s, bench::TS_S, self.scales);
+        self.built += 1;
+        Adaptive2::new(&f, &l).map_err(reject_config)
+    }
+    fn recycle_estimator(&mut self, _old: Adaptive2<f32>) {}
+}
+
+/// The host: encodes commands, decodes every device frame.
+pub struct Host {
+    pub seq: u32,
+    pub dec: Decoder,
+    pub frames: Vec<Frame>,
+}
+
+impl Host {
+    pub fn new() -> Self {
+        Self {
+            seq: 0,
+            dec: Decoder::new(),
+            frames: Vec::new(),
+        }
+    }
+
+    pub fn command(&mut self, c: &Command) -> Vec<u8> {
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(c, self.seq, &mut out).unwrap();
+        self.seq += 1;
+        out[..n].to_vec()
+    }
+
+    /// Decode everything waiting in the ring; returns the new messages.
+    pub fn drain(&mut self, ring: &mut Ring) -> Vec<Message> {
+        let bytes: Vec<u8> = ring.bytes.drain(..).collect();
+        let mut new = Vec::new();
+        for r in self.dec.feed(&bytes) {
+            let f = r.expect("the device's frames decode");
+            new.push(f.message.clone());
+            self.frames.push(f);
+        }
+        new
+    }
+
+    pub fn messages(&self) -> impl Iterator<Item = &Message> {
+        self.frames.iter().map(|f| &f.message)
+    }
+}
+
+/// The device: rig, sample task, queues, start-up window, link.
+pub struct Bench<'a> {
+    pub rig: ConverterRig<'a>,
+    pub device: SimDevice<'a>,
+    pub records: Consumer<'a, Rec>,
+    pub raws: Consumer<'a, Raw>,
+    pub window: OutputScaleWindow<f32>,
+    pub link: DeviceLink,
+    pub samples: u64,
+    pub started_at: Option<u64>,
+    /// Skip the link's servicing (a stalled thread mode).
+    pub stalled: bool,
+    pub last_tick: Option<Tick<f32>>,
+}
+
+/// Build the bench with `excitation` instead of the bench's square wave
+/// (if given) and run `f` on it.
+pub fn with_bench<R>(
+    excitation: Option<beamest::protocol::Excitation>,
+    f: impl FnOnce(&mut Bench<'_>) -> R,
+) -> R {
+    let models = ConverterModels::new();
+    let mut adc: Adc<'_> = Ads131m02::new(models.adc_spi());
+    let mut dac: Dac<'_> = Ad5761r::new(models.dac_spi());
+    bring_up(
+        &mut adc,
+        &mut dac,
+        &bench::adc_config(),
+        bench::dac_config(),
+        &mut NoDelay,
+    )
+    .unwrap();
+    let rig = ConverterRig::new(
+        &models,
+        bench::plant().unwrap(),
+        &bench::conversion(),
+        bench::AMPLIFIER_GAIN,
+    )
+    .unwrap();
+    let mut settings = bench::link_settings();
+    let mut gen = bench::excitation::<f32>().unwrap();
+    if let Some(x) = excitation {
+        beamest::link::ExcitationPlan::<f32>::new(&x, &settings.excitation, bench::SAMPLE_RATE_HZ)
+            .unwrap()
+            .apply(&mut gen)
+            .unwrap();
+        settings.excitation = x;
+    }
+    let link = DeviceLink::new(bench::link_config(BAUD), settings, bench::LAMBDA_RAD_S);
+    let stand_in =
+        Adaptive2::<f32>::new(&bench::filter_config(1.0), &AdaptiveConfig::default()).unwrap();
+    let mut q: Queue<Rec, 16> = Queue::new();
+    let mut rq: Queue<Raw, 8> = Queue::new();
+    let (prod, records) = q.split();
+    let (raw_prod, raws) = rq.split();
+    let config = beamest::pipeline::PipelineConfig {
+        telemetry_every: link.record_every(),
+        ..bench::pipeline_config()
+    };
+    let mut pipeline = Pipeline::new(&config, stand_in, gen, adc, dac, prod, raw_prod).unwrap();
+    pipeline.freeze();
+    let mut b = Bench {
+        rig,
+        device: SimDevice {
+            pipeline,
+            scales: SignalScales {
+                u_scale: bench::EXCITATION_V,
+                y_scale: 1.0,
+            },
+            built: 0,
+        },
+        records,
+        raws,
+        window: OutputScaleWindow::new(bench::STARTUP_SAMPLES),
+        link,
+        samples: 0,
+        started_at: None,
+        stalled: false,
+        last_tick: None,
+    };
+    f(&mut b)
+}
+
+impl Bench<'_> {
+    /// One sample (the sample interrupt), then the link every
+    /// [`SERVICE_EVERY`] samples unless stalled.
+    pub fn step(&mut self, tx: &mut Ring) {
+        self.rig.tick().unwrap();
+        let tick = self.device.pipeline.tick();
+        assert_eq!(tick.sample_index, self.samples, "every tick runs");
+        if let Some(y0) = self.window.observe(&tick) {
+            self.device.scales.y_scale = f64::from(y0);
+            self.started_at = Some(self.link.start(&mut self.device).unwrap());
+        }
+        self.last_tick = Some(tick);
+        self.samples += 1;
+        if !self.stalled && self.samples.is_multiple_of(SERVICE_EVERY) {
+            self.service(tx);
+        }
+    }
+
+    /// Thread mode's pass: records and raw blocks to the link.
+    pub fn service(&mut self, tx: &mut Ring) {
+        while let Some(r) = self.records.dequeue() {
+            self.link
+                .on_record(&r, &bench::OUTPUT_WEIGHT.map(|w| w as f32), tx);
+        }
+        while let Some(b) = self.raws.dequeue() {
+            self.link.on_raw(&b, tx);
+        }
+    }
+
+    /// Run until sample `until`, the host draining the ring every
+    /// `drain_every` samples (0: never) and calling `on` with each batch.
+    pub fn run_until(
+        &mut self,
+        until: u64,
+        tx: &mut Ring,
+        host: &mut Host,
+        drain_every: u64,
+        mut on: impl FnMut(&mut Self, &[Message], &mut Ring, &mut Host),
+    ) {
+        while self.samples < until {
+            self.step(tx);
+            if drain_every > 0 && self.samples.is_multiple_of(drain_every) {
+                let new = host.drain(tx);
+                on(self, &new, tx, host);
+            }
+        }
+    }
+
+    /// Send a command as bytes on the RX side (thread mode decodes it).
+    pub fn command(&mut self, host: &mut Host, c: &Command, tx: &mut Ring) {
+        let bytes = host.command(c);
+        self.link.receive(bytes, &mut self.device, tx);
+    }
+}

@@ -1,0 +1,496 @@
+//! Commands → changes of the sample task: what the link may change
+//! ([`Control`], implemented by [`Pipeline`]), what the board provides
+//! ([`Device`]: the lock and the estimator storage), and the translation of
+//! the protocol's settings into the core's ([`ExcitationPlan`],
+//! [`estimator_configs`]).
+//!
+//! # Between samples, expensive work outside the lock
+//! A command is validated first ([`Command::validate`](crate::protocol::Command::validate)),
+//! then everything expensive is prepared in the low-priority context with
+//! the sample interrupt running: a new waveform ([`Waveform::new`] scans a
+//! multisine's whole period), a new estimator (its matrix exponentials).
+//! Only then does the link take the lock ([`Device::with_pipeline`]: the
+//! sample interrupt masked, so the change lands between two samples) for a
+//! few setters or a swap. An excitation change is made on a copy of the
+//! running generator inside the lock and written back only if every
+//! setter accepted it, so a refused change leaves the output untouched.
+
+use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
+use crate::excitation::multisine::{MAX_PERIOD_LOG2, MIN_PERIOD_LOG2};
+use crate::excitation::{
+    ChirpSpec, Excitation, ExcitationError, ExcitationKind, MultisineSpec, Phases, Shape, Sweep,
+    Waveform,
+};
+use crate::filter_bank::{FilterConfig, FilterConfigError, SignalScales};
+use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
+use crate::pipeline::{RawBlock, TelemetryRecord};
+use crate::protocol::{self, EstimatorSettings, RejectReason};
+use crate::scalar::Real;
+
+/// What the link changes in the running sample task. Implemented by
+/// [`Pipeline`]; each call is made with the sample interrupt masked
+/// ([`Device::with_pipeline`]) and costs at most a few hundred
+/// instructions (a swap, a copy of the excitation).
+pub trait Control<T> {
+    /// The estimator type the pipeline steps.
+    type Estimator;
+    /// [`Pipeline::freeze`].
+    fn freeze(&mut self);
+    /// [`Pipeline::resume`].
+    fn resume(&mut self);
+    /// [`Pipeline::reset_estimator`].
+    fn reset_estimator(&mut self);
+    /// [`Pipeline::replace_estimator`].
+    fn replace_estimator(
+        &mut self,
+        estimator: Self::Estimator,
+        lambda_rad_s: f64,
+    ) -> Result<Self::Estimator, Self::Estimator>;
+    /// [`Pipeline::set_telemetry_every`].
+    fn set_telemetry_every(&mut self, every: u32) -> Result<(), PipelineError>;
+    /// [`Pipeline::set_raw_decimation`].
+    fn set_raw_decimation(&mut self, decimation: u16);
+    /// [`Pipeline::excitation_mut`].
+    fn excitation_mut(&mut self) -> &mut Excitation<T>;
+    /// [`Pipeline::counters`].
+    fn counters(&self) -> Counters;
+    /// [`Pipeline::next_sample_index`].
+    fn next_sample_index(&self) -> u64;
+}
+
+impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Control<T>
+    for Pipeline<T, E, A, D, S, R, NP, NS>
+where
+    T: Real,
+    E: Estimator<T, NP>,
+    A: StrainAdc,
+    D: PiezoDac<T>,
+    S: Sink<TelemetryRecord<T, NP, NS>>,
+    R: Sink<RawBlock<T>>,
+{
+    type Estimator = E;
+    fn freeze(&mut self) {
+        Pipeline::freeze(self);
+    }
+    fn resume(&mut self) {
+        Pipeline::resume(self);
+    }
+    fn reset_estimator(&mut self) {
+        Pipeline::reset_estimator(self);
+    }
+    fn replace_estimator(&mut self, estimator: E, lambda_rad_s: f64) -> Result<E, E> {
+        Pipeline::replace_estimator(self, estimator, lambda_rad_s)
+    }
+    fn set_telemetry_every(&mut self, every: u32) -> Result<(), PipelineError> {
+        Pipeline::set_telemetry_every(self, every)
+    }
+    fn set_raw_decimation(&mut self, decimation: u16) {
+        Pipeline::set_raw_decimation(self, decimation);
+    }
+    fn excitation_mut(&mut self) -> &mut Excitation<T> {
+        Pipeline::excitation_mut(self)
+    }
+    fn counters(&self) -> Counters {
+        Pipeline::counters(self)
+    }
+    fn next_sample_index(&self) -> u64 {
+        Pipeline::next_sample_index(self)
+    }
+}
+
+/// What the board gives the link: exclusive access to the sample task's
+/// pipeline between two samples, and storage for estimators.
+pub trait Device {
+    /// The scalar type of the pipeline.
+    type Real: Real;
+    /// The estimator type the pipeline steps.
+    type Estimator;
+    /// The pipeline.
+    type Pipeline: Control<Self::Real, Estimator = Self::Estimator>;
+
+    /// Run `f` on the pipeline with the sample interrupt masked (a change
+    /// then lands between two samples). Keep `f` short: the link only calls
+    /// setters and swaps inside.
+    fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut Self::Pipeline) -> R) -> R;
+
+    /// Build an estimator for `settings` with filter pole `lambda_rad_s`
+    /// (called outside the lock; [`estimator_configs`] maps the settings).
+    /// The board keeps the signal scales (U0, Y0) it measured at start-up.
+    fn build_estimator(
+        &mut self,
+        settings: &EstimatorSettings,
+        lambda_rad_s: f64,
+    ) -> Result<Self::Estimator, RejectReason>;
+
+    /// Take back an estimator the pipeline no longer runs (e.g. to reuse
+    /// its static storage for the next [`Device::build_estimator`]).
+    fn recycle_estimator(&mut self, old: Self::Estimator);
+}
+
+/// The core's estimator settings for the protocol's: the filter bank at
+/// `ts_s`, `lambda_rad_s` and `scales`, and the adaptive law with
+/// Γ = gain, l = forgetting_p, γ = forgetting_h, R(0) = H(0)⁻¹ =
+/// I/initial_gain (eqs. 33–41), θ(0) = 0 and the default θ-step interval
+/// ([`AdaptiveConfig::default`]). Nothing of the running estimator is
+/// carried over: a new λ changes Θ's meaning (eq. 29), new gains change P
+/// and R.
+pub fn estimator_configs<const NP: usize>(
+    settings: &EstimatorSettings,
+    lambda_rad_s: f64,
+    ts_s: f64,
+    scales: SignalScales,
+) -> (FilterConfig, AdaptiveConfig<NP>) {
+    let filter = FilterConfig {
+        ts_s,
+        lambda_rad_s,
+        scales,
+        ..FilterConfig::default()
+    };
+    let law = AdaptiveConfig {
+        gain: f64::from(settings.gain),
+        forgetting_p: f64::from(settings.forgetting_p),
+        forgetting_h: f64::from(settings.forgetting_h),
+        r0_diag: [1.0 / f64::from(settings.initial_gain); NP],
+        ..AdaptiveConfig::default()
+    };
+    (filter, law)
+}
+
+/// The reason to refuse an estimator the core would not build.
+pub fn reject_config(e: ConfigError) -> RejectReason {
+    match e {
+        ConfigError::Filter(FilterConfigError::Lambda) => RejectReason::Lambda,
+        ConfigError::Filter(_) | ConfigError::Dimensions => RejectReason::EstimatorUnavailable,
+        ConfigError::Gain => RejectReason::Gain,
+    }
+}
+
+/// The reason to refuse an excitation the generators would not build.
+pub fn reject_excitation(e: ExcitationError) -> RejectReason {
+    match e {
+        ExcitationError::Frequency | ExcitationError::SampleRate | ExcitationError::Unsupported => {
+            RejectReason::Frequency
+        }
+        ExcitationError::Amplitude => RejectReason::Amplitude,
+        ExcitationError::Offset => RejectReason::NotFinite,
+        ExcitationError::Window | ExcitationError::OutsideWindow => RejectReason::SafeWindow,
+        ExcitationError::Tones => RejectReason::ToneCount,
+        ExcitationError::Period => RejectReason::SweepTime,
+        ExcitationError::PrbsOrder => RejectReason::PrbsLength,
+    }
+}
+
+/// A multisine's period: the shortest 2^k samples (k = 8…16) whose grid
+/// f_s/2^k is at most f_min/8, so the lowest tone lands within 1/16 of
+/// its request (the longest period if none is that fine). The protocol
+/// leaves the period to the device (`docs/PROTOCOL.md` §5.1).
+pub fn multisine_period_log2(f_min_hz: f64, sample_rate_hz: f64) -> u8 {
+    (MIN_PERIOD_LOG2..=MAX_PERIOD_LOG2)
+        .find(|&k| sample_rate_hz / f64::from(1u32 << k) <= f_min_hz / 8.0)
+        .unwrap_or(MAX_PERIOD_LOG2)
+}
+
+/// The core's shape for a protocol waveform: multisines with Schroeder
+/// phases and [`multisine_period_log2`], PRBS from the all-ones register,
+/// chirps linear.
+pub fn shape(w: &protocol::Waveform, sample_rate_hz: f64) -> Shape {
+    match *w {
+        protocol::Waveform::Off => Shape::Off,
+        protocol::Waveform::Square { freq_hz } => Shape::Square {
+            frequency_hz: f64::from(freq_hz),
+        },
+        protocol::Waveform::Multisine {
+            f_min_hz,
+            f_max_hz,
+            tones,
+        } => Shape::Multisine(MultisineSpec {
+            f_min_hz: f64::from(f_min_hz),
+            f_max_hz: f64::from(f_max_hz),
+            tones,
+            period_log2: multisine_period_log2(f64::from(f_min_hz), sample_rate_hz),
+            phases: Phases::Schroeder,
+        }),
+        protocol::Waveform::Prbs {
+            bit_rate_hz,
+            register_bits,
+        } => Shape::Prbs {
+            order: register_bits,
+            bit_rate_hz: f64::from(bit_rate_hz),
+            seed: 0,
+        },
+        protocol::Waveform::Chirp {
+            f_start_hz,
+            f_end_hz,
+            sweep_s,
+        } => Shape::Chirp(ChirpSpec {
+            f0_hz: f64::from(f_start_hz),
+            f1_hz: f64::from(f_end_hz),
+            period_s: f64::from(sweep_s),
+            sweep: Sweep::Linear,
+        }),
+    }
+}
+
+/// How the waveform changes. `Replace` carries a whole generator (a
+/// multisine's tables, ~200 bytes) by value: there is no allocator, and
+/// one plan exists per command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(clippy::large_enum_variant)]
+enum WaveChange {
+    /// Same waveform: only the level changes, the phase runs on.
+    Keep,
+    /// A square wave's new frequency (its phase runs on).
+    SquareFrequency(f64),
+    /// A new generator, built outside the lock.
+    Replace(Waveform),
+}
+
+/// A validated excitation change, prepared outside the lock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExcitationPlan<T> {
+    wave: WaveChange,
+    amplitude_v: T,
+    offset_v: T,
+}
+
+impl<T: Real> ExcitationPlan<T> {
+    /// Prepare `new` (already validated against the limits) given the
+    /// waveform in force, `current`: the same waveform keeps its phase; a
+    /// square wave's new frequency keeps its phase; anything else builds a
+    /// new generator here (a multisine scans its period now).
+    pub fn new(
+        new: &protocol::Excitation,
+        current: &protocol::Excitation,
+        sample_rate_hz: f64,
+    ) -> Result<Self, RejectReason> {
+        let wave = match (&new.waveform, &current.waveform) {
+            (a, b) if a == b => WaveChange::Keep,
+            (protocol::Waveform::Square { freq_hz }, protocol::Waveform::Square { .. }) => {
+                WaveChange::SquareFrequency(f64::from(*freq_hz))
+            }
+            (w, _) => WaveChange::Replace(
+                Waveform::new(&shape(w, sample_rate_hz), sample_rate_hz)
+                    .map_err(reject_excitation)?,
+            ),
+        };
+        // Off ignores the amplitude (`docs/PROTOCOL.md` §5.1): only its
+        // offset must be in the window.
+        let amplitude_v = match new.waveform {
+            protocol::Waveform::Off => T::ZERO,
+            _ => T::from_f64(f64::from(new.amplitude_v)),
+        };
+        Ok(Self {
+            wave,
+            amplitude_v,
+            offset_v: T::from_f64(f64::from(new.offset_v)),
+        })
+    }
+
+    /// Apply to the running generator (inside the lock): on a copy, written
+    /// back only if every setter accepts. A few hundred instructions.
+    pub fn apply(&self, running: &mut Excitation<T>) -> Result<(), RejectReason> {
+        let mut e = *running;
+        match self.wave {
+            WaveChange::Keep => {}
+            WaveChange::SquareFrequency(f) if e.kind() == ExcitationKind::Square => {
+                e.set_frequency(f).map_err(reject_excitation)?;
+            }
+            WaveChange::SquareFrequency(f) => {
+                let w = Waveform::new(
+                    &Shape::Square { frequency_hz: f },
+                    e.waveform().sample_rate_hz(),
+                )
+                .map_err(reject_excitation)?;
+                e.set_waveform(w).map_err(reject_excitation)?;
+            }
+            WaveChange::Replace(w) => e.set_waveform(w).map_err(reject_excitation)?,
+        }
+        e.set_level(self.amplitude_v, self.offset_v)
+            .map_err(reject_excitation)?;
+        *running = e;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use crate::excitation::SafeWindow;
+
+    const FS: f64 = 10_000.0;
+
+    fn running() -> Excitation<f32> {
+        Excitation::new(
+            &Shape::Square { frequency_hz: 7.0 },
+            0.1,
+            0.0,
+            SafeWindow {
+                min_v: -10.0,
+                max_v: 10.0,
+            },
+            FS,
+        )
+        .unwrap()
+    }
+
+    fn px(waveform: protocol::Waveform, a: f32, o: f32) -> protocol::Excitation {
+        protocol::Excitation {
+            waveform,
+            amplitude_v: a,
+            offset_v: o,
+        }
+    }
+
+    const SQ7: protocol::Waveform = protocol::Waveform::Square { freq_hz: 7.0 };
+
+    #[test]
+    fn level_change_keeps_the_phase() {
+        let mut a = running();
+        let mut b = running();
+        for _ in 0..300 {
+            a.next_sample();
+            b.next_sample();
+        }
+        let plan = ExcitationPlan::<f32>::new(&px(SQ7, 0.2, 0.5), &px(SQ7, 0.1, 0.0), FS).unwrap();
+        plan.apply(&mut a).unwrap();
+        b.set_level(0.2, 0.5).unwrap();
+        for _ in 0..2000 {
+            assert_eq!(a.next_sample(), b.next_sample());
+        }
+        assert_eq!(a.amplitude(), 0.2);
+    }
+
+    #[test]
+    fn square_frequency_and_new_waveforms() {
+        let mut e = running();
+        let plan = ExcitationPlan::<f32>::new(
+            &px(protocol::Waveform::Square { freq_hz: 11.0 }, 0.1, 0.0),
+            &px(SQ7, 0.1, 0.0),
+            FS,
+        )
+        .unwrap();
+        assert_eq!(plan.wave, WaveChange::SquareFrequency(11.0));
+        plan.apply(&mut e).unwrap();
+        let ms = protocol::Waveform::Multisine {
+            f_min_hz: 2.0,
+            f_max_hz: 80.0,
+            tones: 6,
+        };
+        let plan = ExcitationPlan::<f32>::new(&px(ms, 0.3, 0.0), &px(SQ7, 0.1, 0.0), FS).unwrap();
+        plan.apply(&mut e).unwrap();
+        assert_eq!(e.kind(), ExcitationKind::Multisine);
+        let peak = (0..70_000)
+            .map(|_| e.next_sample().abs())
+            .fold(0.0, f32::max);
+        assert!(peak <= 0.3 && peak > 0.29, "{peak}");
+        for (w, kind) in [
+            (protocol::Waveform::Off, ExcitationKind::Off),
+            (
+                protocol::Waveform::Prbs {
+                    bit_rate_hz: 500.0,
+                    register_bits: 10,
+                },
+                ExcitationKind::Prbs,
+            ),
+            (
+                protocol::Waveform::Chirp {
+                    f_start_hz: 1.0,
+                    f_end_hz: 80.0,
+                    sweep_s: 4.0,
+                },
+                ExcitationKind::Chirp,
+            ),
+        ] {
+            ExcitationPlan::<f32>::new(&px(w, 0.1, 0.0), &px(ms, 0.3, 0.0), FS)
+                .unwrap()
+                .apply(&mut e)
+                .unwrap();
+            assert_eq!(e.kind(), kind);
+        }
+        // Off: only the offset counts.
+        assert_eq!(e.kind(), ExcitationKind::Chirp);
+        ExcitationPlan::<f32>::new(
+            &px(protocol::Waveform::Off, 50.0, 9.0),
+            &px(SQ7, 0.1, 0.0),
+            FS,
+        )
+        .unwrap()
+        .apply(&mut e)
+        .unwrap();
+        assert_eq!(e.next_sample(), 9.0);
+    }
+
+    #[test]
+    fn a_refused_change_changes_nothing() {
+        let mut e = running();
+        for _ in 0..123 {
+            e.next_sample();
+        }
+        let before = e;
+        // Past the window: the core refuses at set_level, after the
+        // waveform was replaced on the copy.
+        let plan = ExcitationPlan::<f32>::new(
+            &px(protocol::Waveform::Square { freq_hz: 30.0 }, 9.0, 2.0),
+            &px(SQ7, 0.1, 0.0),
+            FS,
+        )
+        .unwrap();
+        assert_eq!(plan.apply(&mut e), Err(RejectReason::SafeWindow));
+        assert_eq!(e, before);
+        // A multisine band the generator cannot place (validated ranges
+        // pass, but 16 tones do not fit below Nyquist on the grid).
+        let bad = protocol::Waveform::Multisine {
+            f_min_hz: 4_990.0,
+            f_max_hz: 4_999.0,
+            tones: 16,
+        };
+        assert_eq!(
+            ExcitationPlan::<f32>::new(&px(bad, 0.1, 0.0), &px(SQ7, 0.1, 0.0), FS),
+            Err(RejectReason::Frequency)
+        );
+    }
+
+    #[test]
+    fn multisine_periods() {
+        assert_eq!(multisine_period_log2(2.0, FS), 16);
+        assert_eq!(multisine_period_log2(100.0, FS), 10);
+        assert_eq!(multisine_period_log2(4_000.0, FS), 8);
+        assert_eq!(multisine_period_log2(0.01, FS), 16);
+    }
+
+    #[test]
+    fn estimator_settings_map_to_the_core() {
+        let s = EstimatorSettings {
+            gain: 2e4,
+            forgetting_p: 0.1,
+            forgetting_h: 0.2,
+            initial_gain: 1e8,
+            ..EstimatorSettings::default()
+        };
+        let scales = SignalScales {
+            u_scale: 0.1,
+            y_scale: 1e-3,
+        };
+        let (f, l) = estimator_configs::<7>(&s, 150.0, 1e-4, scales);
+        assert_eq!(f.lambda_rad_s, 150.0);
+        assert_eq!(f.scales, scales);
+        assert_eq!(l.gain, 2e4);
+        assert_eq!(l.forgetting_p, f64::from(0.1f32));
+        assert_eq!(l.forgetting_h, f64::from(0.2f32));
+        assert_eq!(l.r0_diag, [1e-8; 7]);
+        assert_eq!(l.theta0, [0.0; 7]);
+        // The protocol's defaults are the core's defaults.
+        let (_, d) = estimator_configs::<7>(&EstimatorSettings::default(), 100.0, 1e-4, scales);
+        let core = AdaptiveConfig::<7>::default();
+        assert_eq!(d.gain, core.gain);
+        assert!((d.forgetting_p / core.forgetting_p - 1.0).abs() < 1e-7);
+        assert!((d.r0_diag[0] / core.r0_diag[0] - 1.0).abs() < 1e-7);
+        assert_eq!(d.theta_update_every, core.theta_update_every);
+        assert_eq!(reject_config(ConfigError::Gain), RejectReason::Gain);
+        assert_eq!(
+            reject_config(ConfigError::Filter(FilterConfigError::Lambda)),
+            RejectReason::Lambda
+        );
+    }
+}

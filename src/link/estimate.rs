@@ -1,0 +1,611 @@
+//! Telemetry records → protocol messages: the [`Estimate`] of a recovered
+//! record with its status flags, and the mapping of the pipeline's
+//! counters onto the protocol's [`DeviceCounters`].
+//!
+//! # Flags (pipeline → protocol, `docs/PROTOCOL.md` §4.1)
+//! | protocol bit | set when |
+//! |---|---|
+//! | EXCITED | λmin(P) of the record > [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1) |
+//! | FROZEN_BY_COMMAND | the record's `FROZEN` (adaptation frozen by command) |
+//! | FROZEN_AUTO | the record's `QUARANTINE` (the law was held: quarantine after a rejected sample, or a deliberate hold after an overrun, a resume or a new estimator) |
+//! | CONVERGED | [`Convergence`]: every ω̂, ζ̂ within [`FlagRules::converged_rel_tol`] of its value at the start of a window of [`FlagRules::converged_window_samples`] |
+//! | PHYSICALLY_VALID | modes recovered, as many as the model has, ω > 0, 0 < ζ < 1, ω strictly ascending, all finite |
+//! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions |
+//! | ADC_SATURATED | since the previous record: a bridge or monitor conversion at full scale |
+//! | DAC_SATURATED | since the previous record: a DAC write limited at a rail or failed, or an excitation sample clamped at the safe window |
+//! | TELEMETRY_DROPPED | since the previous estimate: a record or raw block dropped on a full queue, or a frame dropped on a full TX ring |
+//! | STATE_DEGRADED | the record's `STATE_BAD` (the estimator's integrity check failed) |
+//!
+//! The "since the previous record" bits come from the differences of the
+//! cumulative counters each record carries, so they are exact even when
+//! records in between were dropped.
+
+use crate::model::ModalParams;
+use crate::pipeline::{self, Counters, Recovered, TelemetryRecord};
+use crate::protocol::{
+    DeviceCounters, Estimate, EstimatorKind, ModeEstimate, StatusFlags, MAX_MODES,
+};
+use crate::scalar::Real;
+
+/// The firmware's rules for the flags that need a threshold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlagRules {
+    /// EXCITED when λmin(P) (scaled coordinates, Lemma 1) exceeds this
+    /// fraction of tr(P): the threshold moves with P's size, which grows
+    /// with time and with 1/l, and so does the rounding noise on λmin.
+    pub excitation_rel_threshold: f32,
+    /// CONVERGED tolerance: relative change of every ω̂ and ζ̂.
+    pub converged_rel_tol: f32,
+    /// CONVERGED window (samples).
+    pub converged_window_samples: u64,
+}
+
+impl Default for FlagRules {
+    /// λmin(P) > 1e-7·tr(P); ω̂, ζ̂ within 1e-4 for 0.5 s at 10 kHz.
+    ///
+    /// The threshold sits between the levels measured on the simulated
+    /// bench in `f32` with the default gains (l = γ = 0.05 /s) over 30 s
+    /// (host test `link::excited_flag_follows_the_excitation`, which prints
+    /// them): under the paper's square wave (hundreds of sinusoids; 2
+    /// modes need 2n = 4, Lemma 1) λmin/tr(P) rises from 4.0e-7 at 1 s to
+    /// 9.2e-7; under one tone and under two tones (2 and 4 spectral lines:
+    /// not exciting for 7 parameters) λmin is rounding noise of either
+    /// sign, |λmin|/tr(P) ≤ 1.2e-8, while |λmin| itself grows to 3.5e-6
+    /// with P — why an absolute threshold cannot work. P is in the
+    /// coordinates scaled by U0 and Y0 (eq. 29's scaling), so the ratio
+    /// does not depend on the plant's units. A plant whose P is worse
+    /// conditioned than ≈ 10⁷ (tr(P) ≥ λmax) is never flagged, excited or
+    /// not: in `f32` its λmin is below the rounding noise anyway.
+    fn default() -> Self {
+        Self {
+            excitation_rel_threshold: 1e-7,
+            converged_rel_tol: 1e-4,
+            converged_window_samples: 5_000,
+        }
+    }
+}
+
+/// The CONVERGED test: an anchor (ω̂, ζ̂ at the start of a window) and the
+/// sample index it was taken at. An estimate that leaves the tolerance
+/// band around the anchor becomes the new anchor; CONVERGED holds once the
+/// anchor has held for the window. Truth-free: it looks only at the
+/// estimates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Convergence {
+    anchor: Option<(u64, [f32; MAX_MODES], [f32; MAX_MODES])>,
+}
+
+impl Convergence {
+    /// Forget the history (new or reset estimator).
+    pub fn reset(&mut self) {
+        self.anchor = None;
+    }
+
+    /// Take the estimate at `sample_index` (`None`: no valid modes, which
+    /// restarts the window); true if converged.
+    pub fn observe(
+        &mut self,
+        sample_index: u64,
+        modes: Option<&ModalParams<f32>>,
+        rules: &FlagRules,
+    ) -> bool {
+        let Some(m) = modes else {
+            self.anchor = None;
+            return false;
+        };
+        if let Some((since, w0, z0)) = &self.anchor {
+            let close = |a: &[f32; MAX_MODES], b: &[f32; MAX_MODES]| {
+                a.iter()
+                    .zip(b.iter())
+                    .take(m.modes)
+                    .all(|(&x, &x0)| (x - x0).abs() <= rules.converged_rel_tol * x0.abs())
+            };
+            if close(&m.omega_rad_s, w0) && close(&m.zeta, z0) {
+                return sample_index.saturating_sub(*since) >= rules.converged_window_samples;
+            }
+        }
+        self.anchor = Some((sample_index, m.omega_rad_s, m.zeta));
+        false
+    }
+}
+
+/// Modes that are physical: as many as the model has, every value finite,
+/// ω > 0, 0 < ζ < 1, ω strictly ascending (distinct modes).
+pub fn physically_valid(m: &ModalParams<f32>, model_modes: usize) -> bool {
+    if m.modes != model_modes || m.modes == 0 {
+        return false;
+    }
+    let n = m.modes.min(MAX_MODES);
+    let mut prev = 0.0f32;
+    for i in 0..n {
+        let (Some(&w), Some(&z), Some(&b)) = (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
+        else {
+            return false;
+        };
+        if !(w.is_finite() && z.is_finite() && b.is_finite() && w > prev && z > 0.0 && z < 1.0) {
+            return false;
+        }
+        prev = w;
+    }
+    true
+}
+
+fn sum(values: &[u32]) -> u32 {
+    values.iter().fold(0u32, |a, &v| a.saturating_add(v))
+}
+
+/// Sensor faults (ADC errors of every kind, stale and stuck conversions).
+fn sensor_faults(c: &Counters) -> u32 {
+    sum(&[c.adc_crc, c.adc_status, c.adc_bus, c.adc_other, c.stuck])
+}
+
+/// Saturated conversions, bridge and monitor.
+fn adc_saturations(c: &Counters) -> u32 {
+    sum(&[c.bridge_saturated, c.monitor_saturated])
+}
+
+/// Excitation not delivered as commanded: DAC rail, failed write, clamp.
+fn dac_saturations(c: &Counters) -> u32 {
+    sum(&[c.dac_saturated, c.dac_errors, c.excitation_clamped])
+}
+
+/// Telemetry dropped on the sample side: records and raw blocks.
+fn queue_drops(c: &Counters) -> u32 {
+    sum(&[c.dropped_records, c.dropped_raw_blocks])
+}
+
+/// The protocol's device counters from the pipeline's, the link's command
+/// counts and receive errors, and the TX frames it dropped.
+///
+/// Mapping (`docs/PROTOCOL.md` §4.3): adc_status_errors = status + bus +
+/// other ADC errors (other includes stale conversions); adc_saturations =
+/// bridge + monitor; dac_saturations = rail + failed writes + clamped
+/// excitation samples; telemetry_dropped = records + raw blocks dropped on
+/// the sample side + frames dropped on the TX ring.
+pub fn device_counters(
+    c: &Counters,
+    commands_accepted: u32,
+    commands_rejected: u32,
+    rx_frame_errors: u32,
+    tx_frames_dropped: u32,
+) -> DeviceCounters {
+    DeviceCounters {
+        overruns: c.overruns,
+        adc_crc_errors: c.adc_crc,
+        adc_status_errors: sum(&[c.adc_status, c.adc_bus, c.adc_other]),
+        adc_stuck: c.stuck,
+        adc_saturations: adc_saturations(c),
+        dac_saturations: dac_saturations(c),
+        rejected_samples: c.rejected,
+        telemetry_dropped: queue_drops(c).saturating_add(tx_frames_dropped),
+        commands_accepted,
+        commands_rejected,
+        rx_frame_errors,
+    }
+}
+
+/// tr(P) from the record's packed upper triangle (row by row: the
+/// diagonal entries are NP, NP − 1, … apart).
+fn information_trace<T: Real, const NS: usize>(packed: &[T; NS]) -> T {
+    let mut t = T::ZERO;
+    let (mut k, mut row_len) = (0usize, 0usize);
+    // NP from NS = NP(NP + 1)/2.
+    while row_len * (row_len + 1) / 2 < NS {
+        row_len += 1;
+    }
+    while let Some(&v) = packed.get(k) {
+        t += v;
+        k += row_len;
+        row_len = row_len.saturating_sub(1);
+        if row_len == 0 {
+            break;
+        }
+    }
+    t
+}
+
+/// Modal parameters rounded to `f32` (the wire's precision).
+fn modal_f32<T: Real>(m: &ModalParams<T>) -> ModalParams<f32> {
+    let f = |a: &[T; MAX_MODES]| a.map(|v| v.to_f64() as f32);
+    ModalParams {
+        modes: m.modes,
+        omega_rad_s: f(&m.omega_rad_s),
+        zeta: f(&m.zeta),
+        bbar: f(&m.bbar),
+        output_weight: f(&m.output_weight),
+    }
+}
+
+/// Everything besides the record that an [`Estimate`] needs.
+#[derive(Debug, Clone, Copy)]
+pub struct EstimateContext<'a> {
+    /// The law in use.
+    pub estimator: EstimatorKind,
+    /// The model's mode count n (Θ has 4n − 1 entries).
+    pub model_modes: usize,
+    /// Thresholds.
+    pub rules: &'a FlagRules,
+    /// Counters of the previous record (zero before the first).
+    pub previous: &'a Counters,
+    /// Telemetry dropped since the previous estimate outside the records'
+    /// counters (frames dropped on the TX ring).
+    pub dropped_elsewhere: bool,
+    /// The law has not updated since the estimator (re)started: Θ̂ is its
+    /// initial value, not an estimate. The modes are then left out (and
+    /// PHYSICALLY_VALID clear): Θ̂ = 0 would read as λ's own poles
+    /// (ω = λ, ζ = 1), which a monitor would plot as an estimate.
+    pub no_update_yet: bool,
+}
+
+/// The [`Estimate`] of one record and its recovery, with the CONVERGED
+/// test advanced by it.
+pub fn estimate<T: Real, const NP: usize, const NS: usize>(
+    record: &TelemetryRecord<T, NP, NS>,
+    recovered: &Recovered<T>,
+    ctx: &EstimateContext<'_>,
+    convergence: &mut Convergence,
+) -> Estimate {
+    let rules = ctx.rules;
+    let modal = recovered
+        .modal
+        .as_ref()
+        .ok()
+        .filter(|_| !ctx.no_update_yet)
+        .map(modal_f32);
+    let valid = modal
+        .as_ref()
+        .is_some_and(|m| physically_valid(m, ctx.model_modes));
+    let lmin = recovered.excitation_min_eig.map(|v| v.to_f64() as f32);
+    let pf = record.flags;
+    let now = &record.counters;
+    let prev = ctx.previous;
+    let grew = |f: fn(&Counters) -> u32| f(now) != f(prev);
+
+    let mut flags = StatusFlags::default();
+    let trace = record
+        .has_information
+        .then(|| information_trace(&record.information))
+        .map(|t| t.to_f64() as f32);
+    flags.set(
+        StatusFlags::EXCITED,
+        matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l > rules.excitation_rel_threshold * t),
+    );
+    flags.set(
+        StatusFlags::FROZEN_BY_COMMAND,
+        pf.has(pipeline::StatusFlags::FROZEN),
+    );
+    flags.set(
+        StatusFlags::FROZEN_AUTO,
+        pf.has(pipeline::StatusFlags::QUARANTINE),
+    );
+    let converged =
+        convergence.observe(record.sample_index, modal.as_ref().filter(|_| valid), rules);
+    flags.set(StatusFlags::CONVERGED, converged);
+    flags.set(StatusFlags::PHYSICALLY_VALID, valid);
+    flags.set(StatusFlags::SENSOR_FAULT, grew(sensor_faults));
+    flags.set(StatusFlags::ADC_SATURATED, grew(adc_saturations));
+    flags.set(StatusFlags::DAC_SATURATED, grew(dac_saturations));
+    flags.set(
+        StatusFlags::TELEMETRY_DROPPED,
+        grew(queue_drops)
+            || pf.has(pipeline::StatusFlags::RECORDS_DROPPED)
+            || ctx.dropped_elsewhere,
+    );
+    flags.set(
+        StatusFlags::STATE_DEGRADED,
+        pf.has(pipeline::StatusFlags::STATE_BAD),
+    );
+
+    let mut modes = heapless::Vec::new();
+    if let Some(m) = modal.as_ref().filter(|m| m.modes == ctx.model_modes) {
+        for i in 0..m.modes.min(MAX_MODES) {
+            if let (Some(&w), Some(&z), Some(&b)) =
+                (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
+            {
+                let _ = modes.push(ModeEstimate {
+                    omega_rad_s: w,
+                    zeta: z,
+                    b_bar: b,
+                });
+            }
+        }
+    }
+    let theta = record
+        .theta
+        .iter()
+        .take(crate::protocol::MAX_THETA)
+        .map(|v| v.to_f64() as f32)
+        .collect();
+    Estimate {
+        sample_index: record.sample_index,
+        estimator: ctx.estimator,
+        flags,
+        modes,
+        theta,
+        excitation_level: lmin,
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use crate::modal::ModalError;
+    use crate::pipeline::{StatusFlags as PF, StepCounts};
+
+    fn params(w: [f32; 2], z: [f32; 2]) -> ModalParams<f32> {
+        ModalParams {
+            modes: 2,
+            omega_rad_s: [w[0], w[1], 0.0],
+            zeta: [z[0], z[1], 0.0],
+            bbar: [9.6, 16.1, 0.0],
+            output_weight: [-2.0, 2.0, 0.0],
+        }
+    }
+
+    /// P = I (tr 7) packed.
+    fn identity() -> [f32; 28] {
+        let mut p = [[0.0f32; 7]; 7];
+        for (i, row) in p.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        let mut out = [0.0; 28];
+        crate::pipeline::telemetry::pack_symmetric(&p, &mut out);
+        out
+    }
+
+    #[test]
+    fn trace_of_the_packed_information() {
+        assert_eq!(information_trace(&identity()), 7.0);
+        let mut p = [[0.0f64; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                p[i][j] = (1 + i * 3 + j) as f64;
+            }
+        }
+        let mut packed = [0.0; 6];
+        crate::pipeline::telemetry::pack_symmetric(&p, &mut packed);
+        assert_eq!(information_trace(&packed), 1.0 + 5.0 + 9.0);
+    }
+
+    fn record(index: u64, flags: u16, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
+        TelemetryRecord {
+            sample_index: index,
+            theta: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0],
+            information: identity(),
+            has_information: true,
+            lambda_rad_s: 100.0,
+            u_v: 0.1,
+            y: 1e-3,
+            flags: PF(flags),
+            steps: StepCounts::default(),
+            counters,
+        }
+    }
+
+    fn recovered(modal: Result<ModalParams<f32>, ModalError>, lmin: f32) -> Recovered<f32> {
+        Recovered {
+            sample_index: 0,
+            modal,
+            excitation_min_eig: Some(lmin),
+            flags: PF(0),
+            counters: Counters::default(),
+        }
+    }
+
+    #[test]
+    fn physical_validity() {
+        assert!(physically_valid(&params([39.0, 245.0], [0.02, 0.13]), 2));
+        assert!(!physically_valid(&params([39.0, 245.0], [0.02, 0.13]), 3));
+        assert!(!physically_valid(&params([39.0, 39.0], [0.02, 0.13]), 2));
+        assert!(!physically_valid(&params([245.0, 39.0], [0.02, 0.13]), 2));
+        assert!(!physically_valid(&params([-1.0, 39.0], [0.02, 0.13]), 2));
+        assert!(!physically_valid(&params([39.0, 245.0], [0.0, 0.13]), 2));
+        assert!(!physically_valid(&params([39.0, 245.0], [0.02, 1.0]), 2));
+        assert!(!physically_valid(
+            &params([39.0, f32::NAN], [0.02, 0.13]),
+            2
+        ));
+        let mut m = params([39.0, 245.0], [0.02, 0.13]);
+        m.bbar[1] = f32::INFINITY;
+        assert!(!physically_valid(&m, 2));
+    }
+
+    #[test]
+    fn convergence_needs_a_quiet_window() {
+        let rules = FlagRules {
+            converged_window_samples: 300,
+            ..FlagRules::default()
+        };
+        let mut c = Convergence::default();
+        let p = params([39.0, 245.0], [0.02, 0.13]);
+        assert!(!c.observe(0, Some(&p), &rules));
+        assert!(!c.observe(100, Some(&p), &rules));
+        assert!(!c.observe(200, Some(&p), &rules));
+        assert!(c.observe(300, Some(&p), &rules));
+        // A step beyond 1e-4 on ζ2 restarts the window.
+        let q = params([39.0, 245.0], [0.02, 0.13 * (1.0 + 2e-4)]);
+        assert!(!c.observe(400, Some(&q), &rules));
+        // Within 1e-4 of the new anchor.
+        let r = params([39.0, 245.0 * (1.0 + 5e-5)], [0.02, 0.13 * (1.0 + 2e-4)]);
+        assert!(!c.observe(600, Some(&r), &rules));
+        assert!(c.observe(700, Some(&r), &rules));
+        assert!(!c.observe(800, None, &rules));
+        assert!(!c.observe(1200, Some(&r), &rules));
+        c.reset();
+        assert!(!c.observe(1600, Some(&r), &rules));
+    }
+
+    #[test]
+    fn flags_from_record_state_and_counter_differences() {
+        let rules = FlagRules::default();
+        let prev = Counters {
+            adc_crc: 3,
+            bridge_saturated: 1,
+            ..Counters::default()
+        };
+        let mut conv = Convergence::default();
+        let ctx = |previous| EstimateContext {
+            estimator: EstimatorKind::Adaptive,
+            model_modes: 2,
+            rules: &rules,
+            previous,
+            dropped_elsewhere: false,
+            no_update_yet: false,
+        };
+        // Same counters, good modes, excited: EXCITED | PHYSICALLY_VALID.
+        let rec = record(1000, 0, prev);
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 1e-6),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert_eq!(
+            e.flags,
+            StatusFlags::EXCITED.with(StatusFlags::PHYSICALLY_VALID)
+        );
+        assert_eq!(e.modes.len(), 2);
+        assert_eq!(e.theta.len(), 7);
+        assert_eq!(e.modes[1].zeta, 0.13);
+        assert_eq!(e.excitation_level, Some(1e-6));
+        assert!(e.is_consistent());
+        // Each counter group and state flag sets its own bit.
+        let cases: [(Counters, u16, StatusFlags); 8] = [
+            (
+                Counters {
+                    adc_crc: 4,
+                    bridge_saturated: 1,
+                    ..Counters::default()
+                },
+                0,
+                StatusFlags::SENSOR_FAULT,
+            ),
+            (Counters { stuck: 1, ..prev }, 0, StatusFlags::SENSOR_FAULT),
+            (
+                Counters {
+                    monitor_saturated: 2,
+                    ..prev
+                },
+                0,
+                StatusFlags::ADC_SATURATED,
+            ),
+            (
+                Counters {
+                    excitation_clamped: 1,
+                    ..prev
+                },
+                0,
+                StatusFlags::DAC_SATURATED,
+            ),
+            (
+                Counters {
+                    dropped_raw_blocks: 1,
+                    ..prev
+                },
+                0,
+                StatusFlags::TELEMETRY_DROPPED,
+            ),
+            (prev, PF::FROZEN, StatusFlags::FROZEN_BY_COMMAND),
+            (prev, PF::QUARANTINE, StatusFlags::FROZEN_AUTO),
+            (prev, PF::STATE_BAD, StatusFlags::STATE_DEGRADED),
+        ];
+        for (counters, pflags, bit) in cases {
+            let e = estimate(
+                &record(2000, pflags, counters),
+                &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0),
+                &ctx(&prev),
+                &mut Convergence::default(),
+            );
+            assert_eq!(e.flags, bit.with(StatusFlags::PHYSICALLY_VALID), "{bit:?}");
+        }
+        // λmin at the threshold, 1e-7·tr(P), is not excited.
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 7e-7),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert!(!e.flags.contains(StatusFlags::EXCITED));
+        // Failed recovery: no modes, not valid, Θ still sent; NaN λmin is
+        // not excited.
+        let e = estimate(
+            &rec,
+            &recovered(Err(ModalError::LengthMismatch), f32::NAN),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert!(e.modes.is_empty());
+        assert_eq!(e.flags, StatusFlags::default());
+        assert!(e.is_consistent());
+        // Before the law's first update the modes are left out.
+        let fresh = EstimateContext {
+            no_update_yet: true,
+            ..ctx(&prev)
+        };
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 1e-6),
+            &fresh,
+            &mut conv,
+        );
+        assert!(e.modes.is_empty() && e.theta.len() == 7 && e.is_consistent());
+        assert_eq!(e.flags, StatusFlags::EXCITED);
+        // Unphysical modes are sent, flagged invalid.
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 1.5])), 1.0),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert_eq!(e.modes.len(), 2);
+        assert_eq!(e.flags, StatusFlags::EXCITED);
+    }
+
+    #[test]
+    fn device_counter_mapping() {
+        let c = Counters {
+            overruns: 1,
+            missed_ticks: 9,
+            adc_crc: 2,
+            adc_status: 3,
+            adc_bus: 4,
+            adc_other: 5,
+            bridge_saturated: 6,
+            monitor_saturated: 7,
+            stuck: 8,
+            dac_errors: 10,
+            dac_saturated: 11,
+            excitation_clamped: 12,
+            rejected: 13,
+            dropped_records: 14,
+            dropped_raw_blocks: 15,
+        };
+        let d = device_counters(&c, 16, 17, 18, 19);
+        assert_eq!(
+            d,
+            DeviceCounters {
+                overruns: 1,
+                adc_crc_errors: 2,
+                adc_status_errors: 12,
+                adc_stuck: 8,
+                adc_saturations: 13,
+                dac_saturations: 33,
+                rejected_samples: 13,
+                telemetry_dropped: 48,
+                commands_accepted: 16,
+                commands_rejected: 17,
+                rx_frame_errors: 18,
+            }
+        );
+        let big = Counters {
+            adc_status: u32::MAX,
+            adc_bus: 1,
+            ..Counters::default()
+        };
+        assert_eq!(
+            device_counters(&big, 0, 0, 0, 0).adc_status_errors,
+            u32::MAX
+        );
+    }
+}

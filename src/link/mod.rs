@@ -1,0 +1,522 @@
+//! The device end of the serial link (`docs/PROTOCOL.md`), hardware-free:
+//! telemetry records and raw blocks from the sample task become frames in
+//! a bounded TX byte ring; command frames from an RX byte stream are
+//! validated, applied to the pipeline between samples and acknowledged.
+//! Every board uses it the same way ([`DeviceLink`], the QEMU image today);
+//! the board supplies the byte rings ([`TxSink`], any byte iterator) and
+//! the lock and estimator storage ([`Device`]).
+//!
+//! * [`tx`]: whole frames or nothing into the TX ring, exact drop counts;
+//! * [`estimate`]: record → [`Estimate`](crate::protocol::Estimate) with its
+//!   flags, counters → [`DeviceCounters`](crate::protocol::DeviceCounters);
+//! * [`raw`]: raw blocks → 64-pair frames;
+//! * [`control`]: what a command changes and how it is prepared.
+//!
+//! # Where it runs
+//! In the low-priority context (thread mode on the QEMU board), never in the
+//! sample interrupt: [`DeviceLink::on_record`] (recovery, estimate and
+//! periodic status), [`DeviceLink::on_raw`], [`DeviceLink::receive`]
+//! (commands). The sample interrupt only pushes records and raw blocks into
+//! its bounded queues (`pipeline`); the TX ring is drained by the UART's
+//! interrupt or DMA. Nothing here blocks: a frame that does not fit is
+//! dropped and counted, and shows as a sequence gap at the host.
+//!
+//! # Timing
+//! * Estimates: one per telemetry record, at the estimate rate
+//!   (round(f_s/rate) samples apart), from the record at which the
+//!   estimator was started ([`DeviceLink::start`]) on; none while the
+//!   start-up window measures the output scale.
+//! * Status: at the status rate on the record clock (the pipeline's record
+//!   interval is the shorter of the two streams' intervals,
+//!   [`DeviceLink::record_every`]), the first with the first record; and
+//!   right after the Ack of a `RequestStatus`, with the counters read
+//!   then.
+//! * Commands: applied when [`DeviceLink::receive`] decodes them, between
+//!   two samples (inside [`Device::with_pipeline`]), effective from the next
+//!   sample; the Ack follows the change, so every frame after the Ack was
+//!   produced under the new settings, except estimates and raw samples
+//!   already waiting in the sample task's queues (at most their depth).
+//!
+//! # λ = None (the automatic rule)
+//! The truth-free rule that chooses λ from the data is being built in the
+//! core (issue 8). Until it lands, `SetEstimator` with `lambda_rad_s =
+//! None` keeps the λ in use; Status reports that λ.
+#![deny(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unreachable,
+    clippy::todo
+)]
+
+pub mod control;
+pub mod estimate;
+pub mod raw;
+pub mod tx;
+
+pub use control::{estimator_configs, Control, Device, ExcitationPlan};
+pub use estimate::{Convergence, EstimateContext, FlagRules};
+pub use raw::RawAssembler;
+pub use tx::{Sent, Transmitter, TxSink, TxStats};
+
+use crate::pipeline::{recover, Counters, RawBlock, Recovered, TelemetryRecord};
+use crate::protocol::budget::MAX_COMMAND_ENCODED_LEN;
+use crate::protocol::{
+    self, Ack, AckResult, Command, Decoder, EstimatorSettings, FirmwareVersion, Limits,
+    LinkCounters, Message, RejectReason, Status, TelemetryRates,
+};
+use crate::scalar::Real;
+
+/// This crate's version, for [`Status::firmware`].
+pub const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
+    major: parse_u8(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: parse_u8(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
+};
+
+/// A decimal version component (255 if longer or not a number).
+const fn parse_u8(s: &str) -> u8 {
+    let mut b = s.as_bytes();
+    let mut v: u32 = 0;
+    while let [d, rest @ ..] = b {
+        if !d.is_ascii_digit() || v > 25 {
+            return u8::MAX;
+        }
+        v = v * 10 + (*d - b'0') as u32;
+        b = rest;
+    }
+    if v > 255 {
+        u8::MAX
+    } else {
+        v as u8
+    }
+}
+
+/// Bytes kept free in the TX ring for acknowledgements: two Ack frames of
+/// at most 16 bytes (`docs/PROTOCOL.md` §1.5). Telemetry frames that would
+/// eat into it are dropped instead.
+pub const ANSWER_RESERVE_BYTES: usize = 32;
+
+/// The device's fixed properties.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkConfig {
+    /// What commands are checked against (sample rate, piezo window,
+    /// generators, estimators, mode count, link budget at the baud rate).
+    pub limits: Limits,
+    /// Reported in Status.
+    pub firmware: FirmwareVersion,
+    /// Thresholds of the EXCITED and CONVERGED flags.
+    pub rules: FlagRules,
+}
+
+/// The settings in force, as the protocol states them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// The excitation.
+    pub excitation: protocol::Excitation,
+    /// The estimator settings as commanded (`lambda_rad_s = None`: the
+    /// automatic rule; see the module doc).
+    pub estimator: EstimatorSettings,
+    /// The telemetry rates.
+    pub telemetry: TelemetryRates,
+}
+
+/// Samples between two events at `rate_hz` (round(f_s/rate), at least 1);
+/// `None` when the rate is 0 (off) or not positive.
+pub fn interval_samples(rate_hz: f32, sample_rate_hz: f32) -> Option<u32> {
+    if !(rate_hz > 0.0) {
+        return None;
+    }
+    let n = libm::roundf(sample_rate_hz / rate_hz);
+    Some(if n >= 4_294_967_040.0 {
+        u32::MAX
+    } else if n >= 1.0 {
+        n as u32
+    } else {
+        1
+    })
+}
+
+/// The pipeline's record interval for `rates`: the shorter of the estimate
+/// and status intervals (records are the link's clock); f_s/100 (the
+/// default estimate rate, 100 Hz) when both are off.
+pub fn record_interval(rates: &TelemetryRates, sample_rate_hz: f32) -> u32 {
+    let e = interval_samples(rates.estimate_rate_hz, sample_rate_hz);
+    let s = interval_samples(rates.status_rate_hz, sample_rate_hz);
+    match (e, s) {
+        (Some(a), Some(b)) => a.min(b),
+        (Some(a), None) | (None, Some(a)) => a,
+        (None, None) => interval_samples(100.0, sample_rate_hz).unwrap_or(1),
+    }
+}
+
+/// Next due index after `due`, every `every` samples, at least past `now`.
+fn next_due(due: u64, every: u32, now: u64) -> u64 {
+    let next = due.saturating_add(u64::from(every));
+    if next > now {
+        next
+    } else {
+        now.saturating_add(u64::from(every))
+    }
+}
+
+/// The device end of the link (see the module doc).
+#[derive(Debug, Clone)]
+pub struct DeviceLink {
+    config: LinkConfig,
+    settings: Settings,
+    lambda_rad_s: f64,
+    tx: Transmitter,
+    rx: Decoder<MAX_COMMAND_ENCODED_LEN>,
+    accepted: u32,
+    rejected: u32,
+    frozen_by_command: bool,
+    started_at: Option<u64>,
+    /// The first sample of an estimator (re)start whose law has not
+    /// updated yet (see `EstimateContext::no_update_yet`).
+    fresh_since: Option<u64>,
+    /// Sample index of the previous record.
+    last_record: Option<u64>,
+    previous: Counters,
+    convergence: Convergence,
+    raw: RawAssembler,
+    next_estimate_at: u64,
+    next_status_at: u64,
+    /// TX frames dropped when the last estimate got through.
+    drops_at_last_estimate: u32,
+}
+
+impl DeviceLink {
+    /// The link for a pipeline built with `settings` and filter pole
+    /// `lambda_rad_s` (its record interval must be
+    /// [`record_interval`] of the rates, its raw decimation theirs).
+    pub fn new(config: LinkConfig, settings: Settings, lambda_rad_s: f64) -> Self {
+        Self {
+            config,
+            settings,
+            lambda_rad_s,
+            tx: Transmitter::new(),
+            rx: Decoder::new(),
+            accepted: 0,
+            rejected: 0,
+            frozen_by_command: false,
+            started_at: None,
+            fresh_since: None,
+            last_record: None,
+            previous: Counters::default(),
+            convergence: Convergence::default(),
+            raw: RawAssembler::default(),
+            next_estimate_at: 0,
+            next_status_at: 0,
+            drops_at_last_estimate: 0,
+        }
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The filter pole in use (rad/s).
+    pub fn lambda_rad_s(&self) -> f64 {
+        self.lambda_rad_s
+    }
+
+    /// The fixed properties.
+    pub fn config(&self) -> &LinkConfig {
+        &self.config
+    }
+
+    /// The record interval the pipeline must run at for the current rates.
+    pub fn record_every(&self) -> u32 {
+        record_interval(&self.settings.telemetry, self.config.limits.sample_rate_hz)
+    }
+
+    /// Adaptation frozen by a `Freeze` command.
+    pub fn is_frozen_by_command(&self) -> bool {
+        self.frozen_by_command
+    }
+
+    /// Sample index at which the estimator was started, if it was.
+    pub fn started_at(&self) -> Option<u64> {
+        self.started_at
+    }
+
+    /// The estimator's law has updated since it (re)started: its Θ̂ is an
+    /// estimate, and Estimates carry modes (PROTOCOL.md §9.3).
+    pub fn has_estimate(&self) -> bool {
+        self.started_at.is_some() && self.fresh_since.is_none()
+    }
+
+    /// The sending side's counters.
+    pub fn tx_stats(&self) -> &TxStats {
+        self.tx.stats()
+    }
+
+    /// The command decoder's counters (bytes, frames, errors).
+    pub fn rx_counters(&self) -> &LinkCounters {
+        self.rx.counters()
+    }
+
+    /// Commands accepted and rejected.
+    pub fn commands(&self) -> (u32, u32) {
+        (self.accepted, self.rejected)
+    }
+
+    /// Start the estimator after the start-up window (the board has the
+    /// output scale now): build it from the settings in force outside the
+    /// lock, swap it in, and resume adaptation unless a `Freeze` command
+    /// came first. Returns the sample index from which it runs.
+    pub fn start<D: Device>(&mut self, dev: &mut D) -> Result<u64, RejectReason> {
+        let est = dev.build_estimator(&self.settings.estimator, self.lambda_rad_s)?;
+        let (lambda, frozen) = (self.lambda_rad_s, self.frozen_by_command);
+        let (swap, at) = dev.with_pipeline(|p| {
+            let swap = p.replace_estimator(est, lambda);
+            if swap.is_ok() && !frozen {
+                p.resume();
+            }
+            (swap, p.next_sample_index())
+        });
+        match swap {
+            Ok(old) => dev.recycle_estimator(old),
+            Err(refused) => {
+                dev.recycle_estimator(refused);
+                return Err(RejectReason::Lambda);
+            }
+        }
+        self.started_at = Some(at);
+        self.restarted(at);
+        Ok(at)
+    }
+
+    /// The estimator (re)started at sample `at`: no modes until its law has
+    /// updated, a new CONVERGED window.
+    fn restarted(&mut self, at: u64) {
+        self.fresh_since = Some(at);
+        self.convergence.reset();
+    }
+
+    /// One telemetry record from the sample task: recovers it (eqs. 30–32,
+    /// Lemma 1) and sends an [`Estimate`](crate::protocol::Estimate) if one
+    /// is due, and a Status if one is due. Returns the recovery when it
+    /// was made (for the board's own log).
+    pub fn on_record<T: Real, const NP: usize, const NS: usize>(
+        &mut self,
+        record: &TelemetryRecord<T, NP, NS>,
+        output_weight: &[T],
+        tx: &mut impl TxSink,
+    ) -> Option<Recovered<T>> {
+        let index = record.sample_index;
+        let fs = self.config.limits.sample_rate_hz;
+        // The record's step counts cover the samples after the previous
+        // record: once those all follow the restart, an update is the new
+        // law's.
+        if let Some(since) = self.fresh_since {
+            let after = self
+                .last_record
+                .is_some_and(|p| p.saturating_add(1) >= since);
+            if after && record.steps.updated > 0 {
+                self.fresh_since = None;
+            }
+        }
+        self.last_record = Some(index);
+        let running = self.started_at.is_some_and(|s| index >= s);
+        let due = interval_samples(self.settings.telemetry.estimate_rate_hz, fs)
+            .filter(|_| running && index >= self.next_estimate_at);
+        let recovered = due.map(|every| {
+            self.next_estimate_at = next_due(self.next_estimate_at, every, index);
+            let rec = recover(record, output_weight);
+            self.send_estimate(record, &rec, tx);
+            rec
+        });
+        self.previous = record.counters;
+        if let Some(every) = interval_samples(self.settings.telemetry.status_rate_hz, fs) {
+            if index >= self.next_status_at {
+                self.next_status_at = next_due(self.next_status_at, every, index);
+                let status = self.status(index.saturating_add(1), &record.counters);
+                self.tx.send(&status.into(), ANSWER_RESERVE_BYTES, tx);
+            }
+        }
+        recovered
+    }
+
+    fn send_estimate<T: Real, const NP: usize, const NS: usize>(
+        &mut self,
+        record: &TelemetryRecord<T, NP, NS>,
+        rec: &Recovered<T>,
+        tx: &mut impl TxSink,
+    ) {
+        let dropped = self.tx.stats().frames_dropped;
+        let ctx = EstimateContext {
+            estimator: self.settings.estimator.kind,
+            model_modes: usize::from(self.config.limits.modes),
+            rules: &self.config.rules,
+            previous: &self.previous,
+            dropped_elsewhere: dropped != self.drops_at_last_estimate,
+            no_update_yet: self.fresh_since.is_some(),
+        };
+        let msg = estimate::estimate(record, rec, &ctx, &mut self.convergence);
+        // A dropped estimate is flagged by the next one that gets through.
+        if let Sent::Queued(_) = self.tx.send(&msg.into(), ANSWER_RESERVE_BYTES, tx) {
+            self.drops_at_last_estimate = dropped;
+        }
+    }
+
+    /// One raw block from the sample task: sent in frames of up to 64 pairs
+    /// ([`raw`]).
+    pub fn on_raw<T: Real>(&mut self, block: &RawBlock<T>, tx: &mut impl TxSink) {
+        let sender = &mut self.tx;
+        self.raw.push(block, |frame| {
+            sender.send(&Message::RawSamples(frame), ANSWER_RESERVE_BYTES, tx);
+        });
+    }
+
+    /// Feed received bytes: every complete command frame is validated,
+    /// applied and answered (see [`DeviceLink::execute`]). Frames that fail
+    /// to decode are counted (Status `rx_frame_errors`) and not answered.
+    pub fn receive<D: Device>(
+        &mut self,
+        bytes: impl IntoIterator<Item = u8>,
+        dev: &mut D,
+        tx: &mut impl TxSink,
+    ) {
+        for b in bytes {
+            // Frames of other kinds are refused as malformed (counted).
+            if let Some(Ok((seq, c))) = self.rx.push_command(b) {
+                self.answer(&c, seq, dev, tx);
+            }
+        }
+    }
+
+    fn answer<D: Device>(&mut self, c: &Command, seq: u32, dev: &mut D, tx: &mut impl TxSink) {
+        let result = self.execute(c, dev);
+        match result {
+            Ok(()) => self.accepted = self.accepted.saturating_add(1),
+            Err(_) => self.rejected = self.rejected.saturating_add(1),
+        }
+        let ack = Ack {
+            command_seq: seq,
+            result: AckResult::from(result),
+        };
+        self.tx.send(&ack.into(), 0, tx);
+        if result.is_ok() && *c == Command::RequestStatus {
+            self.send_status_now(dev, tx);
+        }
+    }
+
+    /// Send a Status with the counters read now (inside the lock).
+    pub fn send_status_now<D: Device>(&mut self, dev: &mut D, tx: &mut impl TxSink) {
+        let (counters, uptime) = dev.with_pipeline(|p| (p.counters(), p.next_sample_index()));
+        let status = self.status(uptime, &counters);
+        self.tx.send(&status.into(), 0, tx);
+    }
+
+    /// The Status for `uptime_samples` and the pipeline's `counters`.
+    pub fn status(&self, uptime_samples: u64, counters: &Counters) -> Status {
+        let rx_errors = self.rx.counters().errors();
+        Status {
+            uptime_samples,
+            sample_rate_hz: self.config.limits.sample_rate_hz,
+            firmware: self.config.firmware,
+            modes: self.config.limits.modes,
+            counters: estimate::device_counters(
+                counters,
+                self.accepted,
+                self.rejected,
+                u32::try_from(rx_errors).unwrap_or(u32::MAX),
+                self.tx.stats().frames_dropped,
+            ),
+            adaptation_frozen: self.frozen_by_command,
+            excitation: self.settings.excitation,
+            estimator: EstimatorSettings {
+                lambda_rad_s: Some(self.lambda_rad_s as f32),
+                ..self.settings.estimator
+            },
+            telemetry: self.settings.telemetry,
+        }
+    }
+
+    /// Validate `c` against the limits and apply it; on `Err` nothing has
+    /// changed. Expensive preparation (a multisine, a new estimator) runs
+    /// here, outside the lock; the lock is held for the setters only.
+    pub fn execute<D: Device>(&mut self, c: &Command, dev: &mut D) -> Result<(), RejectReason> {
+        c.validate(&self.config.limits)?;
+        let fs = self.config.limits.sample_rate_hz;
+        match c {
+            Command::SetExcitation(x) => {
+                let plan =
+                    ExcitationPlan::<D::Real>::new(x, &self.settings.excitation, f64::from(fs))?;
+                dev.with_pipeline(|p| plan.apply(p.excitation_mut()))?;
+                self.settings.excitation = *x;
+            }
+            Command::SetEstimator(s) => {
+                // λ = None: keep the λ in use until the automatic rule
+                // exists (module doc).
+                let lambda = s.lambda_rad_s.map_or(self.lambda_rad_s, f64::from);
+                let est = dev.build_estimator(s, lambda)?;
+                if self.started_at.is_some() {
+                    let (swap, at) = dev.with_pipeline(|p| {
+                        (p.replace_estimator(est, lambda), p.next_sample_index())
+                    });
+                    match swap {
+                        Ok(old) => dev.recycle_estimator(old),
+                        Err(refused) => {
+                            dev.recycle_estimator(refused);
+                            return Err(RejectReason::Lambda);
+                        }
+                    }
+                    self.restarted(at);
+                } else {
+                    // Before start-up ends: built only to check that the
+                    // core accepts it; start() builds it with the scales.
+                    dev.recycle_estimator(est);
+                }
+                self.settings.estimator = *s;
+                self.lambda_rad_s = lambda;
+            }
+            Command::SetTelemetry(t) => {
+                let every = record_interval(t, fs);
+                dev.with_pipeline(|p| {
+                    p.set_telemetry_every(every)?;
+                    p.set_raw_decimation(t.raw_decimation);
+                    Ok(())
+                })
+                .map_err(|_: crate::pipeline::PipelineError| RejectReason::Rate)?;
+                self.settings.telemetry = *t;
+                self.next_estimate_at = 0;
+                self.next_status_at = 0;
+            }
+            Command::Reset => {
+                if self.started_at.is_some() {
+                    let at = dev.with_pipeline(|p| {
+                        p.reset_estimator();
+                        p.next_sample_index()
+                    });
+                    self.restarted(at);
+                }
+            }
+            Command::Freeze => {
+                self.frozen_by_command = true;
+                dev.with_pipeline(|p| p.freeze());
+            }
+            Command::Resume => {
+                self.frozen_by_command = false;
+                if self.started_at.is_some() {
+                    dev.with_pipeline(|p| p.resume());
+                }
+            }
+            Command::RequestStatus => {}
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    clippy::expect_used
+)]
+mod tests;

@@ -1,0 +1,628 @@
+//! `cargo xtask qemu --e2e`: the QEMU image's UART0 on a loopback socket
+//! to a host that decodes every frame with the core's `Decoder` (the same
+//! code the firmware and `beamctl` link), sends commands, and checks:
+//!
+//! 1. the decoded estimates converge to the simulated beam's truth: the
+//!    last physically valid estimate within 1e-3 on ω1, ω2, ζ1, ζ2 after
+//!    5 s, with the EXCITED, PHYSICALLY_VALID and CONVERGED flags;
+//!    estimates during the injected ADC faults carry SENSOR_FAULT and
+//!    ADC_SATURATED;
+//! 2. the link is clean: no sequence gap, no duplicate, no CRC or other
+//!    frame error, nothing dropped on the device (Status telemetry_dropped
+//!    = 0), every command answered;
+//! 3. commands work: raw samples switched on at 0.5 s (SetTelemetry) arrive;
+//!    at 1 s an excitation of 20 V (outside the ±10 V safe window) is
+//!    refused with reason SafeWindow (3) and the Status that follows shows
+//!    every setting unchanged; at 1.5 s an amplitude of 0.2 V is accepted,
+//!    the next Status shows it, and the raw samples' u is at ±0.1 V before
+//!    the command and at ±0.2 V from that Status on.
+//!
+//! The schedule runs on the device's clock (the sample index in the frames),
+//! so it does not depend on how fast the host runs QEMU. The test fails
+//! with a message naming each check that failed, and if QEMU's own verdict
+//! (its exit status) is failure.
+
+use std::io::{self, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::process::Stdio;
+use std::sync::mpsc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
+use beamest::protocol::{
+    encode, AckResult, Command, Decoder, Estimate, Excitation, Frame, LinkCounters, Message,
+    RejectReason, Status, StatusFlags, TelemetryRates, Waveform, MAX_ENCODED_LEN,
+};
+
+use crate::qemu::{command, wait, Serial};
+use crate::{stream, QEMU};
+
+/// What a stream of device frames contained.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Tally {
+    pub estimates: u64,
+    pub raw: u64,
+    pub status: u64,
+    pub acks: u64,
+    pub other: u64,
+}
+
+impl Tally {
+    fn count(&mut self, m: &Message) {
+        let c = match m {
+            Message::Estimate(_) => &mut self.estimates,
+            Message::RawSamples(_) => &mut self.raw,
+            Message::Status(_) => &mut self.status,
+            Message::Ack(_) => &mut self.acks,
+            Message::Command(_) => &mut self.other,
+        };
+        *c += 1;
+    }
+}
+
+/// A decoded capture: the decoder's counters and the tally.
+pub struct Capture {
+    pub counters: LinkCounters,
+    pub tally: Tally,
+    pub last_status: Option<Status>,
+}
+
+impl Capture {
+    /// No error, gap, duplicate or reordering.
+    pub fn is_clean(&self) -> bool {
+        let c = &self.counters;
+        c.errors() == 0 && c.lost == 0 && c.duplicates == 0 && c.out_of_order == 0
+    }
+
+    /// One line.
+    pub fn summary(&self) -> String {
+        let c = &self.counters;
+        let t = &self.tally;
+        format!(
+            "{} bytes, {} frames ({} estimates, {} status, {} raw-sample blocks, {} acks); \
+             lost {}, CRC errors {}, other frame errors {}, duplicates {}, out of order {}{}",
+            c.bytes,
+            c.frames_ok,
+            t.estimates,
+            t.status,
+            t.raw,
+            t.acks,
+            c.lost,
+            c.crc_errors,
+            c.errors() - c.crc_errors,
+            c.duplicates,
+            c.out_of_order,
+            self.last_status
+                .as_ref()
+                .map(|s| format!(
+                    "; device: telemetry dropped {}, overruns {}",
+                    s.counters.telemetry_dropped, s.counters.overruns
+                ))
+                .unwrap_or_default()
+        )
+    }
+}
+
+/// Decode a capture of the device's bytes from its start.
+pub fn decode_capture(bytes: &[u8]) -> Capture {
+    let mut dec: Decoder = Decoder::new();
+    let mut tally = Tally::default();
+    let mut last_status = None;
+    for f in dec.feed(bytes).flatten() {
+        tally.count(&f.message);
+        if let Message::Status(s) = f.message {
+            last_status = Some(s);
+        }
+    }
+    Capture {
+        counters: *dec.counters(),
+        tally,
+        last_status,
+    }
+}
+
+/// Device time (samples) at which each command is sent.
+const RAW_ON_AT: u64 = 5_000;
+const REFUSED_AT: u64 = 10_000;
+const AMPLITUDE_AT: u64 = 15_000;
+/// The raw samples' decimation (1 kHz) and the two amplitudes (V).
+const RAW_DECIMATION: u16 = 10;
+const AMPLITUDE_BEFORE_V: f32 = 0.1;
+const AMPLITUDE_AFTER_V: f32 = 0.2;
+/// The refused amplitude: outside the ±10 V window.
+const AMPLITUDE_REFUSED_V: f32 = 20.0;
+/// |u| vs the amplitude: the 16-bit DAC holds 0.1 V as 0.1007 V.
+const U_TOLERANCE: f32 = 0.02;
+/// Estimates vs the truth.
+const TOLERANCE: f64 = 1e-3;
+/// Wall time allowed for an acknowledgement.
+const ACK_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The host's progress through the schedule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step {
+    WaitRawOn,
+    RawOnSent,
+    WaitRefused,
+    RefusedSent,
+    RefusedStatusSent,
+    WaitAmplitude,
+    AmplitudeSent,
+    AmplitudeStatusSent,
+    Done,
+}
+
+/// Everything the host saw and did.
+struct Host {
+    dec: Decoder,
+    seq: u32,
+    step: Step,
+    sent_at: Option<Instant>,
+    failures: Vec<String>,
+    tally: Tally,
+    estimates: Vec<Estimate>,
+    raw: Vec<(u64, f32, f32)>,
+    first_status: Option<Status>,
+    last_status: Option<Status>,
+    before_refusal: Option<Status>,
+    after_refusal: Option<Status>,
+    after_amplitude: Option<Status>,
+    refused_result: Option<AckResult>,
+    /// Newest raw-sample index received before the amplitude command.
+    raw_before_amplitude: Option<u64>,
+    acks: Vec<(u32, AckResult)>,
+}
+
+impl Host {
+    fn new() -> Self {
+        Self {
+            dec: Decoder::new(),
+            seq: 0,
+            step: Step::WaitRawOn,
+            sent_at: None,
+            failures: Vec::new(),
+            tally: Tally::default(),
+            estimates: Vec::new(),
+            raw: Vec::new(),
+            first_status: None,
+            last_status: None,
+            before_refusal: None,
+            after_refusal: None,
+            after_amplitude: None,
+            refused_result: None,
+            raw_before_amplitude: None,
+            acks: Vec::new(),
+        }
+    }
+
+    fn send(&mut self, link: &mut TcpStream, c: Command) -> io::Result<()> {
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(&c, self.seq, &mut out)
+            .map_err(|e| io::Error::other(format!("encoding {c:?}: {e}")))?;
+        self.seq += 1;
+        self.sent_at = Some(Instant::now());
+        link.write_all(&out[..n])
+    }
+
+    fn fail(&mut self, msg: String) {
+        eprintln!("e2e: FAIL: {msg}");
+        self.failures.push(msg);
+    }
+
+    /// Feed received bytes; send the schedule's commands as the device's
+    /// clock reaches them.
+    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()> {
+        let frames: Vec<Frame> = self.dec.feed(bytes).flatten().collect();
+        for f in frames {
+            self.tally.count(&f.message);
+            match f.message {
+                Message::Estimate(e) => {
+                    let now = e.sample_index;
+                    self.estimates.push(e);
+                    self.on_clock(now, link)?;
+                }
+                Message::RawSamples(r) => {
+                    let d = u64::from(r.decimation);
+                    for (i, s) in r.samples.iter().enumerate() {
+                        self.raw
+                            .push((r.first_sample_index + i as u64 * d, s.u_v, s.y));
+                    }
+                }
+                Message::Status(s) => self.on_status(s),
+                Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
+                Message::Command(_) => self.fail("the device sent a Command frame".into()),
+            }
+        }
+        if let Some(t) = self.sent_at {
+            if t.elapsed() > ACK_TIMEOUT && self.step != Step::Done {
+                self.fail(format!(
+                    "no answer within {ACK_TIMEOUT:?} at step {:?}",
+                    self.step
+                ));
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+        }
+        Ok(())
+    }
+
+    fn on_clock(&mut self, now: u64, link: &mut TcpStream) -> io::Result<()> {
+        match self.step {
+            Step::WaitRawOn if now >= RAW_ON_AT => {
+                self.step = Step::RawOnSent;
+                self.send(
+                    link,
+                    Command::SetTelemetry(TelemetryRates {
+                        raw_decimation: RAW_DECIMATION,
+                        ..TelemetryRates::default()
+                    }),
+                )?;
+            }
+            Step::WaitRefused if now >= REFUSED_AT => {
+                self.step = Step::RefusedSent;
+                self.send(
+                    link,
+                    Command::SetExcitation(excitation(AMPLITUDE_REFUSED_V)),
+                )?;
+            }
+            Step::WaitAmplitude if now >= AMPLITUDE_AT => {
+                self.step = Step::AmplitudeSent;
+                self.raw_before_amplitude = self.raw.last().map(|r| r.0);
+                self.send(link, Command::SetExcitation(excitation(AMPLITUDE_AFTER_V)))?;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn on_status(&mut self, s: Status) {
+        if self.first_status.is_none() {
+            self.first_status = Some(s.clone());
+        }
+        match self.step {
+            Step::WaitRefused | Step::RefusedSent => self.before_refusal = Some(s.clone()),
+            Step::RefusedStatusSent if self.after_refusal.is_none() => {
+                self.after_refusal = Some(s.clone());
+                self.step = Step::WaitAmplitude;
+                self.sent_at = None;
+            }
+            Step::AmplitudeStatusSent if self.after_amplitude.is_none() => {
+                self.after_amplitude = Some(s.clone());
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+            _ => {}
+        }
+        self.last_status = Some(s);
+    }
+
+    fn on_ack(&mut self, seq: u32, result: AckResult, link: &mut TcpStream) -> io::Result<()> {
+        self.acks.push((seq, result));
+        if seq + 1 != self.seq {
+            self.fail(format!("Ack for command {seq}, expected {}", self.seq - 1));
+            return Ok(());
+        }
+        match (self.step, result) {
+            (Step::RawOnSent, AckResult::Accepted) => {
+                self.step = Step::WaitRefused;
+                self.sent_at = None;
+            }
+            (Step::RefusedSent, r) => {
+                self.refused_result = Some(r);
+                self.step = Step::RefusedStatusSent;
+                self.send(link, Command::RequestStatus)?;
+            }
+            (Step::AmplitudeSent, AckResult::Accepted) => {
+                self.step = Step::AmplitudeStatusSent;
+                self.send(link, Command::RequestStatus)?;
+            }
+            (Step::RefusedStatusSent | Step::AmplitudeStatusSent, AckResult::Accepted) => {}
+            (step, r) => {
+                self.fail(format!("command {seq} at step {step:?} answered {r:?}"));
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The bench's square wave at `amplitude_v`.
+fn excitation(amplitude_v: f32) -> Excitation {
+    Excitation {
+        waveform: Waveform::Square { freq_hz: 7.0 },
+        amplitude_v,
+        offset_v: 0.0,
+    }
+}
+
+/// Run the test (see the module doc).
+pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
+    let listener =
+        TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
+    let port = listener
+        .local_addr()
+        .map_err(|e| format!("listening on loopback: {e}"))?
+        .port();
+    let mut cmd = command(elf, &Serial::Connect(port), None);
+    cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
+    println!("running: {cmd:?}");
+    let start = Instant::now();
+    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
+    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
+    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
+    // QEMU connects while it starts; give up if it exits first.
+    let (tx, rx) = mpsc::channel();
+    thread::spawn(move || {
+        let _ = tx.send(listener.accept());
+    });
+    let mut link = loop {
+        if let Ok(r) = rx.recv_timeout(Duration::from_millis(50)) {
+            break r
+                .map_err(|e| format!("accepting QEMU's connection: {e}"))?
+                .0;
+        }
+        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+            return Err(format!(
+                "{QEMU} exited ({s}) before connecting to UART0's socket"
+            ));
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            return Err(format!(
+                "{QEMU} did not connect to UART0's socket within 30 s"
+            ));
+        }
+    };
+    println!("UART0 connected on 127.0.0.1:{port}");
+    link.set_read_timeout(Some(Duration::from_millis(50)))
+        .map_err(|e| e.to_string())?;
+    link.set_nodelay(true).map_err(|e| e.to_string())?;
+    let mut writer = link.try_clone().map_err(|e| e.to_string())?;
+    let mut host = Host::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        match link.read(&mut buf) {
+            Ok(0) => break, // QEMU exited: the socket closed.
+            Ok(n) => host
+                .receive(&buf[..n], &mut writer)
+                .map_err(|e| format!("writing a command: {e}"))?,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
+                host.receive(&[], &mut writer)
+                    .map_err(|e| format!("writing a command: {e}"))?;
+            }
+            // QEMU exited with bytes of ours unread: the checks below say
+            // which commands went unanswered.
+            Err(e) if e.kind() == io::ErrorKind::ConnectionReset => {
+                host.fail("QEMU exited with host bytes unread on UART0 (connection reset)".into());
+                break;
+            }
+            Err(e) => return Err(format!("reading UART0's socket: {e}")),
+        }
+        if start.elapsed() > timeout {
+            break;
+        }
+    }
+    let status = wait(&mut child, timeout, start)?;
+    for t in [out, err].into_iter().flatten() {
+        let _ = t.join();
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let capture = Capture {
+        counters: *host.dec.counters(),
+        tally: host.tally,
+        last_status: host.last_status.clone(),
+    };
+    println!("\ne2e: UART0 as decoded by the host: {}", capture.summary());
+    check(&mut host, &capture);
+    if !status.success() {
+        host.fail(format!("the firmware's own verdict is failure ({status})"));
+    }
+    println!("e2e: {QEMU} exited with {status} after {wall:.2} s wall time");
+    if host.failures.is_empty() {
+        println!("e2e: PASS");
+        Ok(())
+    } else {
+        Err(format!(
+            "end-to-end test failed:\n  {}",
+            host.failures.join("\n  ")
+        ))
+    }
+}
+
+/// The checks after the run (module doc).
+fn check(h: &mut Host, capture: &Capture) {
+    let mut fails: Vec<String> = Vec::new();
+    let pass = |what: String| println!("e2e: ok: {what}");
+
+    // 2. The link.
+    if capture.is_clean() {
+        pass(format!(
+            "link clean: {} frames, sequence without gaps, no CRC or frame error",
+            capture.counters.frames_ok
+        ));
+    } else {
+        fails.push(format!("link not clean: {}", capture.summary()));
+    }
+    match &h.last_status {
+        Some(s) if s.counters.telemetry_dropped == 0 && s.counters.rx_frame_errors == 0 => {
+            pass("device counters: nothing dropped, no bad command frame".into())
+        }
+        Some(s) => fails.push(format!("device counters: {:?}", s.counters)),
+        None => fails.push("no Status received".into()),
+    }
+    if h.step != Step::Done {
+        fails.push(format!("the command schedule stopped at {:?}", h.step));
+    }
+
+    // 1. The estimates.
+    let valid = |e: &&Estimate| e.flags.contains(StatusFlags::PHYSICALLY_VALID);
+    match h.estimates.iter().rev().find(valid) {
+        Some(e) => {
+            let mut worst: f64 = 0.0;
+            for (i, m) in e.modes.iter().enumerate() {
+                let ew = (f64::from(m.omega_rad_s) / PAPER_OMEGA[i] - 1.0).abs();
+                let ez = (f64::from(m.zeta) / PAPER_ZETA[i] - 1.0).abs();
+                println!(
+                    "e2e: mode {}: omega = {:.5} rad/s (truth {}, rel. error {ew:.1e}), \
+                     zeta = {:.7} (truth {}, rel. error {ez:.1e})",
+                    i + 1,
+                    m.omega_rad_s,
+                    PAPER_OMEGA[i],
+                    m.zeta,
+                    PAPER_ZETA[i]
+                );
+                worst = worst.max(ew).max(ez);
+            }
+            let t = e.sample_index as f64 * 1e-4;
+            if e.modes.len() == 2 && worst <= TOLERANCE {
+                pass(format!(
+                    "estimate at t = {t:.2} s within {worst:.1e} of the truth (≤ {TOLERANCE:.0e})"
+                ));
+            } else {
+                fails.push(format!(
+                    "estimate at t = {t:.2} s off the truth by {worst:.1e}"
+                ));
+            }
+            if e.sample_index < 49_000 {
+                fails.push(format!(
+                    "the last valid estimate is from t = {t:.2} s, not 5 s"
+                ));
+            }
+            let want = StatusFlags::EXCITED
+                .with(StatusFlags::PHYSICALLY_VALID)
+                .with(StatusFlags::CONVERGED);
+            if e.flags.contains(want) {
+                pass(format!(
+                    "final flags {:#06x}: excited, valid, converged",
+                    e.flags.0
+                ));
+            } else {
+                fails.push(format!(
+                    "final flags {:#06x} lack excited/valid/converged",
+                    e.flags.0
+                ));
+            }
+        }
+        None => fails.push("no physically valid estimate".into()),
+    }
+    // 100 Hz from the start-up (~0.1 s) to 5 s.
+    if h.estimates.len() >= 480 {
+        pass(format!(
+            "{} estimates (100 Hz after the 0.1 s start-up)",
+            h.estimates.len()
+        ));
+    } else {
+        fails.push(format!("only {} estimates", h.estimates.len()));
+    }
+    for (bit, name) in [
+        (StatusFlags::SENSOR_FAULT, "SENSOR_FAULT"),
+        (StatusFlags::ADC_SATURATED, "ADC_SATURATED"),
+        (StatusFlags::FROZEN_AUTO, "FROZEN_AUTO"),
+    ] {
+        let n = h.estimates.iter().filter(|e| e.flags.contains(bit)).count();
+        if n > 0 {
+            pass(format!(
+                "{n} estimates flagged {name} around the injected faults"
+            ));
+        } else {
+            fails.push(format!("no estimate flagged {name}"));
+        }
+    }
+
+    // 3. The commands.
+    match h.refused_result {
+        Some(AckResult::Rejected(RejectReason::SafeWindow)) => {
+            pass("20 V excitation refused: reason 3, SafeWindow".into())
+        }
+        r => fails.push(format!(
+            "20 V excitation answered {r:?}, expected SafeWindow"
+        )),
+    }
+    match (&h.before_refusal, &h.after_refusal) {
+        (Some(b), Some(a)) => {
+            let same = a.excitation == b.excitation
+                && a.estimator == b.estimator
+                && a.telemetry == b.telemetry
+                && a.adaptation_frozen == b.adaptation_frozen;
+            let counted = a.counters.commands_rejected == b.counters.commands_rejected + 1;
+            if same && counted && a.excitation.amplitude_v == AMPLITUDE_BEFORE_V {
+                pass(
+                    "after the refusal every setting is unchanged (Status), the refusal counted"
+                        .into(),
+                );
+            } else {
+                fails.push(format!(
+                    "the refused command changed something: before {b:?}, after {a:?}"
+                ));
+            }
+        }
+        _ => fails.push("no Status around the refused command".into()),
+    }
+    let switched_at = match &h.after_amplitude {
+        Some(s) if s.excitation.amplitude_v == AMPLITUDE_AFTER_V => {
+            pass(format!(
+                "amplitude 0.2 V accepted; Status at sample {} shows it",
+                s.uptime_samples
+            ));
+            Some(s.uptime_samples)
+        }
+        s => {
+            fails.push(format!("no Status with the new amplitude: {s:?}"));
+            None
+        }
+    };
+    // Raw samples: u at the old level before the command, the new after.
+    let level = |lo: u64, hi: u64, amp: f32| {
+        let pairs: Vec<f32> = h
+            .raw
+            .iter()
+            .filter(|r| r.0 >= lo && r.0 < hi && r.1.is_finite())
+            .map(|r| r.1)
+            .collect();
+        let off = pairs
+            .iter()
+            .filter(|u| (u.abs() / amp - 1.0).abs() > U_TOLERANCE)
+            .count();
+        (pairs.len(), off)
+    };
+    match (h.raw_before_amplitude, switched_at) {
+        (Some(before), Some(after)) => {
+            let (n0, off0) = level(0, before + 1, AMPLITUDE_BEFORE_V);
+            let (n1, off1) = level(after, u64::MAX, AMPLITUDE_AFTER_V);
+            if n0 >= 100 && n1 >= 100 && off0 == 0 && off1 == 0 {
+                pass(format!(
+                    "raw samples: |u| = 0.1 V in all {n0} pairs up to sample {before}, \
+                     0.2 V in all {n1} pairs from sample {after}"
+                ));
+            } else {
+                fails.push(format!(
+                    "raw samples: {off0} of {n0} pairs off 0.1 V before the command, {off1} \
+                     of {n1} off 0.2 V after it"
+                ));
+            }
+        }
+        _ => fails.push(format!(
+            "no raw samples before the amplitude command ({} pairs in all)",
+            h.raw.len()
+        )),
+    }
+    let expected_acks = 5;
+    if h.acks.len() == expected_acks {
+        pass(format!(
+            "{expected_acks} commands sent, {expected_acks} acknowledgements"
+        ));
+    } else {
+        fails.push(format!("acknowledgements: {:?}", h.acks));
+    }
+    for f in fails {
+        h.fail(f);
+    }
+}
