@@ -181,6 +181,12 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn information(&self) -> Option<[[T; NP]; NP]> {
         None
     }
+    /// Hold the law for the filters' settling time (as after a rejected
+    /// sample, without counting a rejection): for an estimator that joins a
+    /// signal already in motion, whose filters start from rest — the
+    /// start-up and re-centring of [`crate::tuning`]. The default does
+    /// nothing; [`Identifier`] implements it.
+    fn hold_for_settling(&mut self) {}
 }
 
 /// A filter bank and an update law: a complete estimator.
@@ -219,7 +225,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
             last_u: T::ZERO,
             last_y: T::ZERO,
             quarantine: 0,
-            quarantine_len: quarantine_samples(filter),
+            quarantine_len: quarantine_samples_for(filter),
             samples: 0,
             rejected: 0,
             skipped: 0,
@@ -239,6 +245,12 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
     /// The filter pole λ (rad/s).
     pub fn lambda_rad_s(&self) -> f64 {
         self.lambda_rad_s
+    }
+
+    /// Hold the law for [`Identifier::quarantine_samples`] samples without
+    /// counting a rejection (see [`Estimator::hold_for_settling`]).
+    pub fn hold_for_settling(&mut self) {
+        self.quarantine = self.quarantine_len;
     }
 }
 
@@ -313,6 +325,10 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.law.information()
     }
 
+    fn hold_for_settling(&mut self) {
+        Identifier::hold_for_settling(self);
+    }
+
     fn health(&self) -> Health {
         Health {
             samples: self.samples,
@@ -341,8 +357,10 @@ pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
     Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
 
 /// Samples covering [`QUARANTINE_TIME_CONSTANTS`] filter time constants
-/// (at least the interpolation window), saturating at `u32::MAX`.
-fn quarantine_samples(filter: &FilterConfig) -> u32 {
+/// (at least the interpolation window), saturating at `u32::MAX`: how long
+/// an [`Identifier`] built with `filter` holds its law after a rejected
+/// sample or [`Estimator::hold_for_settling`].
+pub fn quarantine_samples_for(filter: &FilterConfig) -> u32 {
     let n = libm::ceil(QUARANTINE_TIME_CONSTANTS / (filter.lambda_rad_s * filter.ts_s));
     if n >= u32::MAX as f64 {
         u32::MAX
