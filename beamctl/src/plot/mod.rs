@@ -1,21 +1,30 @@
-//! `--plot`: estimates vs time, like the paper's Fig. 4 (with the final
-//! values of Table III): one panel per parameter (ω̂_i left, ζ̂_i right, one
-//! row per mode), the truth as a dashed black line and one coloured line per
-//! estimator.
+//! `--plot`: estimates vs time, like the paper's Fig. 4, with the panels a
+//! reader needs to judge convergence: one panel per parameter (ω̂_i left,
+//! ζ̂_i right, one row per mode; the truth, when known, as a dashed black
+//! line; one coloured line per estimator), then a bottom row with the
+//! largest relative ω/ζ error vs time on a log axis (when the truth is
+//! known) and the model output vs the measured y (the paper's Figs. 5 and
+//! 8), with each model's fit %.
 //!
 //! # Design
-//! * Text needs a font. plotters' `ttf` feature would link fontconfig and
-//!   freetype; instead plotters renders with `ab_glyph` from a TrueType file
-//!   found at run time: `$BEAMCTL_FONT` if set, else a few well-known system
-//!   paths (DejaVu, Liberation, Noto, Arial), else the first `*Sans*.ttf`
-//!   under the system font directories. Without any font the plot is drawn
-//!   without text (and the caller says so).
-//! * Traces arrive at 1 kHz; the recorder keeps every k-th so a series has at
-//!   most [`MAX_POINTS`] points (5 ms resolution for 20 s).
-//! * The y range ignores the first 5% of the run (the start-up transient,
-//!   where the estimate can be orders of magnitude off) using the 1st–99th
-//!   percentiles of the rest, always includes the truth, and is at least
-//!   ±0.5% of the truth wide; lines outside it are clamped to its edge.
+//! * Text needs a font ([`font`]). plotters' `ttf` feature would link
+//!   fontconfig and freetype; instead plotters renders with `ab_glyph` from
+//!   a TrueType file found at run time: `$BEAMCTL_FONT` if set, else a few
+//!   well-known system paths (DejaVu, Liberation, Noto, Arial), else the
+//!   first `*Sans*.ttf` under the system font directories. Without any font
+//!   the plot is drawn without text (and the caller says so).
+//! * Traces arrive at the evaluation rate; the recorder keeps every k-th so
+//!   a series has at most [`MAX_POINTS`] points (5 ms resolution for 20 s).
+//! * **Every trajectory stays visible.** The y range of a parameter panel
+//!   follows the data: the union over estimators of the 1st–99th
+//!   percentiles after the first 5% of the run (the start-up transient),
+//!   plus the reference (the truth, or without it the median final
+//!   estimate), at least ±0.5% of the reference wide. Only if that union
+//!   reaches beyond reference ± |reference| is the range capped there; a
+//!   line outside it is clamped to the edge *and* marked with triangles,
+//!   and its legend entry says "off scale".
+
+mod font;
 
 use crate::error::CliError;
 use beamctl::Trace;
@@ -23,8 +32,7 @@ use beamest::model::{ModalParams, MAX_MODES};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::series::DashedLineSeries;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::Path;
 
 /// Largest number of points kept per series.
 pub const MAX_POINTS: u64 = 5000;
@@ -42,6 +50,9 @@ pub struct Series {
     pub omega: Vec<[f64; MAX_MODES]>,
     /// ζ̂_i per point.
     pub zeta: Vec<[f64; MAX_MODES]>,
+    /// Largest relative ω/ζ error per point (NaN without the truth or an
+    /// estimate).
+    pub err: Vec<f64>,
 }
 
 /// Collects a decimated [`Series`] from the runner's traces.
@@ -64,6 +75,7 @@ impl Recorder {
                 t: Vec::with_capacity(cap),
                 omega: Vec::with_capacity(cap),
                 zeta: Vec::with_capacity(cap),
+                err: Vec::with_capacity(cap),
             },
             stride,
             count: 0,
@@ -86,11 +98,68 @@ impl Recorder {
         self.series.t.push(t.t_s);
         self.series.omega.push(w);
         self.series.zeta.push(z);
+        self.series.err.push(t.max_rel_error.unwrap_or(f64::NAN));
     }
 
-    /// The series collected.
+    /// A recorder that keeps every trace (for a record of unknown
+    /// length) and decimates to at most [`MAX_POINTS`] at the end.
+    pub fn unbounded(name: &str, modes: usize) -> Self {
+        let mut r = Self::new(name, modes, 0);
+        r.stride = 1;
+        r
+    }
+
+    /// The series collected (at most [`MAX_POINTS`] points).
     pub fn finish(self) -> Series {
-        self.series
+        let mut s = self.series;
+        let stride = (s.t.len() as u64).div_ceil(MAX_POINTS).max(1) as usize;
+        if stride > 1 {
+            decimate(&mut s.t, stride);
+            decimate(&mut s.omega, stride);
+            decimate(&mut s.zeta, stride);
+            decimate(&mut s.err, stride);
+        }
+        s
+    }
+}
+
+/// Keep every `stride`-th element.
+fn decimate<T>(v: &mut Vec<T>, stride: usize) {
+    let mut i = 0;
+    v.retain(|_| {
+        i += 1;
+        (i - 1) % stride == 0
+    });
+}
+
+/// The measured y and each model's output over a window (see
+/// `beamctl::fit`).
+#[derive(Debug, Clone)]
+pub struct OutputPanel {
+    /// Time (s).
+    pub t: Vec<f64>,
+    /// Measured y.
+    pub y: Vec<f64>,
+    /// Per estimator: name, fit %, ŷ on `t` (empty without a model).
+    pub models: Vec<(String, Option<f64>, Vec<f64>)>,
+}
+
+/// Fail early (naming `--plot`) if the name does not end in `.png`.
+pub fn check_extension(p: &Path) -> Result<(), CliError> {
+    let png = p
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if png {
+        Ok(())
+    } else {
+        Err(CliError::usage(
+            "--plot",
+            format!(
+                "only PNG output is supported: the file name must end in .png (got {})",
+                p.display()
+            ),
+        ))
     }
 }
 
@@ -114,88 +183,24 @@ fn color(name: &str, index: usize) -> RGBColor {
     }
 }
 
-/// Candidate font files, most preferred first.
-const FONT_PATHS: &[&str] = &[
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
-    "/usr/share/fonts/truetype/noto/NotoSans-Regular.ttf",
-    "/usr/share/fonts/noto/NotoSans-Regular.ttf",
-    "/System/Library/Fonts/Supplemental/Arial.ttf",
-    "/Library/Fonts/Arial.ttf",
-    "C:\\Windows\\Fonts\\arial.ttf",
-];
-
-/// Directories searched for any `*Sans*.ttf` when no known file exists.
-const FONT_DIRS: &[&str] = &["/usr/share/fonts", "/usr/local/share/fonts"];
-
-/// Register a sans-serif font with plotters once; true if one was found.
-fn ensure_font() -> bool {
-    static FOUND: OnceLock<bool> = OnceLock::new();
-    *FOUND.get_or_init(|| {
-        let candidates: Vec<PathBuf> = match std::env::var_os("BEAMCTL_FONT") {
-            Some(p) => vec![PathBuf::from(p)],
-            None => FONT_PATHS
-                .iter()
-                .map(PathBuf::from)
-                .chain(FONT_DIRS.iter().filter_map(|d| find_ttf(Path::new(d), 4)))
-                .collect(),
-        };
-        candidates.iter().any(|p| register(p))
-    })
-}
-
-fn register(path: &Path) -> bool {
-    let Ok(bytes) = std::fs::read(path) else {
-        return false;
-    };
-    // plotters keeps fonts for the life of the process.
-    let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-    plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
-}
-
-/// The first `*Sans*.ttf` (not mono, not bold/italic) below `dir`.
-fn find_ttf(dir: &Path, depth: usize) -> Option<PathBuf> {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .ok()?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .collect();
-    entries.sort();
-    for p in &entries {
-        let name = p.file_name()?.to_string_lossy().to_lowercase();
-        if p.is_file()
-            && name.ends_with(".ttf")
-            && name.contains("sans")
-            && !["mono", "bold", "italic", "oblique", "light", "condensed"]
-                .iter()
-                .any(|s| name.contains(s))
-        {
-            return Some(p.clone());
-        }
-    }
-    if depth == 0 {
-        return None;
-    }
-    entries
-        .iter()
-        .filter(|p| p.is_dir())
-        .find_map(|p| find_ttf(p, depth - 1))
-}
-
-/// Draw the plot. Returns whether text was drawn (a font was found).
+/// Draw the plot. `truth` is `None` for recorded data. Returns whether
+/// text was drawn (a font was found).
 pub fn write(
     path: &Path,
     title: &str,
-    truth: &ModalParams<f64>,
+    truth: Option<&ModalParams<f64>>,
     series: &[Series],
     duration_s: f64,
+    output: Option<&OutputPanel>,
 ) -> Result<bool, CliError> {
-    let text = ensure_font();
-    let n = truth.modes.clamp(1, MAX_MODES);
-    let (w, h) = (1400u32, 60 + 330 * n as u32);
+    let text = font::ensure_font();
+    let n = series
+        .first()
+        .map_or(truth.map_or(1, |t| t.modes), |s| s.modes)
+        .clamp(1, MAX_MODES);
+    let bottom = truth.is_some() || output.is_some();
+    let rows = n + usize::from(bottom);
+    let (w, h) = (1400u32, 60 + 330 * rows as u32);
     let fail = |e: &dyn std::fmt::Display| {
         CliError::failure(format!("--plot: drawing {}: {e}", path.display()))
     };
@@ -207,7 +212,7 @@ pub fn write(
     } else {
         root.margin(40, 0, 0, 0)
     };
-    let panels = body.split_evenly((n, 2));
+    let panels = body.split_evenly((rows, 2));
     for i in 0..n {
         let omega: Vec<(&str, Vec<(f64, f64)>)> = series
             .iter()
@@ -222,7 +227,7 @@ pub fn write(
         panel(
             &panels[2 * i],
             &omega_label,
-            truth.omega_rad_s[i],
+            truth.map(|t| t.omega_rad_s[i]),
             &omega,
             duration_s,
             text,
@@ -232,13 +237,25 @@ pub fn write(
         panel(
             &panels[2 * i + 1],
             &zeta_label,
-            truth.zeta[i],
+            truth.map(|t| t.zeta[i]),
             &zeta,
             duration_s,
             text,
             false,
         )
         .map_err(|e| fail(&e))?;
+    }
+    if bottom {
+        let (left, right) = (&panels[2 * n], &panels[2 * n + 1]);
+        let out_area = if truth.is_some() {
+            error_panel(left, series, duration_s, text).map_err(|e| fail(&e))?;
+            right
+        } else {
+            left
+        };
+        if let Some(o) = output {
+            output_panel(out_area, o, text).map_err(|e| fail(&e))?;
+        }
     }
     root.present().map_err(|e| fail(&e))?;
     Ok(text)
@@ -249,27 +266,42 @@ fn points(t: &[f64], v: &[[f64; MAX_MODES]], i: usize) -> Vec<(f64, f64)> {
     t.iter().zip(v).map(|(&t, v)| (t, v[i])).collect()
 }
 
-/// The y range shown for a parameter (see the module docs).
-pub fn y_range(truth: f64, lines: &[(&str, Vec<(f64, f64)>)], duration_s: f64) -> (f64, f64) {
+/// The y range shown for a parameter and whether it was capped (see the
+/// module docs). `reference` is the truth, or `None` for recorded data.
+pub fn y_range(
+    reference: Option<f64>,
+    lines: &[(&str, Vec<(f64, f64)>)],
+    duration_s: f64,
+) -> (f64, f64) {
     let skip = 0.05 * duration_s;
-    let mut vals: Vec<f64> = lines
-        .iter()
-        .flat_map(|(_, pts)| pts.iter())
-        .filter(|(t, v)| *t >= skip && v.is_finite())
-        .map(|(_, v)| *v)
-        .collect();
-    vals.sort_by(f64::total_cmp);
-    let (mut lo, mut hi) = (truth, truth);
-    if !vals.is_empty() {
+    let reference = reference.unwrap_or_else(|| {
+        let mut finals: Vec<f64> = lines
+            .iter()
+            .filter_map(|(_, pts)| pts.iter().rev().map(|p| p.1).find(|v| v.is_finite()))
+            .collect();
+        finals.sort_by(f64::total_cmp);
+        finals.get(finals.len() / 2).copied().unwrap_or(0.0)
+    });
+    let (mut lo, mut hi) = (reference, reference);
+    for (_, pts) in lines {
+        let mut vals: Vec<f64> = pts
+            .iter()
+            .filter(|(t, v)| *t >= skip && v.is_finite())
+            .map(|(_, v)| *v)
+            .collect();
+        if vals.is_empty() {
+            continue;
+        }
+        vals.sort_by(f64::total_cmp);
         let q = |p: f64| vals[((vals.len() - 1) as f64 * p).round() as usize];
         lo = lo.min(q(0.01));
         hi = hi.max(q(0.99));
     }
-    // Never wider than truth ± |truth|: a diverging baseline then hugs the
-    // edge instead of flattening the others into the truth line.
-    let cap = truth.abs().max(f64::MIN_POSITIVE);
-    lo = lo.max(truth - cap);
-    hi = hi.min(truth + cap);
+    // Follow the data unless a line strays beyond reference ± |reference|:
+    // then cap there (that line is drawn clamped and marked off scale).
+    let cap = reference.abs().max(f64::MIN_POSITIVE);
+    lo = lo.max(reference - cap);
+    hi = hi.min(reference + cap);
     let min_half = 0.005 * cap;
     let mid = 0.5 * (lo + hi);
     let half = (0.5 * (hi - lo) * 1.1).max(min_half);
@@ -279,7 +311,7 @@ pub fn y_range(truth: f64, lines: &[(&str, Vec<(f64, f64)>)], duration_s: f64) -
 fn panel(
     area: &DrawingArea<BitMapBackend<'_>, Shift>,
     label: &str,
-    truth: f64,
+    truth: Option<f64>,
     lines: &[(&str, Vec<(f64, f64)>)],
     duration_s: f64,
     text: bool,
@@ -313,6 +345,16 @@ fn panel(
         // One pixel wide: plotters joins wider polylines with unbounded
         // miters, which spike where an estimate zig-zags.
         let style = color(name, k).stroke_width(1);
+        let off: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|(_, v)| v.is_finite() && (*v < lo || *v > hi))
+            .map(|&(t, v)| (t, v.clamp(lo, hi)))
+            .collect();
+        let label = if off.is_empty() {
+            name.to_string()
+        } else {
+            format!("{name} (off scale, ▲▼)")
+        };
         // Split at NaN (no estimate) and clamp to the visible range.
         let mut first = true;
         for segment in pts.split(|(_, v)| !v.is_finite()) {
@@ -322,24 +364,182 @@ fn panel(
             let clamped = segment.iter().map(|&(t, v)| (t, v.clamp(lo, hi)));
             let drawn = chart.draw_series(LineSeries::new(clamped, style))?;
             if first {
-                drawn.label(*name).legend(move |(x, y)| {
+                drawn.label(label.clone()).legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3))
                 });
                 first = false;
             }
         }
+        // Off-scale marks: at most ~40 triangles per line, on the edge.
+        let stride = off.len().div_ceil(40).max(1);
+        let fill = color(name, k).filled();
+        chart.draw_series(off.iter().step_by(stride).map(|&(t, v)| {
+            let up = v >= hi;
+            let y = if up { hi } else { lo };
+            let tip = if up { -6 } else { 6 };
+            EmptyElement::at((t, y))
+                + Polygon::new(vec![(-5, 0), (5, 0), (0, tip)], fill)
+        }))?;
     }
-    // The truth last, on top of converged estimates.
-    chart
-        .draw_series(DashedLineSeries::new(
-            vec![(0.0, truth), (duration_s, truth)],
-            10,
-            6,
-            BLACK.stroke_width(2),
-        ))?
-        .label("truth")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    if let Some(truth) = truth {
+        // The truth last, on top of converged estimates.
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(0.0, truth), (duration_s, truth)],
+                10,
+                6,
+                BLACK.stroke_width(2),
+            ))?
+            .label("truth")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    }
     if text && legend {
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    Ok(())
+}
+
+/// Largest relative ω/ζ error vs time, log axis (simulation only).
+fn error_panel(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    series: &[Series],
+    duration_s: f64,
+    text: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let all = series
+        .iter()
+        .flat_map(|s| s.err.iter().copied())
+        .filter(|e| e.is_finite() && *e > 0.0);
+    let (min, max) = all.fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
+    let lo = if min.is_finite() { (min / 2.0).max(1e-16) } else { 1e-16 };
+    let hi = (max * 2.0).clamp(1.0, 1e6);
+    let mut builder = ChartBuilder::on(area);
+    builder.margin(12);
+    if text {
+        builder
+            .caption("largest relative ω/ζ error", ("sans-serif", 18))
+            .x_label_area_size(36)
+            .y_label_area_size(80);
+    } else {
+        builder.x_label_area_size(4).y_label_area_size(4);
+    }
+    let mut chart = builder.build_cartesian_2d(0.0..duration_s, (lo..hi).log_scale())?;
+    let mut mesh = chart.configure_mesh();
+    if text {
+        mesh.x_desc("t (s)")
+            .label_style(("sans-serif", 14))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .x_labels(8)
+            .y_labels(8);
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw()?;
+    for (k, s) in series.iter().enumerate() {
+        let style = color(&s.name, k).stroke_width(1);
+        // Non-finite = no estimate: drawn at the top edge.
+        let pts: Vec<(f64, f64)> = s
+            .t
+            .iter()
+            .zip(&s.err)
+            .filter(|(_, e)| !e.is_nan())
+            .map(|(&t, &e)| (t, e.clamp(lo, hi)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts, style))?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3)));
+    }
+    if text {
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    Ok(())
+}
+
+/// Measured y and each model's output over the panel's window.
+fn output_panel(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    o: &OutputPanel,
+    text: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let (t0, t1) = match (o.t.first(), o.t.last()) {
+        (Some(&a), Some(&b)) if b > a => (a, b),
+        _ => return Ok(()),
+    };
+    let finite = o.y.iter().copied().filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Ok(());
+    }
+    let pad = 0.15 * (hi - lo).max(1e-12 * lo.abs().max(1e-300));
+    let (lo, hi) = (lo - pad, hi + pad);
+    let mut builder = ChartBuilder::on(area);
+    builder.margin(12);
+    if text {
+        builder
+            .caption("model output ŷ vs measured y", ("sans-serif", 18))
+            .x_label_area_size(36)
+            .y_label_area_size(80);
+    } else {
+        builder.x_label_area_size(4).y_label_area_size(4);
+    }
+    let mut chart = builder.build_cartesian_2d(t0..t1, lo..hi)?;
+    let mut mesh = chart.configure_mesh();
+    if text {
+        mesh.x_desc("t (s)")
+            .label_style(("sans-serif", 14))
+            .y_label_formatter(&|v| format!("{v:.3e}"))
+            .x_labels(6)
+            .y_labels(6);
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw()?;
+    let measured: Vec<(f64, f64)> = o
+        .t
+        .iter()
+        .zip(&o.y)
+        .filter(|(_, y)| y.is_finite())
+        .map(|(&t, &y)| (t, y))
+        .collect();
+    chart
+        .draw_series(LineSeries::new(measured, BLACK.stroke_width(2)))?
+        .label("measured y")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    for (k, (name, fit, yhat)) in o.models.iter().enumerate() {
+        if yhat.len() != o.t.len() {
+            continue;
+        }
+        let style = color(name, k).stroke_width(1);
+        let pts = o
+            .t
+            .iter()
+            .zip(yhat)
+            .map(|(&t, &v)| (t, if v.is_finite() { v.clamp(lo, hi) } else { hi }));
+        let label = match fit {
+            Some(f) => format!("{name}: fit {f:.2} %"),
+            None => format!("{name}: no fit"),
+        };
+        chart
+            .draw_series(DashedLineSeries::new(pts, 6, 3, style))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3)));
+    }
+    if text {
         chart
             .configure_series_labels()
             .label_font(("sans-serif", 14))
@@ -375,15 +575,23 @@ mod tests {
         let pts: Vec<(f64, f64)> = (0..100)
             .map(|k| (k as f64 * 0.1, if k < 2 { 1e6 } else { 40.0 }))
             .collect();
-        let (lo, hi) = y_range(39.0, &[("a", pts.clone())], 10.0);
+        let (lo, hi) = y_range(Some(39.0), &[("a", pts.clone())], 10.0);
         assert!(lo < 39.0 && hi > 40.0 && hi < 45.0, "{lo} {hi}");
         // A diverging estimate is capped at truth ± |truth| (plus margin).
         let far: Vec<(f64, f64)> = pts.iter().map(|&(t, _)| (t, 1e3)).collect();
-        let (lo, hi) = y_range(39.0, &[("a", far)], 10.0);
+        let (lo, hi) = y_range(Some(39.0), &[("a", far)], 10.0);
         assert!(lo > -5.0 && hi < 85.0, "{lo} {hi}");
         // A converged estimate still gets a visible band.
-        let (lo, hi) = y_range(0.02, &[], 1.0);
+        let (lo, hi) = y_range(Some(0.02), &[], 1.0);
         assert!(lo < 0.02 && hi > 0.02 && hi - lo > 1e-4);
+        // Within the cap the range follows every line: a baseline 30% off
+        // stays on scale.
+        let off: Vec<(f64, f64)> = pts.iter().map(|&(t, _)| (t, 52.0)).collect();
+        let (lo, hi) = y_range(Some(39.0), &[("a", pts.clone()), ("b", off)], 10.0);
+        assert!(lo < 39.0 && hi > 52.0, "{lo} {hi}");
+        // Without the truth the reference is the median final estimate.
+        let (lo, hi) = y_range(None, &[("a", pts)], 10.0);
+        assert!(lo < 40.0 && hi > 40.0 && hi < 41.0, "{lo} {hi}");
     }
 
     #[test]
