@@ -109,25 +109,44 @@ impl Model {
     }
 }
 
-/// Running state of one simulation pass.
+/// Running state of one simulation pass (fixed-size: at most
+/// [`MAX_ORDER`] sections).
 struct Pass<'m> {
     model: &'m Model,
     /// Forced-response states.
-    x: Vec<C>,
+    x: [C; MAX_ORDER],
     /// Free-response basis values e^{p·kTs} per section.
-    z: Vec<C>,
+    z: [C; MAX_ORDER],
     last_u: f64,
 }
 
 impl<'m> Pass<'m> {
     fn new(model: &'m Model) -> Self {
-        let n = model.sections.len();
         Self {
             model,
-            x: vec![C::from_real(0.0); n],
-            z: vec![C::from_real(1.0); n],
+            x: [C::from_real(0.0); MAX_ORDER],
+            z: [C::from_real(1.0); MAX_ORDER],
             last_u: 0.0,
         }
+    }
+
+    /// ŷ_forced(k), then advance with u_k; the basis is not needed (it has
+    /// decayed below 1e-30).
+    #[inline]
+    fn step_forced(&mut self, u: f64) -> f64 {
+        let mut y = 0.0;
+        if u.is_finite() {
+            self.last_u = u;
+        }
+        let u = self.last_u;
+        for (s, x) in self.model.sections.iter().zip(self.x.iter_mut()) {
+            y += s.weight.re * x.re - s.weight.im * x.im;
+            *x = C::new(
+                s.phi.re * x.re - s.phi.im * x.im + s.gamma.re * u,
+                s.phi.re * x.im + s.phi.im * x.re + s.gamma.im * u,
+            );
+        }
+        y
     }
 
     /// ŷ_forced(k) and the basis b_j(k) into `b`; then advance with u_k.
@@ -184,11 +203,16 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     // The free response decays: once every basis value is negligible, the
     // normal equations are complete.
     let mut basis_live = true;
+    let sections = model.sections.len();
     for (k, (u, y)) in (0u64..).zip(samples()) {
-        let yf = pass.step(u, &mut b);
-        if basis_live && k % 1024 == 0 {
-            basis_live = pass.z.iter().any(|z| z.norm() > 1e-30);
-        }
+        let yf = if basis_live {
+            if k % 1024 == 0 {
+                basis_live = pass.z[..sections].iter().any(|z| z.norm() > 1e-30);
+            }
+            pass.step(u, &mut b)
+        } else {
+            pass.step_forced(u)
+        };
         if !y.is_finite() {
             continue;
         }
@@ -211,10 +235,18 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     let c = solve_spd(&mut g, &h, m).unwrap_or_else(|| vec![0.0; m]);
     let mut pass = Pass::new(model);
     let (mut sse, mut sst) = (0.0, 0.0);
-    for (u, y) in samples() {
-        let yf = pass.step(u, &mut b);
+    let mut live = true;
+    for (k, (u, y)) in (0u64..).zip(samples()) {
+        let (yf, free) = if live {
+            if k % 1024 == 0 {
+                live = pass.z[..sections].iter().any(|z| z.norm() > 1e-30);
+            }
+            let yf = pass.step(u, &mut b);
+            (yf, c.iter().zip(&b).map(|(c, b)| c * b).sum::<f64>())
+        } else {
+            (pass.step_forced(u), 0.0)
+        };
         if y.is_finite() {
-            let free: f64 = c.iter().zip(&b).map(|(c, b)| c * b).sum();
             let r = y - yf - free;
             sse += r * r;
             sst += (y - mean) * (y - mean);
