@@ -4,8 +4,9 @@
 //! The format is documented in docs/REPLAY.md.
 //!
 //! # Design
-//! * **No allocation per row.** The file is read in 4 MiB blocks; rows are
-//!   split with `memchr` (SIMD) and only the two or three needed fields are
+//! * **No allocation per row.** The file is read in 4 MiB blocks; the
+//!   delimiters of a block are found 8 bytes at a time ([`Delimiters`],
+//!   SWAR) and only the two or three needed fields are
 //!   parsed, with `fast-float2` (Lemire's algorithm; correctly rounded, so
 //!   a shortest round-trip decimal reads back as the same f64). Samples
 //!   come out in caller-provided batches.
@@ -117,7 +118,10 @@ struct Layout {
 /// A reader of samples.
 pub struct Reader {
     src: Box<dyn Read + Send>,
+    /// Read buffer, zero-initialised once: valid bytes are `buf[..end]`.
     buf: Vec<u8>,
+    /// End of the valid bytes in `buf`.
+    end: usize,
     /// Start of the unparsed bytes in `buf`.
     pos: usize,
     eof: bool,
@@ -133,6 +137,67 @@ pub struct Reader {
     rows: u64,
 }
 
+/// Positions of ',' and '\n' in a block, found 8 bytes at a time with
+/// SWAR bit tricks (no `unsafe`, no per-delimiter call): for each 8-byte
+/// word, the bytes equal to a delimiter become set high bits of a mask,
+/// whose set bits are then walked with `trailing_zeros`.
+struct Delimiters<'a> {
+    bytes: &'a [u8],
+    /// Start of the current 8-byte word.
+    base: usize,
+    /// Delimiter bits of the current word (bit 8k+7 ↔ byte k).
+    mask: u64,
+}
+
+impl<'a> Delimiters<'a> {
+    fn new(bytes: &'a [u8]) -> Self {
+        let mut d = Self {
+            bytes,
+            base: 0,
+            mask: 0,
+        };
+        d.mask = d.word_mask(0);
+        d
+    }
+
+    /// Mask of the delimiters in the 8 bytes from `at` (zero-padded).
+    #[inline]
+    fn word_mask(&self, at: usize) -> u64 {
+        const LO: u64 = 0x0101_0101_0101_0101;
+        const HI: u64 = 0x8080_8080_8080_8080;
+        let mut w = [0u8; 8];
+        let end = (at + 8).min(self.bytes.len());
+        if at < end {
+            w[..end - at].copy_from_slice(&self.bytes[at..end]);
+        }
+        let x = u64::from_le_bytes(w);
+        // A byte equal to c becomes 0 after XOR; mark zero bytes exactly
+        // (no false positives: the carry-free form).
+        let zero = |v: u64| !(((v & !HI) + !HI) | v | !HI);
+        let m = zero(x ^ (LO * u64::from(b','))) | zero(x ^ (LO * u64::from(b'\n')));
+        // Padding bytes are 0, never a delimiter.
+        m
+    }
+}
+
+impl Iterator for Delimiters<'_> {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        while self.mask == 0 {
+            self.base += 8;
+            if self.base >= self.bytes.len() {
+                return None;
+            }
+            self.mask = self.word_mask(self.base);
+        }
+        let bit = self.mask.trailing_zeros() as usize;
+        self.mask &= self.mask - 1;
+        Some(self.base + bit / 8)
+    }
+}
+
 /// Find a header name: exact, else ASCII case-insensitive.
 fn find(names: &[&str], want: &str) -> Option<usize> {
     names
@@ -142,7 +207,14 @@ fn find(names: &[&str], want: &str) -> Option<usize> {
 }
 
 /// Trim spaces, tabs and one pair of surrounding double quotes.
+#[inline]
 fn clean(f: &[u8]) -> &[u8] {
+    // Common case first: a bare number.
+    if let (Some(a), Some(b)) = (f.first(), f.last()) {
+        if (a.is_ascii_digit() || *a == b'-' || *a == b'.') && b.is_ascii_alphanumeric() {
+            return f;
+        }
+    }
     let f = f.trim_ascii();
     match f {
         [b'"', inner @ .., b'"'] => inner.trim_ascii(),
@@ -152,6 +224,7 @@ fn clean(f: &[u8]) -> &[u8] {
 
 /// Parse a numeric field: `Ok(NaN)` for empty/NaN/inf (a missing sample),
 /// `Err` for anything that is not a number.
+#[inline]
 fn number(f: &[u8]) -> Result<f64, ()> {
     let f = clean(f);
     if f.is_empty() {
@@ -208,7 +281,8 @@ impl Reader {
         }
         let mut r = Self {
             src,
-            buf: Vec::with_capacity(BLOCK),
+            buf: vec![0; 2 * BLOCK],
+            end: 0,
             pos: 0,
             eof: false,
             line: 0,
@@ -250,13 +324,19 @@ impl Reader {
         if self.eof {
             return Ok(false);
         }
-        self.buf.drain(..self.pos);
+        // Move the unparsed tail to the front and read behind it; the
+        // buffer is zero-filled once, never again.
+        self.buf.copy_within(self.pos..self.end, 0);
+        self.end -= self.pos;
         self.pos = 0;
-        let old = self.buf.len();
-        self.buf.resize(old + BLOCK, 0);
+        if self.buf.len() - self.end < BLOCK {
+            // A line longer than the buffer: grow it.
+            let grown = 2 * self.buf.len();
+            self.buf.resize(grown, 0);
+        }
         let mut got = 0;
         while got < BLOCK {
-            match self.src.read(&mut self.buf[old + got..]) {
+            match self.src.read(&mut self.buf[self.end + got..self.end + BLOCK]) {
                 Ok(0) => {
                     self.eof = true;
                     break;
@@ -268,7 +348,7 @@ impl Reader {
                 }
             }
         }
-        self.buf.truncate(old + got);
+        self.end += got;
         Ok(got > 0)
     }
 
@@ -276,7 +356,7 @@ impl Reader {
     /// Borrow-free: returns the byte range in `buf`.
     fn next_line(&mut self) -> Result<Option<(usize, usize)>, CsvError> {
         loop {
-            if let Some(i) = memchr::memchr(b'\n', &self.buf[self.pos..]) {
+            if let Some(i) = memchr::memchr(b'\n', &self.buf[self.pos..self.end]) {
                 let (s, mut e) = (self.pos, self.pos + i);
                 self.pos = e + 1;
                 if e > s && self.buf[e - 1] == b'\r' {
@@ -286,9 +366,9 @@ impl Reader {
                 return Ok(Some((s, e)));
             }
             if !self.fill()? {
-                if self.pos < self.buf.len() {
+                if self.pos < self.end {
                     // Last line without a terminator.
-                    let (s, mut e) = (self.pos, self.buf.len());
+                    let (s, mut e) = (self.pos, self.end);
                     self.pos = e;
                     if e > s && self.buf[e - 1] == b'\r' {
                         e -= 1;
@@ -479,6 +559,120 @@ impl Reader {
         Ok(())
     }
 
+    /// Parse the complete rows in `buf[pos..end]` (`end` just after a
+    /// newline) into `out` until it holds `max` samples: one pass over the
+    /// bytes for both delimiters, only the needed fields parsed. Same rules
+    /// and messages as [`Reader::parse_row`] and [`Reader::check_t`].
+    fn fast_rows(
+        &mut self,
+        end: usize,
+        out: &mut Vec<(f64, f64)>,
+        max: usize,
+    ) -> Result<(), CsvError> {
+        let l = self.layout;
+        let t_col = l.t.unwrap_or(usize::MAX);
+        let ts = self.ts_s;
+        let mut line = self.line;
+        let mut last_t = self.last_t;
+        let mut rows = self.rows;
+        let base = self.pos;
+        let block = &self.buf[base..end];
+        let (mut t, mut u, mut y) = (f64::NAN, f64::NAN, f64::NAN);
+        let mut idx = 0usize;
+        let mut field_start = 0usize;
+        let mut row_start = 0usize;
+        let mut consumed = block.len();
+        for d in Delimiters::new(block) {
+            let newline = block[d] == b'\n';
+            let mut f = &block[field_start..d];
+            if newline {
+                if let [rest @ .., b'\r'] = f {
+                    f = rest;
+                }
+            }
+            if idx < l.fields && (idx == l.u || idx == l.y || idx == t_col) {
+                let v = number(f).map_err(|()| {
+                    let name = if idx == t_col {
+                        't'
+                    } else if idx == l.u {
+                        'u'
+                    } else {
+                        'y'
+                    };
+                    CsvError::at(
+                        line + 1,
+                        format!("field {} ({name}) is not a number: {:?}", idx + 1, show(f)),
+                    )
+                })?;
+                if idx == t_col {
+                    t = v;
+                } else if idx == l.u {
+                    u = v;
+                } else {
+                    y = v;
+                }
+            }
+            field_start = d + 1;
+            if !newline {
+                idx += 1;
+                continue;
+            }
+            line += 1;
+            let row = &block[row_start..d];
+            row_start = d + 1;
+            let count = idx + 1;
+            idx = 0;
+            if row.trim_ascii().is_empty() {
+                (t, u, y) = (f64::NAN, f64::NAN, f64::NAN);
+                continue;
+            }
+            if count != l.fields {
+                return Err(CsvError::at(
+                    line,
+                    format!("{count} fields, the header has {}", l.fields),
+                ));
+            }
+            if l.t.is_some() {
+                if !t.is_finite() {
+                    return Err(CsvError::at(
+                        line,
+                        "the time column is empty or not a finite number",
+                    ));
+                }
+                if let Some(prev) = last_t {
+                    let dt = t - prev;
+                    if !(dt > 0.0) {
+                        return Err(CsvError::at(
+                            line,
+                            format!("the time column does not increase ({prev} then {t})"),
+                        ));
+                    }
+                    if (dt - ts).abs() > TS_TOLERANCE * ts {
+                        return Err(CsvError::at(
+                            line,
+                            format!(
+                                "non-uniform sampling: interval {dt:e} s differs from the sample interval {ts:e} s by more than 1%"
+                            ),
+                        ));
+                    }
+                }
+                last_t = Some(t);
+            }
+            rows += 1;
+            out.push((u, y));
+            (t, u, y) = (f64::NAN, f64::NAN, f64::NAN);
+            if out.len() >= max {
+                consumed = d + 1;
+                break;
+            }
+        }
+        self.pos = base + consumed;
+        self.line = line;
+        self.last_t = last_t;
+        self.rows = rows;
+        Ok(())
+    }
+
     /// Fill `out` (cleared first) with up to `max` samples (u, y). Returns
     /// false when the input is exhausted and nothing was added.
     pub fn next_batch(&mut self, out: &mut Vec<(f64, f64)>, max: usize) -> Result<bool, CsvError> {
@@ -491,23 +685,59 @@ impl Reader {
             self.prefix = Vec::new();
             self.prefix_pos = 0;
         }
-        let has_t = self.layout.t.is_some();
         while out.len() < max {
-            let Some((s, e)) = self.next_line()? else {
-                break;
-            };
-            let Some((t, u, y)) = self.parse_row(s, e)? else {
-                continue;
-            };
-            if has_t {
-                self.check_t(t)?;
+            // Complete lines in the buffer go through the fast path; the
+            // last line of a file without a final newline, through the
+            // line-by-line one.
+            match memchr::memrchr(b'\n', &self.buf[self.pos..self.end]) {
+                Some(last) => {
+                    let end = self.pos + last + 1;
+                    self.fast_rows(end, out, max)?;
+                }
+                None => {
+                    if self.fill()? {
+                        continue;
+                    }
+                    if let Some((s, e)) = self.next_line()? {
+                        if let Some((t, u, y)) = self.parse_row(s, e)? {
+                            if self.layout.t.is_some() {
+                                self.check_t(t)?;
+                            }
+                            self.rows += 1;
+                            out.push((u, y));
+                        }
+                    }
+                    break;
+                }
             }
-            self.rows += 1;
-            out.push((u, y));
         }
         if self.rows == 0 && out.is_empty() && self.eof {
             return Err(CsvError::file("no data rows after the header"));
         }
         Ok(!out.is_empty())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delimiters_match_a_plain_scan() {
+        let text = b"t,u,y\n0,0.1,-3.2e-6\r\n,,\n1234567,\"a,b\"\nlast";
+        for len in 0..=text.len() {
+            let bytes = &text[..len];
+            let want: Vec<usize> = bytes
+                .iter()
+                .enumerate()
+                .filter(|(_, &b)| b == b',' || b == b'\n')
+                .map(|(i, _)| i)
+                .collect();
+            assert_eq!(Delimiters::new(bytes).collect::<Vec<_>>(), want, "len {len}");
+        }
+        // Every byte value: only ',' and '\n' are delimiters.
+        let all: Vec<u8> = (0..=255).collect();
+        let found: Vec<usize> = Delimiters::new(&all).collect();
+        assert_eq!(found, vec![usize::from(b'\n'), usize::from(b',')]);
     }
 }
