@@ -97,10 +97,7 @@ impl Model {
                 real,
             });
         }
-        Some(Self {
-            sections,
-            basis: d,
-        })
+        Some(Self { sections, basis: d })
     }
 
     /// True if every pole is in the open left half plane.
@@ -333,8 +330,8 @@ mod tests {
     use beamest::rig::ModalPlant;
 
     fn paper_record(n: usize, skip: usize) -> Vec<(f64, f64)> {
-        let mut p = ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4)
-            .unwrap();
+        let mut p =
+            ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
         let mut sq = SquareWave::<f64>::paper();
         let all: Vec<(f64, f64)> = (0..n + skip)
             .map(|_| {

@@ -72,9 +72,9 @@ pub const EXPERIMENT_GRADIENT_GAIN: [f64; 7] = [1e11, 1e10, 1e19, 1e16, 1e17, 1e
 pub const EXPERIMENT_LS_GAIN0: [f64; 7] = [1e10, 1e16, 1e17, 1e21, 1e24, 1e23, 1e27];
 
 fn two_modes<const NP: usize>(v: &[f64; 7]) -> Result<[f64; NP], RunError> {
-    v.as_slice().try_into().map_err(|_| {
-        RunError::Estimator("the paper's gains are defined for 2 modes only".into())
-    })
+    v.as_slice()
+        .try_into()
+        .map_err(|_| RunError::Estimator("the paper's gains are defined for 2 modes only".into()))
 }
 
 /// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a

@@ -28,7 +28,6 @@ pub mod session;
 pub mod tuned;
 
 pub use runner::{
-    run, run_many, EstimatorKind, Gains, Observer, Precision, RunConfig, RunError, RunReport,
-    Trace,
+    run, run_many, EstimatorKind, Gains, Observer, Precision, RunConfig, RunError, RunReport, Trace,
 };
 pub use scenario::{PlantSpec, Truth, PAPER_BBAR};

@@ -191,18 +191,14 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         render(&plan, &out.reports)
     };
     write_stdout(&text)?;
-    report::require_estimates(
-        out.reports
-            .iter()
-            .map(|r| {
-                (
-                    r.estimator,
-                    &r.outcome.estimate,
-                    r.outcome.tuning,
-                    r.outcome.law_updates,
-                )
-            }),
-    )
+    report::require_estimates(out.reports.iter().map(|r| {
+        (
+            r.estimator,
+            &r.outcome.estimate,
+            r.outcome.tuning,
+            r.outcome.law_updates,
+        )
+    }))
 }
 
 fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
@@ -354,9 +350,11 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                     .collect(),
                 _ => Vec::new(),
             };
-            panel
-                .models
-                .push((session.kind(i).name().to_string(), f.as_ref().map(|f| f.percent), yhat));
+            panel.models.push((
+                session.kind(i).name().to_string(),
+                f.as_ref().map(|f| f.percent),
+                yhat,
+            ));
         }
         reports.push(ReplayReport {
             file: path.display().to_string(),

@@ -103,11 +103,13 @@ pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> Str
         t.row(row);
     };
     if with_truth {
-        let tr = |c: &Column<'_>| c.truth.unwrap_or(TruthColumn {
-            time_to_1pct_s: None,
-            time_to_0p1pct_s: None,
-            max_error_after_1s: None,
-        });
+        let tr = |c: &Column<'_>| {
+            c.truth.unwrap_or(TruthColumn {
+                time_to_1pct_s: None,
+                time_to_0p1pct_s: None,
+                max_error_after_1s: None,
+            })
+        };
         metric(&mut t, "time to 1%", &|c| seconds(tr(c).time_to_1pct_s));
         metric(&mut t, "time to 0.1%", &|c| seconds(tr(c).time_to_0p1pct_s));
         metric(&mut t, "max error after 1 s", &|c| {
@@ -122,7 +124,7 @@ pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> Str
         c.drift.map_or("n/a".to_string(), rel)
     });
     metric(&mut t, "λ (rad/s)", &|c| lambda_path(c.builds));
-    metric(&mut t, "λ settled at", &|c| match c.builds.last() {
+    metric(&mut t, "λ last built at", &|c| match c.builds.last() {
         Some(b) => format!("{:.3} s ({})", b.sample as f64 * c.ts_s, c.tuning),
         None => format!("never ({})", c.tuning),
     });
@@ -157,7 +159,7 @@ pub const FOOTNOTE: &str = "\nmodel output fit: 100·(1 − ‖y − ŷ‖/‖y 
 model driven by the recorded u (initial state fitted).\nmoved over last 10%: largest \
 (max − min)/|final| of ω̂, ζ̂ over the last 10% of the record.\nλ: the filter pole of each \
 build of the tuning rule (start-up window, then re-centred on the estimate; docs/SETTINGS.md); \
-settled at = start of the last build.\nλmin(P): smallest eigenvalue of the scaled information \
+last built at = when the last estimator was built, and how the rule ended.\nλmin(P): smallest eigenvalue of the scaled information \
 matrix P (Lemma 1); the baselines keep no P.\n";
 
 /// Pretty JSON: one object for one run, an array for several.

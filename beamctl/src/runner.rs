@@ -451,8 +451,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     }
     let truth: Truth = cfg.plant.truth();
     let weights = &truth.modal.output_weight[..truth.modal.modes];
-    let mut session =
-        Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?;
+    let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?;
     let mut rig = rig(cfg)?;
     let total = samples(cfg);
     let every = cfg.eval_every as u64;

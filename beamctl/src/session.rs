@@ -249,7 +249,11 @@ mod tests {
         for k in 0..=100 {
             let t = k as f64 * 0.1;
             // Moves by 1% in the first 90%, then by 1e-4 in the last 10%.
-            let w = if t < 9.0 { 100.0 + t / 9.0 } else { 101.0 + (t - 9.0) * 1e-2 };
+            let w = if t < 9.0 {
+                100.0 + t / 9.0
+            } else {
+                101.0 + (t - 9.0) * 1e-2
+            };
             h.push(t, Some(&m(w)));
         }
         let d = h.drift(10.0).unwrap();

@@ -58,7 +58,10 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
                 format!("the filter pole must be a finite number > 0 rad/s (got {l})"),
             ));
         }
-        (LambdaSource::Fixed(l), format!("λ = {} rad/s (fixed)", short(l)))
+        (
+            LambdaSource::Fixed(l),
+            format!("λ = {} rad/s (fixed)", short(l)),
+        )
     } else if let Some(band) = &args.band_hz {
         let (f1, f2) = match band.as_slice() {
             &[f1, f2] => (f1, f2),

@@ -438,7 +438,9 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
             },
             None => (None, Vec::new()),
         };
-        panel.models.push((r.estimator.name().to_string(), fit, yhat));
+        panel
+            .models
+            .push((r.estimator.name().to_string(), fit, yhat));
     }
     if panel.t.is_empty() {
         let out: Vec<(f64, f64)> = record()

@@ -60,8 +60,8 @@ pub struct Tuned<T: Real, const D: usize, const NP: usize, const NS: usize> {
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, NS> {
     /// A new driver; builds at once if the settings are all known.
     pub fn new(kind: EstimatorKind, gains: Gains, tuning: &TuningConfig) -> Result<Self, RunError> {
-        let tune = AutoTune::new(tuning)
-            .map_err(|e| RunError::Estimator(format!("tuning: {e}")))?;
+        let tune =
+            AutoTune::new(tuning).map_err(|e| RunError::Estimator(format!("tuning: {e}")))?;
         let mut t = Self {
             kind,
             gains,
@@ -176,9 +176,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         };
         Totals {
             samples: self.samples,
-            rejected: self.retired_rejected
-                + rejected
-                + u64::from(self.tune.stats().rejected()),
+            rejected: self.retired_rejected + rejected + u64::from(self.tune.stats().rejected()),
             skipped: self.retired_skipped + skipped,
             updates: self.updates,
         }

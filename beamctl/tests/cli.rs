@@ -237,7 +237,10 @@ fn csv_has_every_sample_and_estimates_at_1khz() {
     assert!((w1 / 39.1533 - 1.0).abs() < 1e-3);
     // Estimates on every 10th row only; none in the start-up window.
     let filled = rows.iter().filter(|r| !r.ends_with(",,")).count();
-    assert!((380..=1000).contains(&filled), "{filled} rows with estimates");
+    assert!(
+        (380..=1000).contains(&filled),
+        "{filled} rows with estimates"
+    );
     assert!(rows[..1999].iter().all(|r| r.ends_with(",,,,,,,,,,,,")));
 }
 
@@ -283,7 +286,15 @@ fn a_simulate_csv_replays_to_the_same_estimates() {
         let r = json(&beamctl(&rep));
         for (s, r) in s.as_array().unwrap().iter().zip(r.as_array().unwrap()) {
             assert_eq!(s["estimator"], r["estimator"]);
-            for k in ["estimate", "builds", "fit_percent", "drift_last_10pct", "rejected_samples", "law_updates", "lambda_rad_s"] {
+            for k in [
+                "estimate",
+                "builds",
+                "fit_percent",
+                "drift_last_10pct",
+                "rejected_samples",
+                "law_updates",
+                "lambda_rad_s",
+            ] {
                 assert_eq!(s[k], r[k], "{precision} {}: {k}", s["estimator"]);
             }
             assert_eq!(r["ts_s"], 1e-4);
@@ -302,7 +313,10 @@ fn a_run_without_an_estimate_warns_and_fails() {
     assert!(r["estimate"]["omega"][0].is_null());
     assert_eq!(r["law_updates"], 0);
     let err = stderr(&o);
-    assert!(err.starts_with("error: no estimate from the adaptive law"), "{err}");
+    assert!(
+        err.starts_with("error: no estimate from the adaptive law"),
+        "{err}"
+    );
     assert_eq!(err.lines().count(), 1);
 }
 
@@ -395,7 +409,10 @@ fn bad_inputs_fail_cleanly() {
         (&["simulate", "--lambda", "-100"], "--lambda"),
         (&["simulate", "--band-hz", "10"], "--band-hz"),
         (&["simulate", "--band-hz", "50,5"], "--band-hz"),
-        (&["simulate", "--band-hz", "5,50", "--lambda", "100"], "--band-hz"),
+        (
+            &["simulate", "--band-hz", "5,50", "--lambda", "100"],
+            "--band-hz",
+        ),
         (&["simulate", "--beam", "/nonexistent-dir/b.toml"], "--beam"),
         (
             &["simulate", "--modes", "1", "--paper-exp-gains"],
@@ -525,7 +542,11 @@ fn external_recordings_replay_to_1e5_with_no_flag_but_the_file() {
             let e = (num(&r["estimate"]["bbar"][i]) / num(&t["bbar"][i]) - 1.0).abs();
             assert!(e < 1e-4, "{name} b̄{}: {e:e}", i + 1);
         }
-        assert!(num(&r["fit_percent"]) > 99.99, "{name}: {}", r["fit_percent"]);
+        assert!(
+            num(&r["fit_percent"]) > 99.99,
+            "{name}: {}",
+            r["fit_percent"]
+        );
         assert!(num(&r["drift_last_10pct"]) < 1e-5, "{name}");
         assert_eq!(r["rejected_samples"], 0);
     }
@@ -573,7 +594,12 @@ fn nan_and_inf_samples_are_skipped_and_counted() {
     let text = std::fs::read_to_string(&path).unwrap();
     let mut lines: Vec<String> = text.lines().map(|l| l.to_string()).collect();
     let mut bad = 0;
-    for (row, what) in [(5_000, "nan"), (20_001, "inf"), (30_000, "-inf"), (30_001, "")] {
+    for (row, what) in [
+        (5_000, "nan"),
+        (20_001, "inf"),
+        (30_000, "-inf"),
+        (30_001, ""),
+    ] {
         let mut f: Vec<String> = lines[row].split(',').map(String::from).collect();
         f[2] = what.to_string(); // y
         lines[row] = f.join(",");
@@ -650,17 +676,29 @@ fn replay_bad_inputs_fail_cleanly() {
         ("/nonexistent-dir/x.csv".into(), "cannot open"),
         (write("empty.csv", ""), "the file is empty"),
         (write("header.csv", "t,u,y\n"), "no data rows"),
-        (write("count.csv", "t,u,y\n0,1,2\n1e-4,1\n"), "line 3: 2 fields"),
-        (write("text.csv", "t,u,y\n0,1,2\n1e-4,1,x\n"), "line 3: field 3 (y) is not a number"),
         (
-            write("uneven.csv", "t,u,y\n0,1,2\n1e-4,1,2\n2e-4,1,2\n3.5e-4,1,2\n"),
+            write("count.csv", "t,u,y\n0,1,2\n1e-4,1\n"),
+            "line 3: 2 fields",
+        ),
+        (
+            write("text.csv", "t,u,y\n0,1,2\n1e-4,1,x\n"),
+            "line 3: field 3 (y) is not a number",
+        ),
+        (
+            write(
+                "uneven.csv",
+                "t,u,y\n0,1,2\n1e-4,1,2\n2e-4,1,2\n3.5e-4,1,2\n",
+            ),
             "line 5: non-uniform sampling",
         ),
         (
             write("back.csv", "t,u,y\n0,1,2\n1e-4,1,2\n0.5e-4,1,2\n"),
             "line 4: the time column does not increase",
         ),
-        (write("names.csv", "time,in,out\n0,1,2\n"), "line 1: no column named"),
+        (
+            write("names.csv", "time,in,out\n0,1,2\n"),
+            "line 1: no column named",
+        ),
     ];
     for (file, what) in &cases {
         let o = beamctl(&["replay", file]);
@@ -679,7 +717,10 @@ fn replay_bad_inputs_fail_cleanly() {
         (vec!["replay", &ok, "--columns", "a,b"], "--columns"),
         (vec!["replay", &ok, "--ts", "0"], "--ts"),
         (vec!["replay", &ok, "--weights", "1"], "--weights"),
-        (vec!["replay", &ok, "--modes", "3", "--paper-gains"], "--paper-gains"),
+        (
+            vec!["replay", &ok, "--modes", "3", "--paper-gains"],
+            "--paper-gains",
+        ),
         (vec!["replay", &ok, "--plot", "x.svg"], "--plot"),
     ] {
         let o = beamctl(&args);
@@ -696,7 +737,11 @@ fn replay_bad_inputs_fail_cleanly() {
     });
     let o = beamctl(&["replay", &flat]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("start-up window never completed"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("start-up window never completed"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 mod replay_fuzz {

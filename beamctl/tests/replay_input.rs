@@ -18,7 +18,9 @@ fn read(text: &[u8], ts: Option<f64>) -> Result<Vec<(f64, f64)>, CsvError> {
 }
 
 fn err(text: &str) -> String {
-    read(text.as_bytes(), None).expect_err("should fail").to_string()
+    read(text.as_bytes(), None)
+        .expect_err("should fail")
+        .to_string()
 }
 
 #[test]
@@ -28,8 +30,12 @@ fn good_input_reads_every_sample_and_finds_ts() {
         text.push_str(&format!("{},{},{}\n", k as f64 * 1e-3, 0.5, k as f64));
     }
     let columns = Columns::default_for(false);
-    let r = Reader::from_reader(Box::new(Cursor::new(text.clone().into_bytes())), &columns, None)
-        .unwrap();
+    let r = Reader::from_reader(
+        Box::new(Cursor::new(text.clone().into_bytes())),
+        &columns,
+        None,
+    )
+    .unwrap();
     assert_eq!(r.ts_s(), 1e-3);
     let s = read(text.as_bytes(), None).unwrap();
     assert_eq!(s.len(), 100);
@@ -42,11 +48,22 @@ fn good_input_reads_every_sample_and_finds_ts() {
 }
 
 #[test]
+fn numbers_as_rust_writes_and_reads_them() {
+    let text = "t,u,y\n0,.5,5.\n1,+1,1E5\n2,-0.0,1e-300\n3,NaN,INF\n4,Infinity,1\n";
+    let s = read(text.as_bytes(), None).unwrap();
+    assert_eq!(&s[..3], &[(0.5, 5.0), (1.0, 1e5), (-0.0, 1e-300)]);
+    assert!(s[3].0.is_nan() && s[3].1.is_nan() && s[4].0.is_nan());
+}
+
+#[test]
 fn missing_samples_are_nan_not_errors() {
     let text = "t,u,y\n0,1,2\n1,nan,2\n2,1,inf\n3,,2\n4,1,-Infinity\n5,1,2\n";
     let s = read(text.as_bytes(), None).unwrap();
     assert_eq!(s.len(), 6);
-    let bad = s.iter().filter(|(u, y)| !(u.is_finite() && y.is_finite())).count();
+    let bad = s
+        .iter()
+        .filter(|(u, y)| !(u.is_finite() && y.is_finite()))
+        .count();
     assert_eq!(bad, 4);
 }
 
@@ -57,15 +74,22 @@ fn every_problem_names_its_line() {
     assert_eq!(err("t,u,y\n\n\n"), "no data rows after the header");
     assert!(err("t,u,y\n0,1,2\n").contains("only one data row"));
     assert!(err("a,u,y\n0,1,2\n").starts_with("line 1: no column named \"t\""));
-    assert_eq!(err("t,u,y\n0,1,2\n1,2\n"), "line 3: 2 fields, the header has 3");
-    assert_eq!(err("t,u,y\n0,1,2\n1,2,3,4\n"), "line 3: 4 fields, the header has 3");
+    assert_eq!(
+        err("t,u,y\n0,1,2\n1,2\n"),
+        "line 3: 2 fields, the header has 3"
+    );
+    assert_eq!(
+        err("t,u,y\n0,1,2\n1,2,3,4\n"),
+        "line 3: 4 fields, the header has 3"
+    );
     assert_eq!(
         err("t,u,y\n0,1,2\n1,abc,3\n"),
         "line 3: field 2 (u) is not a number: \"abc\""
     );
     assert!(err("t,u,y\n0,1,2\n1,1,2\n0.5,1,2\n")
         .starts_with("line 4: the time column does not increase"));
-    assert!(err("t,u,y\n0,1,2\n1,1,2\n1,1,2\n").starts_with("line 4: the time column does not increase"));
+    assert!(err("t,u,y\n0,1,2\n1,1,2\n1,1,2\n")
+        .starts_with("line 4: the time column does not increase"));
     // Uniform within 1% passes, beyond fails at the first offending line.
     assert!(read(b"t,u,y\n0,1,2\n1,1,2\n2.009,1,2\n3,1,2\n", None).is_ok());
     assert!(err("t,u,y\n0,1,2\n1,1,2\n2,1,2\n3.5,1,2\n4,1,2\n")
@@ -76,7 +100,11 @@ fn every_problem_names_its_line() {
         let t = if k == 11_000 { 11_000.5 } else { k as f64 };
         long.push_str(&format!("{t},1,2\n"));
     }
-    assert!(err(&long).starts_with("line 11002: non-uniform sampling"), "{}", err(&long));
+    assert!(
+        err(&long).starts_with("line 11002: non-uniform sampling"),
+        "{}",
+        err(&long)
+    );
     assert!(err("t,u,y\nnan,1,2\n1,1,2\n").starts_with("line 2: the time column"));
 }
 

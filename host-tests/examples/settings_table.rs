@@ -116,7 +116,10 @@ fn main() {
             .expect("2 modes"),
     );
     header("40 dB SNR, f64, 20 s");
-    for (name, plant) in [("paper plant", PlantSpec::Paper), ("52.7/318 rad/s", plant_52.clone())] {
+    for (name, plant) in [
+        ("paper plant", PlantSpec::Paper),
+        ("52.7/318 rad/s", plant_52.clone()),
+    ] {
         for seed in 1..=5 {
             let base = RunConfig {
                 plant: plant.clone(),

@@ -53,14 +53,25 @@ fn gradient_converges<T: Real>() {
         if k % 100 == 99 {
             let now = v(&est);
             // Rounding (f32) and the filter bank's own floor allow a hair.
-            let slack = if T::COMPENSATED { 1e-9 * v0 } else { 1e-14 * v0 };
-            assert!(now <= prev + slack, "V rose at sample {k}: {prev:e} → {now:e}");
+            let slack = if T::COMPENSATED {
+                1e-9 * v0
+            } else {
+                1e-14 * v0
+            };
+            assert!(
+                now <= prev + slack,
+                "V rose at sample {k}: {prev:e} → {now:e}"
+            );
             prev = now;
         }
     }
     let ratio = (prev / v0).sqrt();
     let limit = if T::COMPENSATED { 1e-3 } else { 1e-4 };
-    assert!(ratio < limit, "{}: ‖θ̃‖ only fell to {ratio:e} of its start", T::NAME);
+    assert!(
+        ratio < limit,
+        "{}: ‖θ̃‖ only fell to {ratio:e} of its start",
+        T::NAME
+    );
 }
 
 #[test]

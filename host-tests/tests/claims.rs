@@ -92,7 +92,10 @@ fn explicit_step_stability_as_stated() {
             let law = est.law();
             let lam = lambda_max_hp(&law.h_inverse(), &law.p());
             let bound = ((0.1 - 0.01) * t).exp();
-            assert!(lam <= bound * (1.0 + 1e-6), "t = {t}: λmax(HP) = {lam} > {bound}");
+            assert!(
+                lam <= bound * (1.0 + 1e-6),
+                "t = {t}: λmax(HP) = {lam} > {bound}"
+            );
             worst = worst.max(lam);
         }
     }
@@ -108,7 +111,10 @@ fn explicit_step_stability_as_stated() {
     let law = est.law();
     let lam = lambda_max_hp(&law.h_inverse(), &law.p());
     let k_ts_gamma = 10.0 * TS * 1e4;
-    assert!(lam > 0.5 && k_ts_gamma * lam > 2.0, "λmax(HP) = {lam} after 5 ms");
+    assert!(
+        lam > 0.5 && k_ts_gamma * lam > 2.0,
+        "λmax(HP) = {lam} after 5 ms"
+    );
 }
 
 /// Explicit Euler of the gradient law (47) needs Ts·ΨᵀΓ1Ψ < 2; with the
@@ -126,7 +132,9 @@ fn explicit_euler_of_the_gradient_law_is_stable_at_the_papers_gain() {
     for _ in 0..200_000 {
         let Sample { u, y } = r.tick();
         let reg = bank.push(u, y);
-        let c: f64 = (0..7).map(|j| g.gain_diag[j] * reg.phi[j] * reg.phi[j]).sum();
+        let c: f64 = (0..7)
+            .map(|j| g.gain_diag[j] * reg.phi[j] * reg.phi[j])
+            .sum();
         worst = worst.max(TS * c);
     }
     println!("max Ts·ΨᵀΓ1Ψ = {worst:.4}");

@@ -17,7 +17,10 @@ fn max_rel(report: &RunReport) -> f64 {
 /// When the law of the last build starts updating: its first sample plus
 /// the filters' settling time (40/λ, the quarantine).
 fn law_start_s(r: &RunReport, ts_s: f64) -> f64 {
-    let b = r.builds.first().expect("the tuning rule built an estimator");
+    let b = r
+        .builds
+        .first()
+        .expect("the tuning rule built an estimator");
     b.sample as f64 * ts_s + (40.0 / (b.lambda_rad_s * ts_s)).ceil() * ts_s
 }
 
@@ -46,7 +49,10 @@ fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_0p1s_of_the_law_s
     // is held while the filters settle (40/λ).
     let t = r.time_to_0p1pct_s.expect("converges to 0.1%");
     let start = law_start_s(&r, 1e-4);
-    assert!(t <= start + 0.1, "0.1% reached only at {t} s (law from {start} s)");
+    assert!(
+        t <= start + 0.1,
+        "0.1% reached only at {t} s (law from {start} s)"
+    );
     assert_eq!(r.tuning, "converged");
     let exc = r.excitation_min_eig.expect("adaptive law keeps P");
     assert!(exc > 0.0, "square wave is persistently exciting (Lemma 1)");

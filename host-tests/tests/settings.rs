@@ -39,7 +39,12 @@ fn a_wrong_lambda_still_converges() {
 /// changes, the fixed point does not.
 #[test]
 fn a_wrong_signal_scale_still_converges() {
-    for (u0, y0) in [(0.05, 1.15e-3), (0.2, 4.6e-3), (0.05, 4.6e-3), (0.2, 1.15e-3)] {
+    for (u0, y0) in [
+        (0.05, 1.15e-3),
+        (0.2, 4.6e-3),
+        (0.05, 4.6e-3),
+        (0.2, 1.15e-3),
+    ] {
         for (precision, limit) in [(Precision::F64, 1e-6), (Precision::F32, 1e-4)] {
             let r = simulate(&RunConfig {
                 scales: Some(SignalScales {
@@ -96,7 +101,11 @@ fn f32_one_and_three_modes_converge() {
             precision: Precision::F32,
             ..RunConfig::default()
         });
-        assert!(r.rel_error.max() < limit, "{modes} modes: {:?}", r.rel_error);
+        assert!(
+            r.rel_error.max() < limit,
+            "{modes} modes: {:?}",
+            r.rel_error
+        );
         assert_eq!(r.skipped_updates, 0);
     }
 }

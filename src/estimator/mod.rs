@@ -454,7 +454,8 @@ mod tests {
     enum Step {
         Euler,
         Rk4,
-        /// The exact discrete solution (what eq. 39 and the laws' information
+        /// The discrete form the laws use (exponential decay plus the
+        /// rectangle rule: what eq. 39 and the laws. information
         /// form amount to), as a Sherman–Morrison update of H.
         Exact,
     }

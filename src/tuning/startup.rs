@@ -96,7 +96,7 @@ impl StartupStats {
         self.sum_y += y;
         self.sum_y2 += y * y;
         let [y3, y2, y1] = self.hist; // y_{k−3}, y_{k−2}, y_{k−1}
-        // The ring's slot at ring_pos holds y_{k−m} once it is full.
+                                      // The ring's slot at ring_pos holds y_{k−m} once it is full.
         if self.ring_len >= self.lag {
             let d = y - self.ring[self.ring_pos];
             self.n_d1 += 1;

@@ -75,4 +75,3 @@ fn find_ttf(dir: &Path, depth: usize) -> Option<PathBuf> {
         .filter(|p| p.is_dir())
         .find_map(|p| find_ttf(p, depth - 1))
 }
-

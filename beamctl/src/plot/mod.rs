@@ -377,8 +377,7 @@ fn panel(
             let up = v >= hi;
             let y = if up { hi } else { lo };
             let tip = if up { -6 } else { 6 };
-            EmptyElement::at((t, y))
-                + Polygon::new(vec![(-5, 0), (5, 0), (0, tip)], fill)
+            EmptyElement::at((t, y)) + Polygon::new(vec![(-5, 0), (5, 0), (0, tip)], fill)
         }))?;
     }
     if let Some(truth) = truth {
@@ -417,7 +416,11 @@ fn error_panel(
         .flat_map(|s| s.err.iter().copied())
         .filter(|e| e.is_finite() && *e > 0.0);
     let (min, max) = all.fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
-    let lo = if min.is_finite() { (min / 2.0).max(1e-16) } else { 1e-16 };
+    let lo = if min.is_finite() {
+        (min / 2.0).max(1e-16)
+    } else {
+        1e-16
+    };
     let hi = (max * 2.0).clamp(1.0, 1e6);
     let mut builder = ChartBuilder::on(area);
     builder.margin(12);
@@ -444,17 +447,18 @@ fn error_panel(
     for (k, s) in series.iter().enumerate() {
         let style = color(&s.name, k).stroke_width(1);
         // Non-finite = no estimate: drawn at the top edge.
-        let pts: Vec<(f64, f64)> = s
-            .t
-            .iter()
-            .zip(&s.err)
-            .filter(|(_, e)| !e.is_nan())
-            .map(|(&t, &e)| (t, e.clamp(lo, hi)))
-            .collect();
+        let pts: Vec<(f64, f64)> =
+            s.t.iter()
+                .zip(&s.err)
+                .filter(|(_, e)| !e.is_nan())
+                .map(|(&t, &e)| (t, e.clamp(lo, hi)))
+                .collect();
         chart
             .draw_series(LineSeries::new(pts, style))?
             .label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3))
+            });
     }
     if text {
         chart
@@ -509,13 +513,12 @@ fn output_panel(
         mesh.x_labels(0).y_labels(0);
     }
     mesh.draw()?;
-    let measured: Vec<(f64, f64)> = o
-        .t
-        .iter()
-        .zip(&o.y)
-        .filter(|(_, y)| y.is_finite())
-        .map(|(&t, &y)| (t, y))
-        .collect();
+    let measured: Vec<(f64, f64)> =
+        o.t.iter()
+            .zip(&o.y)
+            .filter(|(_, y)| y.is_finite())
+            .map(|(&t, &y)| (t, y))
+            .collect();
     chart
         .draw_series(LineSeries::new(measured, BLACK.stroke_width(2)))?
         .label("measured y")
@@ -525,11 +528,10 @@ fn output_panel(
             continue;
         }
         let style = color(name, k).stroke_width(1);
-        let pts = o
-            .t
-            .iter()
-            .zip(yhat)
-            .map(|(&t, &v)| (t, if v.is_finite() { v.clamp(lo, hi) } else { hi }));
+        let pts =
+            o.t.iter()
+                .zip(yhat)
+                .map(|(&t, &v)| (t, if v.is_finite() { v.clamp(lo, hi) } else { hi }));
         let label = match fit {
             Some(f) => format!("{name}: fit {f:.2} %"),
             None => format!("{name}: no fit"),
@@ -537,7 +539,9 @@ fn output_panel(
         chart
             .draw_series(DashedLineSeries::new(pts, 6, 3, style))?
             .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3))
+            });
     }
     if text {
         chart
