@@ -243,7 +243,7 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                         csv: &mut Option<CsvOut>,
                         last: bool| {
         let t = k as f64 * ts;
-        let record = last || (k + 1) % drift == 0;
+        let record = last || (k + 1).is_multiple_of(drift);
         for i in 0..session.len() {
             let e = session.evaluate(i, t, record);
             let trace = Trace {
@@ -317,9 +317,11 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     if n > 0 {
         // The last sample is always evaluated for the drift; its CSV row
         // only if it was not written already.
-        if n % every == 0 {
-            for i in 0..session.len() {
-                session.evaluate(i, (n - 1) as f64 * ts, n % drift != 0);
+        if n.is_multiple_of(every) {
+            if !n.is_multiple_of(drift) {
+                for i in 0..session.len() {
+                    session.evaluate(i, (n - 1) as f64 * ts, true);
+                }
             }
         } else {
             evaluate(&mut session, n - 1, last, &mut csv, true);

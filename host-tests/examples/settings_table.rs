@@ -29,7 +29,7 @@ fn old_settings(plant: &PlantSpec, u0: f64) -> (f64, SignalScales) {
     };
     let (re, im) = truth.tf.freq_response(0.0);
     let mut g = re.hypot(im);
-    if !(g > 0.0) {
+    if g.is_nan() || g <= 0.0 {
         g = w
             .iter()
             .map(|&wi| {

@@ -2,6 +2,9 @@
 //! checked (README, BENCHMARKS.md, docs/ARCHITECTURE.md, the `# Design`
 //! notes of src/estimator/).
 
+// Index loops mirror the matrix algebra.
+#![allow(clippy::needless_range_loop)]
+
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, GradientConfig, UpdateLaw};
 use beamest::filter_bank::{FilterBank, FilterConfig, Scaling};
 use beamest::rig::Sample;
