@@ -16,10 +16,11 @@
 //!   e^{p·kTs} per real pole) is fitted by least squares in the same pass
 //!   (normal equations of 2n unknowns, MATLAB's `compare` does the same by
 //!   default). On a record that does start at rest it fits ≈ 0.
-//! * Two passes over the record, O(n) work per sample: the first forms the
-//!   normal equations of the initial state, the second the residual
-//!   y − ŷ itself (not from the normal equations, which cancel badly when
-//!   the free response is large). Samples with a non-finite y are left out
+//! * Two passes, O(n) work per sample: the first forms the normal
+//!   equations of the initial state (while the free response lives, until
+//!   it is below 1e-30) and sums the residual after that; the second, over
+//!   the live part only, the residual y − ŷ itself (not from the normal
+//!   equations, which cancel badly when the free response is large). Samples with a non-finite y are left out
 //!   of the sums; a non-finite u is replaced by the last finite one (as the
 //!   estimator does).
 //! * An unstable model has no meaningful fit (its output grows without
@@ -196,15 +197,22 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     let mut b = vec![0.0; m];
     let mut g = vec![0.0; m * m];
     let mut h = vec![0.0; m];
-    let (mut n, mut sy) = (0u64, 0.0);
-    // The free response decays: once every basis value is negligible, the
-    // normal equations are complete.
+    // Sums of y and y² about the first finite y (no cancellation when the
+    // mean is large), and of the squared residual after the free response
+    // has died out (there the two passes would agree: it is taken here).
+    let (mut n, mut shift, mut sy, mut syy, mut sse_tail) = (0u64, None, 0.0, 0.0, 0.0);
+    // The free response decays: once every basis value is negligible the
+    // normal equations are complete, and `dead` is where that happened.
     let mut basis_live = true;
+    let mut dead = u64::MAX;
     let sections = model.sections.len();
     for (k, (u, y)) in (0u64..).zip(samples()) {
         let yf = if basis_live {
             if k % 1024 == 0 {
                 basis_live = pass.z[..sections].iter().any(|z| z.norm() > 1e-30);
+                if !basis_live {
+                    dead = k;
+                }
             }
             pass.step(u, &mut b)
         } else {
@@ -214,42 +222,41 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
             continue;
         }
         n += 1;
-        sy += y;
+        let y0 = *shift.get_or_insert(y);
+        sy += y - y0;
+        syy += (y - y0) * (y - y0);
+        let r = y - yf;
         if basis_live {
-            let r = y - yf;
             for i in 0..m {
                 h[i] += b[i] * r;
                 for j in 0..=i {
                     g[i * m + j] += b[i] * b[j];
                 }
             }
+        } else {
+            sse_tail += r * r;
         }
     }
     if n < 2 {
         return None;
     }
     let mean = sy / n as f64;
+    let sst = syy - n as f64 * mean * mean;
     let c = solve_spd(&mut g, &h, m).unwrap_or_else(|| vec![0.0; m]);
+    // Second pass, only while the free response lives: the residual itself,
+    // not from the normal equations (which cancel badly when the free
+    // response is large).
     let mut pass = Pass::new(model);
-    let (mut sse, mut sst) = (0.0, 0.0);
-    let mut live = true;
-    for (k, (u, y)) in (0u64..).zip(samples()) {
-        let (yf, free) = if live {
-            if k % 1024 == 0 {
-                live = pass.z[..sections].iter().any(|z| z.norm() > 1e-30);
-            }
-            let yf = pass.step(u, &mut b);
-            (yf, c.iter().zip(&b).map(|(c, b)| c * b).sum::<f64>())
-        } else {
-            (pass.step_forced(u), 0.0)
-        };
+    let mut sse_head = 0.0;
+    for (u, y) in samples().into_iter().take(usize::try_from(dead).unwrap_or(usize::MAX)) {
+        let yf = pass.step(u, &mut b);
         if y.is_finite() {
+            let free: f64 = c.iter().zip(&b).map(|(c, b)| c * b).sum();
             let r = y - yf - free;
-            sse += r * r;
-            sst += (y - mean) * (y - mean);
+            sse_head += r * r;
         }
     }
-    let percent = 100.0 * (1.0 - (sse / sst).sqrt());
+    let percent = 100.0 * (1.0 - ((sse_head + sse_tail) / sst).sqrt());
     (sst > 0.0 && percent.is_finite()).then_some(Fit {
         percent,
         initial: c,
