@@ -5,7 +5,7 @@
 //!
 //! # Design
 //! * **No allocation per row.** The file is read in 4 MiB blocks; the
-//!   delimiters of a block are found 8 bytes at a time ([`Delimiters`],
+//!   delimiters of a block are found 8 bytes at a time (`Delimiters`,
 //!   SWAR) and only the two or three needed fields are
 //!   parsed, with `fast-float2` (Lemire's algorithm; correctly rounded, so
 //!   a shortest round-trip decimal reads back as the same f64). Samples

@@ -248,7 +248,10 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     // response is large).
     let mut pass = Pass::new(model);
     let mut sse_head = 0.0;
-    for (u, y) in samples().into_iter().take(usize::try_from(dead).unwrap_or(usize::MAX)) {
+    for (u, y) in samples()
+        .into_iter()
+        .take(usize::try_from(dead).unwrap_or(usize::MAX))
+    {
         let yf = pass.step(u, &mut b);
         if y.is_finite() {
             let free: f64 = c.iter().zip(&b).map(|(c, b)| c * b).sum();

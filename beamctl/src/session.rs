@@ -192,7 +192,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             .map(|e| to_f64_tf(&e.transfer_function()))
     }
 
-    /// The identified model of estimator `i` for [`fit`], if any.
+    /// The identified model of estimator `i` for [`crate::fit::fit`], if any.
     pub fn model(&self, i: usize, ts_s: f64) -> Option<Model> {
         Model::new(&self.transfer_function(i)?, ts_s)
     }
@@ -203,7 +203,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     }
 
     /// The truth-free part of estimator `i`'s report. `end_s` is the time
-    /// of the last sample, `fit` the model-output fit (see [`fit::fit`]).
+    /// of the last sample, `fit` the model-output fit (see [`crate::fit::fit`]).
     pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();
