@@ -17,12 +17,13 @@
 //!   a series has at most [`MAX_POINTS`] points (5 ms resolution for 20 s).
 //! * **Every trajectory stays visible.** The y range of a parameter panel
 //!   follows the data: the union over estimators of the 1st–99th
-//!   percentiles after the first 5% of the run (the start-up transient),
+//!   percentiles after the start-up transient (the first 5% of the run, or
+//!   0.1 s after a line's first estimate if later),
 //!   plus the reference (the truth, or without it the median final
 //!   estimate), at least ±0.5% of the reference wide. Only if that union
 //!   reaches beyond reference ± |reference| is the range capped there; a
-//!   line outside it is clamped to the edge *and* marked with triangles,
-//!   and its legend entry says "off scale".
+//!   line outside it is clamped to the edge *and*, after its transient,
+//!   marked with triangles, and its legend entry says "off scale".
 
 mod font;
 
@@ -212,7 +213,14 @@ pub fn write(
     } else {
         root.margin(40, 0, 0, 0)
     };
-    let panels = body.split_evenly((rows, 2));
+    let (top, bottom_area) = if bottom {
+        let (_, h) = body.dim_in_pixel();
+        body.split_vertically(h * n as u32 / rows as u32)
+    } else {
+        let (_, h) = body.dim_in_pixel();
+        body.split_vertically(h)
+    };
+    let panels = top.split_evenly((n, 2));
     for i in 0..n {
         let omega: Vec<(&str, Vec<(f64, f64)>)> = series
             .iter()
@@ -246,12 +254,14 @@ pub fn write(
         .map_err(|e| fail(&e))?;
     }
     if bottom {
-        let (left, right) = (&panels[2 * n], &panels[2 * n + 1]);
+        // With the truth: error (left) and output (right); without: the
+        // output across the whole width.
+        let halves = bottom_area.split_evenly((1, 2));
         let out_area = if truth.is_some() {
-            error_panel(left, series, duration_s, text).map_err(|e| fail(&e))?;
-            right
+            error_panel(&halves[0], series, duration_s, text).map_err(|e| fail(&e))?;
+            &halves[1]
         } else {
-            left
+            &bottom_area
         };
         if let Some(o) = output {
             output_panel(out_area, o, text).map_err(|e| fail(&e))?;
@@ -266,14 +276,23 @@ fn points(t: &[f64], v: &[[f64; MAX_MODES]], i: usize) -> Vec<(f64, f64)> {
     t.iter().zip(v).map(|(&t, v)| (t, v[i])).collect()
 }
 
-/// The y range shown for a parameter and whether it was capped (see the
-/// module docs). `reference` is the truth, or `None` for recorded data.
+/// Where a line's start-up transient ends: 5% of the run, or 0.1 s after
+/// its first estimate if that is later (the law starts only after the
+/// tuning rule's start-up window and settling).
+fn transient_end(pts: &[(f64, f64)], duration_s: f64) -> f64 {
+    let first = pts
+        .iter()
+        .find(|(_, v)| v.is_finite())
+        .map_or(0.0, |p| p.0);
+    (0.05 * duration_s).max(first + 0.1)
+}
+
+/// The y range shown for a parameter (see the module docs). `reference` is the truth, or `None` for recorded data.
 pub fn y_range(
     reference: Option<f64>,
     lines: &[(&str, Vec<(f64, f64)>)],
     duration_s: f64,
 ) -> (f64, f64) {
-    let skip = 0.05 * duration_s;
     let reference = reference.unwrap_or_else(|| {
         let mut finals: Vec<f64> = lines
             .iter()
@@ -284,6 +303,7 @@ pub fn y_range(
     });
     let (mut lo, mut hi) = (reference, reference);
     for (_, pts) in lines {
+        let skip = transient_end(pts, duration_s);
         let mut vals: Vec<f64> = pts
             .iter()
             .filter(|(t, v)| *t >= skip && v.is_finite())
@@ -345,9 +365,11 @@ fn panel(
         // One pixel wide: plotters joins wider polylines with unbounded
         // miters, which spike where an estimate zig-zags.
         let style = color(name, k).stroke_width(1);
+        // Off scale after the start-up transient (the range ignores it too).
+        let skip = transient_end(pts, duration_s);
         let off: Vec<(f64, f64)> = pts
             .iter()
-            .filter(|(_, v)| v.is_finite() && (*v < lo || *v > hi))
+            .filter(|(t, v)| *t >= skip && v.is_finite() && (*v < lo || *v > hi))
             .map(|&(t, v)| (t, v.clamp(lo, hi)))
             .collect();
         let label = if off.is_empty() {
