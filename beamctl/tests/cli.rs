@@ -504,6 +504,28 @@ fn help_documents_every_flag() {
     ] {
         assert!(h.contains(unit), "{unit} missing from help");
     }
+    let o = beamctl(&["replay", "--help"]);
+    assert!(o.status.success());
+    let h = stdout(&o);
+    for flag in [
+        "--estimator",
+        "--precision",
+        "--lambda",
+        "--band-hz",
+        "--beam",
+        "--paper-gains",
+        "--paper-exp-gains",
+        "--columns",
+        "--ts",
+        "--modes",
+        "--weights",
+        "--csv",
+        "--plot",
+        "--json",
+        "docs/REPLAY.md",
+    ] {
+        assert!(h.contains(flag), "{flag} missing from replay help");
+    }
     let o = beamctl(&["model", "--help"]);
     let h = stdout(&o);
     for flag in ["--modes", "--json", "--beam", "density_kg_m3"] {

@@ -280,10 +280,7 @@ fn points(t: &[f64], v: &[[f64; MAX_MODES]], i: usize) -> Vec<(f64, f64)> {
 /// its first estimate if that is later (the law starts only after the
 /// tuning rule's start-up window and settling).
 fn transient_end(pts: &[(f64, f64)], duration_s: f64) -> f64 {
-    let first = pts
-        .iter()
-        .find(|(_, v)| v.is_finite())
-        .map_or(0.0, |p| p.0);
+    let first = pts.iter().find(|(_, v)| v.is_finite()).map_or(0.0, |p| p.0);
     (0.05 * duration_s).max(first + 0.1)
 }
 
