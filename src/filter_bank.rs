@@ -22,7 +22,7 @@
 //!   window sample at start-up. The hold order sets the floor on ζ2 of the
 //!   paper's plant after 20 s (BENCHMARKS.md, `cargo run --release -p
 //!   host-tests --example accuracy_tables`): ZOH 1.2%, first-order hold
-//!   2.0e-4, cubic (y_{k−1}..y_{k+2}) 1.8e-8, quintic 2.9e-10; the unit test
+//!   2.0e-4, cubic (y_{k−1}..y_{k+2}) 1.9e-8, quintic 3.1e-10 (λ = 100); the unit test
 //!   `hold_order_sets_accuracy` pins the ordering. The cubic's error grows as (ωTs)⁴ and
 //!   reaches 1.2e-3 on a 1520 rad/s mode, so the default is the quintic
 //!   through y_{k−2}..y_{k+3} ([`OutputHold::Quintic`], (ωTs)⁶). The

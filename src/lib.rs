@@ -22,6 +22,9 @@
 //!   PRBS and chirp for the piezo, inside a safe voltage window;
 //! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,
 //!   estimator step, telemetry records for the low-priority task;
+//! * [`tuning`] — truth-free settings: signal scales from a start-up
+//!   window, the filter pole λ from the user's band or the data, re-centred
+//!   on the estimated band;
 //! * [`scalar`] — the `f32`/`f64` abstraction;
 //! * [`protocol`] — the serial link: messages, framing and the stream decoder
 //!   shared by the firmware and the host (`docs/PROTOCOL.md`);
@@ -103,6 +106,7 @@ pub mod poly;
 pub mod protocol;
 pub mod rig;
 pub mod scalar;
+pub mod tuning;
 
 /// The plant simulator's former path; it lives in [`rig::plant`] now.
 pub use rig::plant;
@@ -139,6 +143,9 @@ fn defmt_formats() {
     is_format::<excitation::ExcitationError>();
     is_format::<beam::BeamError>();
     is_format::<beam::BeamOutput>();
+    is_format::<tuning::TuningError>();
+    is_format::<tuning::TuningConfig>();
+    is_format::<tuning::Phase>();
 }
 
 #[cfg(test)]
@@ -151,6 +158,7 @@ mod tests {
     use crate::modal::ModalError;
     use crate::poly::PolyError;
     use crate::rig::{NoiseError, PlantError};
+    use crate::tuning::TuningError;
     use core::error::Error;
     use std::string::{String, ToString};
     use std::vec::Vec;
@@ -191,6 +199,12 @@ mod tests {
             &BeamError::ModeNumber,
             &BeamError::RootNotConverged,
             &BeamError::NonFinite,
+            &TuningError::SamplePeriod,
+            &TuningError::Lambda,
+            &TuningError::Band,
+            &TuningError::Scale,
+            &TuningError::Window,
+            &TuningError::Review,
         ]
     }
 

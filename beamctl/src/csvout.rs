@@ -1,90 +1,125 @@
-//! `--csv`: the telemetry-rate time series of a simulation.
+//! `--csv`: every sample of a run, replayable, with the estimates at the
+//! evaluation rate.
 //!
-//! One row per [`Trace`] (every `eval_every` = 10 samples, i.e. 1 kHz at
-//! Ts = 0.1 ms): `t_s, u, y, theta_0..theta_{NP−1}, omega_1..omega_N,
-//! zeta_1..zeta_N`, preceded by an `estimator` column when several
-//! estimators share the file. Θ is in physical units (eq. 29); ω in rad/s.
-//! An estimate whose modal recovery failed leaves its ω/ζ fields empty.
+//! One row per sample: `t_s, u, y` (exactly the values the estimators
+//! received, shortest round-trip decimal, so `beamctl replay` reads back
+//! the same f64), then per estimator `theta_0..theta_{NP−1}` (Θ of eq. 29,
+//! physical units), `omega_1..omega_N` (rad/s), `zeta_1..zeta_N`,
+//! `lambda_rad_s` — prefixed `<name>_` when several estimators share the
+//! file. The estimate fields are filled on evaluation rows (every
+//! `eval_every` = 10 samples, 1 kHz) and empty elsewhere, and empty where
+//! there is no estimate (start-up window, failed recovery).
 
 use crate::error::CliError;
 use beamctl::Trace;
+use std::fmt::Write as _;
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// A CSV file being written.
 pub struct CsvOut {
-    writer: csv::Writer<BufWriter<File>>,
+    writer: BufWriter<File>,
     path: PathBuf,
     modes: usize,
-    with_estimator: bool,
+    estimators: usize,
     rows: u64,
     /// The first write error; later rows are dropped.
-    failed: Option<csv::Error>,
-    record: Vec<String>,
+    failed: Option<std::io::Error>,
+    /// The estimate cells of the current row, per estimator (empty = none).
+    pending: Vec<String>,
+    line: String,
+    /// The estimate cells of one estimator without an estimate.
+    empty: String,
 }
 
-/// The header for `modes` modes.
-pub fn header(modes: usize, with_estimator: bool) -> Vec<String> {
+/// The header for `modes` modes and the estimators `names`.
+pub fn header(modes: usize, names: &[&str]) -> Vec<String> {
     let np = 4 * modes - 1;
-    let mut h = Vec::with_capacity(4 + np + 2 * modes);
-    if with_estimator {
-        h.push("estimator".to_string());
+    let mut h: Vec<String> = ["t_s", "u", "y"].map(String::from).to_vec();
+    for name in names {
+        let prefix = if names.len() > 1 {
+            format!("{name}_")
+        } else {
+            String::new()
+        };
+        h.extend((0..np).map(|i| format!("{prefix}theta_{i}")));
+        h.extend((1..=modes).map(|i| format!("{prefix}omega_{i}")));
+        h.extend((1..=modes).map(|i| format!("{prefix}zeta_{i}")));
+        h.push(format!("{prefix}lambda_rad_s"));
     }
-    h.extend(["t_s", "u", "y"].map(String::from));
-    h.extend((0..np).map(|i| format!("theta_{i}")));
-    h.extend((1..=modes).map(|i| format!("omega_{i}")));
-    h.extend((1..=modes).map(|i| format!("zeta_{i}")));
     h
 }
 
 impl CsvOut {
     /// Create (truncate) the file and write the header. Errors name `--csv`.
-    pub fn create(path: &Path, modes: usize, with_estimator: bool) -> Result<Self, CliError> {
+    pub fn create(path: &Path, modes: usize, names: &[&str]) -> Result<Self, CliError> {
         let file = File::create(path).map_err(|e| {
             CliError::usage("--csv", format!("cannot create {}: {e}", path.display()))
         })?;
-        let mut writer = csv::Writer::from_writer(BufWriter::new(file));
-        writer
-            .write_record(header(modes, with_estimator))
+        let mut writer = BufWriter::with_capacity(1 << 20, file);
+        writeln!(writer, "{}", header(modes, names).join(","))
             .map_err(|e| write_error(path, &e))?;
         Ok(Self {
             writer,
             path: path.to_path_buf(),
             modes,
-            with_estimator,
+            estimators: names.len(),
             rows: 0,
             failed: None,
-            record: Vec::new(),
+            pending: vec![String::new(); names.len()],
+            line: String::with_capacity(256),
+            empty: ",".repeat(4 * modes - 1 + 2 * modes + 1),
         })
     }
 
-    /// Append one trace (errors are kept for [`finish`](Self::finish)).
-    pub fn push(&mut self, estimator: &str, t: &Trace<'_>) {
+    /// The estimate of estimator `index` for the current row.
+    pub fn estimate(&mut self, index: usize, t: &Trace<'_>) {
+        let n = self.modes;
+        let Some(cell) = self.pending.get_mut(index) else {
+            return;
+        };
+        cell.clear();
+        for v in t.theta {
+            cell.push(',');
+            num(cell, *v);
+        }
+        match t.modal {
+            Some(m) if m.modes == n => {
+                for v in m.omega_rad_s[..n].iter().chain(&m.zeta[..n]) {
+                    cell.push(',');
+                    num(cell, *v);
+                }
+            }
+            _ => cell.push_str(&",".repeat(2 * n)),
+        }
+        cell.push(',');
+        num(cell, t.lambda_rad_s.unwrap_or(f64::NAN));
+    }
+
+    /// Write the row of one sample (with the estimates given since the
+    /// last row).
+    pub fn row(&mut self, t_s: f64, u: f64, y: f64) {
         if self.failed.is_some() {
             return;
         }
-        let n = self.modes;
-        self.record.clear();
-        if self.with_estimator {
-            self.record.push(estimator.to_string());
-        }
+        self.line.clear();
         // t = k·Ts carries rounding noise (0.0009000000000000001).
-        self.record.push(num((t.t_s * 1e9).round() / 1e9));
-        self.record.push(num(t.u));
-        self.record.push(num(t.y));
-        self.record.extend(t.theta.iter().map(|v| num(*v)));
-        match t.modal {
-            Some(m) if m.modes == n => {
-                self.record
-                    .extend(m.omega_rad_s[..n].iter().map(|v| num(*v)));
-                self.record.extend(m.zeta[..n].iter().map(|v| num(*v)));
+        num(&mut self.line, (t_s * 1e9).round() / 1e9);
+        self.line.push(',');
+        num(&mut self.line, u);
+        self.line.push(',');
+        num(&mut self.line, y);
+        for cell in self.pending.iter_mut().take(self.estimators) {
+            if cell.is_empty() {
+                self.line.push_str(&self.empty);
+            } else {
+                self.line.push_str(cell);
+                cell.clear();
             }
-            _ => self
-                .record
-                .extend(std::iter::repeat_n(String::new(), 2 * n)),
         }
-        match self.writer.write_record(&self.record) {
+        self.line.push('\n');
+        match self.writer.write_all(self.line.as_bytes()) {
             Ok(()) => self.rows += 1,
             Err(e) => self.failed = Some(e),
         }
@@ -95,45 +130,58 @@ impl CsvOut {
         if let Some(e) = self.failed.take() {
             return Err(write_error(&self.path, &e));
         }
-        self.writer.flush().map_err(|e| {
-            CliError::failure(format!("--csv: writing {}: {e}", self.path.display()))
-        })?;
+        self.writer
+            .flush()
+            .map_err(|e| write_error(&self.path, &e))?;
         Ok(self.rows)
     }
 }
 
-fn write_error(path: &Path, e: &csv::Error) -> CliError {
+fn write_error(path: &Path, e: &std::io::Error) -> CliError {
     CliError::failure(format!("--csv: writing {}: {e}", path.display()))
 }
 
-/// Shortest round-trip representation (scientific outside [1e-4, 1e9));
-/// empty for NaN/inf.
-fn num(v: f64) -> String {
+/// Append the shortest round-trip representation (scientific outside
+/// [1e-4, 1e9)); nothing for NaN/inf.
+pub fn num(out: &mut String, v: f64) {
     if !v.is_finite() {
-        String::new()
-    } else if v == 0.0 || (1e-4..1e9).contains(&v.abs()) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
+        return;
     }
+    let _ = if v == 0.0 || (1e-4..1e9).contains(&v.abs()) {
+        write!(out, "{v}")
+    } else {
+        write!(out, "{v:e}")
+    };
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn s(v: f64) -> String {
+        let mut o = String::new();
+        num(&mut o, v);
+        o
+    }
+
     #[test]
     fn header_for_two_modes() {
-        let h = header(2, false).join(",");
+        let h = header(2, &["adaptive"]).join(",");
         assert_eq!(
             h,
-            "t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2"
+            "t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s"
         );
-        assert_eq!(header(1, true)[0], "estimator");
-        assert_eq!(header(3, false).len(), 3 + 11 + 6);
-        assert_eq!(num(4.978767555286603e-7), "4.978767555286603e-7");
-        assert_eq!(num(0.0009), "0.0009");
-        assert_eq!(num(-1.11e6), "-1110000");
-        assert_eq!(num(f64::NAN), "");
+        let all = header(1, &["adaptive", "gradient", "ls"]);
+        assert_eq!(all[3], "adaptive_theta_0");
+        assert_eq!(all.len(), 3 + 3 * (3 + 2 + 1));
+        assert_eq!(header(3, &["ls"]).len(), 3 + 11 + 6 + 1);
+        assert_eq!(s(4.978767555286603e-7), "4.978767555286603e-7");
+        assert_eq!(s(0.0009), "0.0009");
+        assert_eq!(s(-1.11e6), "-1110000");
+        assert_eq!(s(f64::NAN), "");
+        // Shortest round trip: parsing gives the same f64 back.
+        for v in [0.1, -1.2345678901234567e-5, 1.0 / 3.0, 1e300] {
+            assert_eq!(s(v).parse::<f64>().unwrap(), v);
+        }
     }
 }

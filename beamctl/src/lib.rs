@@ -1,10 +1,16 @@
-//! The library half of `beamctl`: the simulation run loop and the simulated
-//! beams that `beamctl simulate` (and the host tests, which depend on this
-//! library) use.
+//! The library half of `beamctl`: the simulation run loop, the simulated
+//! beams and the estimator driver that `beamctl simulate` and `beamctl
+//! replay` (and the host tests, which depend on this library) share.
 //!
-//! * [`runner`] — run one estimator against the simulated rig
-//!   ([`beamest::rig::Rig`]) and measure it against the truth;
+//! * [`runner`] — run estimators against the simulated rig
+//!   ([`beamest::rig::Rig`]) and measure them against the truth;
 //! * [`scenario`] — which beam is simulated and its true parameters;
+//! * [`tuned`] — an estimator under the truth-free tuning rule
+//!   ([`beamest::tuning`]);
+//! * [`session`] — several estimators fed the same samples and evaluated;
+//! * [`gains`] — the laws and their gain sets (defaults, the paper's);
+//! * [`fit`] — model output vs measured output (fit %);
+//! * [`csvin`] — reading recorded samples for `beamctl replay`.
 //! * [`link`] — the host end of the serial link (`beamctl monitor`,
 //!   `beamctl send`) and a fake device that speaks the protocol.
 //!
@@ -15,9 +21,16 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_docs)]
 
+pub mod csvin;
+pub mod fit;
+pub mod gains;
 pub mod link;
 pub mod runner;
 pub mod scenario;
+pub mod session;
+pub mod tuned;
 
-pub use runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};
+pub use runner::{
+    run, run_many, EstimatorKind, Gains, Observer, Precision, RunConfig, RunError, RunReport, Trace,
+};
 pub use scenario::{PlantSpec, Truth, PAPER_BBAR};

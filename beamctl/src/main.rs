@@ -24,7 +24,10 @@ mod model;
 mod monitor;
 mod plot;
 mod progress;
+mod replay;
+mod report;
 mod send;
+mod settings;
 mod simulate;
 mod table;
 
@@ -59,6 +62,10 @@ enum Command {
     /// telemetry rates, reset, freeze, resume, status) and print its answer.
     #[command(long_about = SEND_ABOUT)]
     Send(send::SendArgs),
+    /// Run the estimator over recorded samples (a CSV of t, u, y) and
+    /// judge the estimate without the truth (model output fit, drift).
+    #[command(long_about = REPLAY_ABOUT)]
+    Replay(ReplayArgs),
 }
 
 const MONITOR_ABOUT: &str = "\
@@ -114,6 +121,26 @@ which the largest relative ω/ζ error stays below 1% and 0.1%, the excitation l
 rejected/skipped counters. A progress bar is shown on stderr for runs that take \
 longer than about a second (only when stderr is a terminal and not with --json).";
 
+const REPLAY_ABOUT: &str = "\
+Run the estimator over recorded samples, exactly as the firmware would run it on the \
+rig: u held over each sample period, y sampled, through the same filter bank, update \
+law and truth-free tuning rule (start-up window for the signal scales and λ, then λ \
+re-centred on the estimated band; docs/SETTINGS.md).
+
+Input: a CSV file with a header (gzip-compressed if it starts with the gzip magic), \
+columns t,u,y by default or chosen by name with --columns; the sample interval is the \
+mean spacing of the time column, which must be increasing and uniform within 1%; \
+--ts gives it for a file without a time column. A row with the wrong number of fields \
+or a non-numeric field stops the replay with an error naming its line; an empty, NaN \
+or infinite u or y is a missing sample: skipped by the estimator (its filters hold, \
+its law is frozen while they settle) and counted as rejected. See docs/REPLAY.md.
+
+Output: the estimate (ω, ζ, b̄ per mode), the model output fit \
+100·(1 − ‖y − ŷ‖/‖y − ȳ‖) of the final model driven by the recorded u (initial state \
+fitted), how much the estimate moved over the last 10% of the record, λ and the \
+tuning rule's outcome, λmin(P) (adaptive law), samples, rejected samples and skipped \
+updates. Exit status 1 if no estimate was produced, 2 for bad flags or input.";
+
 const MODEL_ABOUT: &str = "\
 Print the physical beam's modal model: per mode the root β_iL of eq. 20, ω_i, ζ_i, \
 the modal mass, stiffness and damping m_ii, k_ii, c_ii (eqs. 54–56), the piezo \
@@ -145,16 +172,59 @@ pub enum PrecisionChoice {
     F32,
 }
 
-/// Options of `beamctl simulate`.
+/// Estimator settings shared by `simulate` and `replay`.
 #[derive(Debug, Clone, Args)]
-pub struct SimulateArgs {
-    /// Update law to run; `all` runs the three and reports them side by side.
+pub struct EstimatorArgs {
+    /// Update law to run; `all` runs the three side by side on the same
+    /// samples.
     #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::Adaptive)]
     pub estimator: EstimatorChoice,
 
     /// Floating-point type of the estimator.
     #[arg(long, value_enum, value_name = "TYPE", default_value_t = PrecisionChoice::F64)]
     pub precision: PrecisionChoice,
+
+    /// Filter pole λ of Λ(s) = (s+λ)^(2N), in rad/s (> 0), fixed for the
+    /// whole run [default: automatic: a start-up λ from --band-hz, --beam
+    /// or the data, re-centred on the estimated band √(ω̂_min·ω̂_max); see
+    /// docs/SETTINGS.md].
+    #[arg(long, value_name = "RAD_S", allow_negative_numbers = true, conflicts_with_all = ["band_hz", "beam"])]
+    pub lambda: Option<f64>,
+
+    /// The band the modes are known to lie in, F1,F2 in Hz (0 < F1 ≤ F2):
+    /// the start-up λ is 2π·√(F1·F2), then re-centred on the estimate.
+    #[arg(
+        long,
+        value_name = "F1,F2",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        conflicts_with = "beam"
+    )]
+    pub band_hz: Option<Vec<f64>>,
+
+    /// A beam model (TOML, as for `beamctl model --beam`) whose N modes give
+    /// the start-up band [ω_1, ω_N]; then re-centred on the estimate.
+    #[arg(long, value_name = "FILE.toml")]
+    pub beam: Option<PathBuf>,
+
+    /// Use the paper's simulation gains (Section IV.A: Γ = 80, H(0),
+    /// l = 0.01, γ = 0.1, Γ1, Γ2(0)) and its filter Λ(s) = (s+100)^4 unless
+    /// --lambda/--band-hz/--beam is given; 2 modes only.
+    #[arg(long, conflicts_with = "paper_exp_gains")]
+    pub paper_gains: bool,
+
+    /// Use the paper's experimental gains (Section IV.B: Γ = 10, H(0),
+    /// l = 0.01, γ = 0.1, Γ1, Γ2(0)) and Λ(s) = (s+100)^4 unless
+    /// --lambda/--band-hz/--beam is given; 2 modes only.
+    #[arg(long)]
+    pub paper_exp_gains: bool,
+}
+
+/// Options of `beamctl simulate`.
+#[derive(Debug, Clone, Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub est: EstimatorArgs,
 
     /// Simulated time in seconds (> 0; sampled at Ts = 0.1 ms).
     #[arg(
@@ -211,14 +281,9 @@ pub struct SimulateArgs {
     )]
     pub weights: Option<Vec<f64>>,
 
-    /// Filter pole λ of Λ(s) = (s+λ)^(2N), in rad/s (> 0) [default: auto:
-    /// 100 rad/s for the paper's plant (N = 2 defaults), else √(ω_min·ω_max)
-    /// of the plant's modes].
-    #[arg(long, value_name = "RAD_S", allow_negative_numbers = true)]
-    pub lambda: Option<f64>,
-
     /// Add white Gaussian noise to y at this signal-to-noise ratio in dB
-    /// (relative to the RMS of the noise-free y) [default: no noise].
+    /// (relative to the RMS of the noise-free y over the first 2 s)
+    /// [default: no noise].
     #[arg(long, value_name = "DB", allow_negative_numbers = true)]
     pub snr_db: Option<f64>,
 
@@ -231,26 +296,76 @@ pub struct SimulateArgs {
     )]
     pub seed: u64,
 
-    /// Use the paper's Section IV.A gains (H(0), Γ1, Γ2(0)) instead of each
-    /// law's defaults; defined for 2 modes only.
-    #[arg(long)]
-    pub paper_gains: bool,
-
-    /// Write the time series at 1 kHz to this CSV file: t_s (s), u, y,
+    /// Write every sample to this CSV file: t_s (s), u, y — replayable with
+    /// `beamctl replay` — and on every 10th row (1 kHz) the estimates:
     /// theta_0.. (Θ of eq. 29, physical units), omega_1.. (rad/s), zeta_1..,
-    /// with an estimator column first under --estimator all. Failed modal
-    /// recoveries leave empty fields.
+    /// lambda_rad_s; prefixed by the estimator's name under --estimator all.
+    /// Empty fields where there is no estimate.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
 
-    /// Plot ω̂_i and ζ̂_i vs time (one panel per parameter, truth dashed, one
-    /// line per estimator) to this PNG file.
+    /// Plot to this PNG file: ω̂_i and ζ̂_i vs time (truth dashed, one line
+    /// per estimator), the largest relative error vs time (log axis) and
+    /// the model output vs the measured y over the last 0.5 s.
     #[arg(long, value_name = "FILE.png")]
     pub plot: Option<PathBuf>,
 
     /// Print one JSON value on stdout instead of the table: the run report
     /// object, or an array of them with --estimator all. Non-finite numbers
     /// are written as null.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Options of `beamctl replay`.
+#[derive(Debug, Clone, Args)]
+pub struct ReplayArgs {
+    /// The recorded samples: a CSV file with a header, plain or
+    /// gzip-compressed (see docs/REPLAY.md).
+    #[arg(value_name = "FILE.csv")]
+    pub file: PathBuf,
+
+    #[command(flatten)]
+    pub est: EstimatorArgs,
+
+    /// Columns by header name: T,U,Y, or U,Y with --ts [default: t,u,y;
+    /// u,y with --ts].
+    #[arg(long, value_name = "T,U,Y", value_delimiter = ',')]
+    pub columns: Option<Vec<String>>,
+
+    /// Sample interval in seconds, for a file without a time column.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub ts: Option<f64>,
+
+    /// Number of modes N to identify, 1..=3.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
+    pub modes: u8,
+
+    /// Output weights c_i (row C̄ of eq. 24; they set b̄ only),
+    /// comma-separated, one per mode, each finite and ≠ 0 [default:
+    /// −2, 2, −2].
+    #[arg(
+        long,
+        value_name = "C1,C2,...",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub weights: Option<Vec<f64>>,
+
+    /// Write the estimates over time to this CSV file: one row per
+    /// evaluation (1 kHz of record time), t_s (from the first row), u, y,
+    /// then per estimator theta_0.., omega_1.., zeta_1.., lambda_rad_s (as
+    /// `beamctl simulate --csv`).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+
+    /// Plot to this PNG file: ω̂_i and ζ̂_i vs time and the model output vs
+    /// the measured y over the last 0.5 s of the record.
+    #[arg(long, value_name = "FILE.png")]
+    pub plot: Option<PathBuf>,
+
+    /// Print one JSON value on stdout instead of the table (an array of
+    /// reports with --estimator all). Non-finite numbers are written as null.
     #[arg(long)]
     pub json: bool,
 }
@@ -288,6 +403,7 @@ fn main() -> ExitCode {
         Command::Model(args) => model::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Send(args) => send::run(args),
+        Command::Replay(args) => replay::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -177,7 +177,7 @@ fn key(p: BeamParam) -> &'static str {
 }
 
 /// A one-line explanation of a [`BeamError`] in terms of the file's keys.
-fn explain(e: BeamError, p: &BeamParams) -> String {
+pub fn explain(e: BeamError, p: &BeamParams) -> String {
     match e {
         BeamError::InvalidParameter(BeamParam::Damping) => format!(
             "damping_pa_s must be finite and ≥ 0 (got {})",
@@ -274,7 +274,7 @@ pub fn run(args: &ModelArgs) -> Result<(), CliError> {
     write_stdout(&text)
 }
 
-fn load(path: &Path) -> Result<BeamParams, CliError> {
+pub fn load(path: &Path) -> Result<BeamParams, CliError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::usage("--beam", format!("cannot read {}: {e}", path.display())))?;
     parse_beam(&text, &path.display().to_string())

@@ -1,49 +1,26 @@
-//! Run one estimator against a simulated rig and measure it.
+//! Run estimators against a simulated rig and measure them.
 //!
-//! The estimator sees only what the firmware would: the held input u and the
-//! sampled output y (plus optional noise), through its own filter bank.
-//! Modal parameters are recovered at the telemetry rate ([`RunConfig::eval_every`])
-//! and compared with the truth.
+//! The estimators see only what the firmware would: the held input u and
+//! the sampled output y (plus optional noise), through their own filter
+//! banks, with λ and the signal scales chosen by the truth-free rule
+//! ([`beamest::tuning`], via [`crate::tuned`]). Modal parameters are
+//! recovered at the telemetry rate ([`RunConfig::eval_every`]) and compared
+//! with the truth here, and only here.
 
-use crate::scenario::{output_scale, PlantSpec, Truth};
-use beamest::estimator::{
-    AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator, Health,
-    LeastSquaresConfig, LeastSquaresEstimator,
-};
+use crate::fit::{self, Model};
+use crate::scenario::{PlantSpec, Truth};
+use crate::session::{drift_every, Eval, Session};
 use beamest::excitation::SquareWave;
-use beamest::filter_bank::{FilterConfig, OutputHold, Scaling, SignalScales};
-use beamest::modal::modal_from_tf;
+use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::model::{ModalParams, TransferFunction};
 use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample};
+use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use serde::Serialize;
 
-/// Which update law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum EstimatorKind {
-    /// The proposed law (eqs. 33–41).
-    Adaptive,
-    /// The gradient baseline (eq. 47).
-    Gradient,
-    /// The least-squares baseline (eq. 48).
-    #[serde(rename = "ls")]
-    LeastSquares,
-}
-
-impl EstimatorKind {
-    /// All three, in report order.
-    pub const ALL: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
-
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Adaptive => "adaptive",
-            Self::Gradient => "gradient",
-            Self::LeastSquares => "ls",
-        }
-    }
-}
+pub use crate::gains::{build_estimator, EstimatorKind, Gains};
+pub use crate::session::Outcome;
+pub use crate::tuned::Build;
 
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -53,16 +30,6 @@ pub enum Precision {
     F32,
     /// Double precision.
     F64,
-}
-
-/// Which gains.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Gains {
-    /// The defaults of each law's config (scaled coordinates).
-    Default,
-    /// The paper's Section IV.A gains, mapped exactly to scaled coordinates
-    /// (two modes only).
-    Paper,
 }
 
 /// Everything that defines a run.
@@ -80,9 +47,10 @@ pub struct RunConfig {
     pub duration_s: f64,
     /// Sample period.
     pub ts_s: f64,
-    /// Filter pole λ (rad/s); `None` chooses it from the nominal plant
-    /// ([`auto_lambda`]).
-    pub lambda_rad_s: Option<f64>,
+    /// Where λ comes from (default: the data; see [`beamest::tuning`]).
+    pub lambda: LambdaSource,
+    /// U0, Y0 if known (default: RMS over the start-up window).
+    pub scales: Option<SignalScales>,
     /// y interpolation.
     pub hold: OutputHold,
     /// Square-wave amplitude (input units).
@@ -99,7 +67,8 @@ pub struct RunConfig {
 
 impl Default for RunConfig {
     /// The paper's simulation: its plant, 0.1·square(7 Hz), Ts = 0.1 ms,
-    /// λ = 100, 20 s, the proposed law in f64 with default gains.
+    /// 20 s, the proposed law in f64 with default gains, λ and scales by
+    /// the truth-free rule.
     fn default() -> Self {
         Self {
             plant: PlantSpec::Paper,
@@ -108,13 +77,25 @@ impl Default for RunConfig {
             gains: Gains::Default,
             duration_s: 20.0,
             ts_s: 1e-4,
-            lambda_rad_s: None,
+            lambda: LambdaSource::Data,
+            scales: None,
             hold: OutputHold::default(),
             u_amplitude: 0.1,
             u_freq_hz: 7.0,
             snr_db: None,
             seed: 1,
             eval_every: 10,
+        }
+    }
+}
+
+impl RunConfig {
+    /// The tuning rule's settings for this run.
+    pub fn tuning(&self) -> TuningConfig {
+        TuningConfig {
+            hold: self.hold,
+            scales: self.scales,
+            ..TuningConfig::new(self.ts_s, self.lambda)
         }
     }
 }
@@ -158,7 +139,8 @@ pub struct ModalSummary {
 }
 
 impl ModalSummary {
-    fn new(m: Option<&ModalParams<f64>>, tf: &TransferFunction<f64>) -> Self {
+    /// From a recovery result (NaN where it failed) and the polynomial.
+    pub fn new(m: Option<&ModalParams<f64>>, tf: &TransferFunction<f64>) -> Self {
         let n = tf.modes;
         let (omega, zeta, bbar) = match m {
             Some(m) => (
@@ -175,6 +157,22 @@ impl ModalSummary {
             a: tf.a[..2 * n].to_vec(),
             b: tf.b[..2 * n - 1].to_vec(),
         }
+    }
+
+    /// No estimate at all for an `n`-mode model (all NaN).
+    pub fn empty(n: usize) -> Self {
+        Self {
+            omega: vec![f64::NAN; n],
+            zeta: vec![f64::NAN; n],
+            bbar: vec![f64::NAN; n],
+            a: vec![f64::NAN; 2 * n],
+            b: vec![f64::NAN; 2 * n - 1],
+        }
+    }
+
+    /// True if ω and ζ of every mode are finite.
+    pub fn is_valid(&self) -> bool {
+        self.omega.iter().chain(&self.zeta).all(|v| v.is_finite())
     }
 }
 
@@ -231,96 +229,91 @@ pub struct RunReport {
     pub rejected_samples: u64,
     /// Law updates skipped (singular step).
     pub skipped_updates: u64,
+    /// Law updates applied (0: the law never ran, no estimate).
+    pub law_updates: u64,
     /// The estimator's state integrity check at the end of the run.
     pub state_ok: bool,
+    /// The final filter pole λ (rad/s).
+    pub lambda_rad_s: Option<f64>,
+    /// How the tuning rule ended (see [`Outcome::tuning`]).
+    pub tuning: &'static str,
+    /// Every estimator the tuning rule built.
+    pub builds: Vec<Build>,
+    /// Model output vs measured output, % (see [`Outcome::fit_percent`]).
+    pub fit_percent: Option<f64>,
+    /// Movement over the last 10% of the run (see
+    /// [`Outcome::drift_last_10pct`]).
+    pub drift_last_10pct: Option<f64>,
 }
 
 /// One telemetry-rate sample handed to an observer.
 #[derive(Debug, Clone)]
 pub struct Trace<'a> {
+    /// Which law.
+    pub estimator: EstimatorKind,
     /// Time of the sample (s).
     pub t_s: f64,
     /// Input u.
     pub u: f64,
     /// Measured y (with noise).
     pub y: f64,
-    /// Θ̂ (physical units).
+    /// Θ̂ (physical units; NaN during the start-up window).
     pub theta: &'a [f64],
     /// Recovered modal parameters, if recovery succeeded.
     pub modal: Option<&'a ModalParams<f64>>,
-    /// Largest relative ω/ζ error.
-    pub max_rel_error: f64,
+    /// The estimator's λ (rad/s), once built.
+    pub lambda_rad_s: Option<f64>,
+    /// Largest relative ω/ζ error, when the truth is known (simulation).
+    pub max_rel_error: Option<f64>,
+}
+
+/// What a run reports as it goes.
+pub trait Observer {
+    /// Every sample, after every estimator has been stepped (and after the
+    /// [`Observer::estimate`] calls of that sample).
+    fn sample(&mut self, _k: u64, _t_s: f64, _u: f64, _y: f64) {}
+    /// At the evaluation rate, once per estimator (`index` in run order).
+    fn estimate(&mut self, _index: usize, _trace: &Trace<'_>) {}
+    /// Whether [`Observer::sample`] is wanted (it costs a call per sample).
+    fn wants_samples(&self) -> bool {
+        false
+    }
+}
+
+impl<F: FnMut(&Trace<'_>)> Observer for F {
+    fn estimate(&mut self, _index: usize, trace: &Trace<'_>) {
+        self(trace)
+    }
 }
 
 /// Run one configuration. `observer` is called at the evaluation rate.
 pub fn run(cfg: &RunConfig, observer: &mut dyn FnMut(&Trace<'_>)) -> Result<RunReport, RunError> {
+    let mut obs = observer;
+    let mut reports = run_many(cfg, &[cfg.kind], &mut obs)?;
+    reports
+        .pop()
+        .ok_or_else(|| RunError::Setup("no estimator".into()))
+}
+
+/// Run several laws on the same simulated samples (`cfg.kind` is ignored),
+/// side by side; one report per law, in the order of `kinds`.
+pub fn run_many(
+    cfg: &RunConfig,
+    kinds: &[EstimatorKind],
+    observer: &mut dyn Observer,
+) -> Result<Vec<RunReport>, RunError> {
     let modes = cfg.plant.modes();
     match (modes, cfg.precision) {
-        (1, Precision::F64) => run_sized::<f64, 2, 3, 6>(cfg, observer),
-        (1, Precision::F32) => run_sized::<f32, 2, 3, 6>(cfg, observer),
-        (2, Precision::F64) => run_sized::<f64, 4, 7, 28>(cfg, observer),
-        (2, Precision::F32) => run_sized::<f32, 4, 7, 28>(cfg, observer),
-        (3, Precision::F64) => run_sized::<f64, 6, 11, 66>(cfg, observer),
-        (3, Precision::F32) => run_sized::<f32, 6, 11, 66>(cfg, observer),
+        (1, Precision::F64) => run_sized::<f64, 2, 3, 6>(cfg, kinds, observer),
+        (1, Precision::F32) => run_sized::<f32, 2, 3, 6>(cfg, kinds, observer),
+        (2, Precision::F64) => run_sized::<f64, 4, 7, 28>(cfg, kinds, observer),
+        (2, Precision::F32) => run_sized::<f32, 4, 7, 28>(cfg, kinds, observer),
+        (3, Precision::F64) => run_sized::<f64, 6, 11, 66>(cfg, kinds, observer),
+        (3, Precision::F32) => run_sized::<f32, 6, 11, 66>(cfg, kinds, observer),
         _ => Err(RunError::Plant(format!(
             "{modes} modes (supported: 1, 2, 3)"
         ))),
     }
-}
-
-/// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a
-/// boxed trait object.
-pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize>(
-    kind: EstimatorKind,
-    gains: Gains,
-    filter: &FilterConfig,
-) -> Result<Box<dyn Estimator<T, NP>>, RunError> {
-    let scaling = Scaling::<NP>::new(filter);
-    let paper = |what: &str| -> Result<[f64; NP], RunError> {
-        let v: &[f64] = match what {
-            "h0" => &AdaptiveConfig::<7>::PAPER_H0_2_MODES,
-            "g1" => &GradientConfig::<7>::PAPER_GAIN_2_MODES,
-            _ => &LeastSquaresConfig::<7>::PAPER_GAIN0_2_MODES,
-        };
-        v.try_into().map_err(|_| {
-            RunError::Estimator("the paper's gains are defined for 2 modes only".into())
-        })
-    };
-    let err = |e| RunError::Estimator(format!("{e:?}"));
-    Ok(match (kind, gains) {
-        (EstimatorKind::Adaptive, Gains::Default) => Box::new(
-            AdaptiveEstimator::<T, D, NP, NS>::new(filter, &AdaptiveConfig::default())
-                .map_err(err)?,
-        ),
-        (EstimatorKind::Adaptive, Gains::Paper) => Box::new(
-            AdaptiveEstimator::<T, D, NP, NS>::new(
-                filter,
-                &AdaptiveConfig::paper(&scaling, &paper("h0")?),
-            )
-            .map_err(err)?,
-        ),
-        (EstimatorKind::Gradient, Gains::Default) => Box::new(
-            GradientEstimator::<T, D, NP>::new(filter, &GradientConfig::default()).map_err(err)?,
-        ),
-        (EstimatorKind::Gradient, Gains::Paper) => Box::new(
-            GradientEstimator::<T, D, NP>::new(
-                filter,
-                &GradientConfig::from_physical(&scaling, &paper("g1")?),
-            )
-            .map_err(err)?,
-        ),
-        (EstimatorKind::LeastSquares, Gains::Default) => Box::new(
-            LeastSquaresEstimator::<T, D, NP>::new(filter, &LeastSquaresConfig::default())
-                .map_err(err)?,
-        ),
-        (EstimatorKind::LeastSquares, Gains::Paper) => Box::new(
-            LeastSquaresEstimator::<T, D, NP>::new(
-                filter,
-                &LeastSquaresConfig::from_physical(&scaling, &paper("g2")?),
-            )
-            .map_err(err)?,
-        ),
-    })
 }
 
 /// Relative ω/ζ errors of an estimate (NaN where recovery failed).
@@ -342,42 +335,28 @@ pub fn rel_error(est: Option<&ModalParams<f64>>, truth: &ModalParams<f64>) -> Re
     e
 }
 
-/// The default filter pole for a plant: the paper's λ = 100 rad/s for its
-/// plant, otherwise the geometric mean √(ω_min·ω_max) of the nominal modes
-/// (98 rad/s for the paper's plant — the paper's choice follows the same
-/// rule). A λ far below the highest mode leaves P ill-conditioned: on a
-/// 155/1520 rad/s plant λ = 100 stalls at 1e-3 while λ = 300 reaches 2e-7.
-pub fn auto_lambda(plant: &PlantSpec) -> f64 {
-    match plant {
-        PlantSpec::Paper => 100.0,
-        PlantSpec::Modal(m) => {
-            let w = &m.omega_rad_s[..m.modes];
-            let lo = w.iter().cloned().fold(f64::INFINITY, f64::min);
-            let hi = w.iter().cloned().fold(0.0, f64::max);
-            (lo * hi).sqrt()
-        }
-    }
-}
-
-/// The filter configuration a run uses (scales from the excitation and the
-/// plant's static gain).
-pub fn filter_config(cfg: &RunConfig, truth: &Truth) -> FilterConfig {
-    FilterConfig {
+/// The filter configuration the truth-free rule ends with on this run
+/// (its last build), for code that needs a fixed configuration chosen as
+/// `beamctl simulate` would choose it (benchmarks, fault-injection tests).
+pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
+    let report = run(cfg, &mut |_| {})?;
+    let b = report
+        .builds
+        .last()
+        .ok_or_else(|| RunError::Setup("the tuning rule never built an estimator".into()))?;
+    Ok(FilterConfig {
         ts_s: cfg.ts_s,
-        lambda_rad_s: cfg.lambda_rad_s.unwrap_or_else(|| auto_lambda(&cfg.plant)),
+        lambda_rad_s: b.lambda_rad_s,
         scales: SignalScales {
-            u_scale: if cfg.u_amplitude > 0.0 {
-                cfg.u_amplitude
-            } else {
-                1.0
-            },
-            y_scale: output_scale(truth, cfg.u_amplitude),
+            u_scale: b.u_scale,
+            y_scale: b.y_scale,
         },
         hold: cfg.hold,
-    }
+    })
 }
 
-fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
+/// An f64 copy of a transfer function.
+pub fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
     TransferFunction {
         modes: tf.modes,
         a: tf.a.map(|v| v.to_f64()),
@@ -385,7 +364,8 @@ fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
     }
 }
 
-fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
+/// An f64 copy of modal parameters.
+pub fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
     ModalParams {
         modes: m.modes,
         omega_rad_s: m.omega_rad_s.map(|v| v.to_f64()),
@@ -420,32 +400,19 @@ impl Settling {
     }
 }
 
-fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
-    cfg: &RunConfig,
-    observer: &mut dyn FnMut(&Trace<'_>),
-) -> Result<RunReport, RunError> {
-    if !(cfg.duration_s > 0.0 && cfg.duration_s.is_finite()) {
-        return Err(RunError::Setup("duration must be positive".into()));
-    }
-    if cfg.eval_every == 0 {
-        return Err(RunError::Setup("eval_every must be at least 1".into()));
-    }
-    let truth = cfg.plant.truth();
+/// The simulated rig of a run: plant, square wave and (with an SNR) noise
+/// whose σ is the noise-free y's RMS over the first 2 s / 10^(SNR/20).
+pub fn rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let plant = cfg
         .plant
         .plant(cfg.ts_s)
         .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-    let filter = filter_config(cfg, &truth);
-    let mut est = build_estimator::<T, D, NP, NS>(cfg.kind, cfg.gains, &filter)?;
-    let fs = 1.0 / cfg.ts_s;
-    let square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, fs)
+    let square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, 1.0 / cfg.ts_s)
         .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))?;
-    let samples = (cfg.duration_s / cfg.ts_s).round() as u64;
     let mut rig = Rig::new(plant, square);
     if let Some(snr) = cfg.snr_db {
-        // RMS of the noise-free output over (up to) the first 2 s.
         let mut probe = rig.noise_free();
-        let n = samples.min((2.0 / cfg.ts_s) as u64).max(1);
+        let n = samples(cfg).min((2.0 / cfg.ts_s) as u64).max(1);
         let mut acc = 0.0;
         for _ in 0..n {
             let y = probe.tick().y;
@@ -456,63 +423,133 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             .map_err(|_| RunError::Setup("invalid SNR".into()))?;
         rig = rig.with_noise(noise);
     }
-    let weights: Vec<T> = truth.modal.output_weight[..truth.modal.modes]
+    Ok(rig)
+}
+
+/// Samples a run processes.
+pub fn samples(cfg: &RunConfig) -> u64 {
+    (cfg.duration_s / cfg.ts_s).round() as u64
+}
+
+/// Per-law truth metrics.
+struct Score {
+    s1: Settling,
+    s01: Settling,
+    max_after_1s: Option<f64>,
+}
+
+fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
+    cfg: &RunConfig,
+    kinds: &[EstimatorKind],
+    observer: &mut dyn Observer,
+) -> Result<Vec<RunReport>, RunError> {
+    if !(cfg.duration_s > 0.0 && cfg.duration_s.is_finite()) {
+        return Err(RunError::Setup("duration must be positive".into()));
+    }
+    if cfg.eval_every == 0 {
+        return Err(RunError::Setup("eval_every must be at least 1".into()));
+    }
+    let truth: Truth = cfg.plant.truth();
+    let weights = &truth.modal.output_weight[..truth.modal.modes];
+    let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?;
+    let mut rig = rig(cfg)?;
+    let total = samples(cfg);
+    let every = cfg.eval_every as u64;
+    let mut scores: Vec<Score> = kinds
         .iter()
-        .map(|&c| T::from_f64(c))
+        .map(|_| Score {
+            s1: Settling::new(1e-2),
+            s01: Settling::new(1e-3),
+            max_after_1s: None,
+        })
         .collect();
-    let mut s1 = Settling::new(1e-2);
-    let mut s01 = Settling::new(1e-3);
-    let mut max_after_1s: Option<f64> = None;
-    let mut theta64 = [0.0f64; NP];
-    for k in 0..samples {
+    let per_sample = observer.wants_samples();
+    let drift = drift_every(cfg.ts_s);
+    for k in 0..total {
         let Sample { u, y } = rig.tick();
-        est.step(T::from_f64(u), T::from_f64(y));
-        if (k + 1) % cfg.eval_every as u64 == 0 || k + 1 == samples {
-            // Real time of the newest sample: when the estimate is available.
-            let t = k as f64 * cfg.ts_s;
-            let modal = modal_from_tf(&est.transfer_function(), &weights)
-                .ok()
-                .map(|m| to_f64_modal(&m));
-            let err = rel_error(modal.as_ref(), &truth.modal).max();
-            s1.observe(t, err);
-            s01.observe(t, err);
-            if t >= 1.0 {
-                max_after_1s = Some(max_after_1s.unwrap_or(0.0).max(err));
+        session.step(u, y);
+        // Real time of the newest sample: when the estimate is available.
+        let t = k as f64 * cfg.ts_s;
+        if (k + 1) % every == 0 || k + 1 == total {
+            let record = (k + 1) % drift == 0 || k + 1 == total;
+            for (i, score) in scores.iter_mut().enumerate() {
+                let e: Eval<NP> = session.evaluate(i, t, record);
+                let err = rel_error(e.modal.as_ref(), &truth.modal).max();
+                score.s1.observe(t, err);
+                score.s01.observe(t, err);
+                if t >= 1.0 {
+                    score.max_after_1s = Some(score.max_after_1s.unwrap_or(0.0).max(err));
+                }
+                observer.estimate(
+                    i,
+                    &Trace {
+                        estimator: kinds[i],
+                        t_s: t,
+                        u,
+                        y,
+                        theta: &e.theta,
+                        modal: e.modal.as_ref(),
+                        lambda_rad_s: e.lambda_rad_s,
+                        max_rel_error: Some(err),
+                    },
+                );
             }
-            for (d, s) in theta64.iter_mut().zip(est.theta().iter()) {
-                *d = s.to_f64();
-            }
-            observer(&Trace {
-                t_s: t,
-                u,
-                y,
-                theta: &theta64,
-                modal: modal.as_ref(),
-                max_rel_error: err,
-            });
+        }
+        if per_sample {
+            observer.sample(k, t, u, y);
         }
     }
-    // Recover in the estimator's own precision, as the firmware does.
-    let est_tf = est.transfer_function();
-    let tf = to_f64_tf(&est_tf);
-    let modal = modal_from_tf(&est_tf, &weights)
-        .ok()
-        .map(|m| to_f64_modal(&m));
-    let health: Health = est.health();
-    Ok(RunReport {
-        estimator: cfg.kind,
-        precision: cfg.precision,
-        duration_s: samples as f64 * cfg.ts_s,
-        samples,
-        estimate: ModalSummary::new(modal.as_ref(), &tf),
-        truth: ModalSummary::new(Some(&truth.modal), &truth.tf),
-        rel_error: rel_error(modal.as_ref(), &truth.modal),
-        time_to_1pct_s: s1.since,
-        time_to_0p1pct_s: s01.since,
-        excitation_min_eig: est.excitation_level().map(|v| v.to_f64()),
-        max_error_after_1s: max_after_1s,
-        rejected_samples: health.rejected.into(),
-        skipped_updates: health.skipped.into(),
-        state_ok: health.state_ok,
-    })
+    let end_s = total.saturating_sub(1) as f64 * cfg.ts_s;
+    let mut reports = Vec::with_capacity(kinds.len());
+    for (i, score) in scores.into_iter().enumerate() {
+        let fit = match session.model(i, cfg.ts_s) {
+            Some(model) => fit_on_rig(cfg, &model)?,
+            None => None,
+        };
+        let o = session.outcome(i, end_s, fit.as_ref());
+        let modal = o.estimate.is_valid().then(|| {
+            let mut m = truth.modal;
+            let n = m.modes;
+            m.omega_rad_s[..n].copy_from_slice(&o.estimate.omega);
+            m.zeta[..n].copy_from_slice(&o.estimate.zeta);
+            m
+        });
+        reports.push(RunReport {
+            estimator: kinds[i],
+            precision: cfg.precision,
+            duration_s: total as f64 * cfg.ts_s,
+            samples: total,
+            rel_error: rel_error(modal.as_ref(), &truth.modal),
+            truth: ModalSummary::new(Some(&truth.modal), &truth.tf),
+            time_to_1pct_s: score.s1.since,
+            time_to_0p1pct_s: score.s01.since,
+            max_error_after_1s: score.max_after_1s,
+            estimate: o.estimate,
+            excitation_min_eig: o.excitation_min_eig,
+            rejected_samples: o.rejected_samples,
+            skipped_updates: o.skipped_updates,
+            law_updates: o.law_updates,
+            state_ok: o.state_ok,
+            lambda_rad_s: o.lambda_rad_s,
+            tuning: o.tuning,
+            builds: o.builds,
+            fit_percent: o.fit_percent,
+            drift_last_10pct: o.drift_last_10pct,
+        });
+    }
+    Ok(reports)
+}
+
+/// The model-output fit over the run's samples (the rig is deterministic:
+/// it is replayed rather than stored).
+fn fit_on_rig(cfg: &RunConfig, model: &Model) -> Result<Option<fit::Fit>, RunError> {
+    let start = rig(cfg)?;
+    let n = samples(cfg);
+    Ok(fit::fit(model, || {
+        let mut rig = start.clone();
+        (0..n).map(move |_| {
+            let s = rig.tick();
+            (s.u, s.y)
+        })
+    }))
 }

@@ -2,7 +2,7 @@
 //! plant, excitation and measurement noise — is `beamest::rig`.)
 
 use beamest::model::{
-    paper_plant_tf, ModalParams, TransferFunction, MAX_MODES, PAPER_B, PAPER_OMEGA, PAPER_ZETA,
+    paper_plant_tf, ModalParams, TransferFunction, PAPER_B, PAPER_OMEGA, PAPER_ZETA,
 };
 use beamest::rig::{ModalPlant, PlantError};
 
@@ -91,26 +91,5 @@ impl PlantSpec {
             Self::Paper => ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, ts_s),
             Self::Modal(m) => ModalPlant::from_modal(m, ts_s),
         }
-    }
-}
-
-/// Output scale Y0 for an excitation of amplitude `u_amplitude`: the static
-/// output |G(0)|·U0, or the peak resonant response if G(0) = 0.
-pub fn output_scale(truth: &Truth, u_amplitude: f64) -> f64 {
-    let n = truth.tf.modes;
-    let mut g: f64 = 0.0;
-    let (re, im) = truth.tf.freq_response(0.0);
-    g = g.max(re.hypot(im));
-    if !(g > 0.0) {
-        for &w in truth.modal.omega_rad_s.iter().take(n.min(MAX_MODES)) {
-            let (re, im) = truth.tf.freq_response(w);
-            g = g.max(re.hypot(im));
-        }
-    }
-    let y0 = g * u_amplitude;
-    if y0 > 0.0 && y0.is_finite() {
-        y0
-    } else {
-        1.0
     }
 }

@@ -18,13 +18,15 @@
 
 use crate::csvout::CsvOut;
 use crate::error::CliError;
-use crate::plot::{self, Recorder};
+use crate::plot::{self, OutputPanel, Recorder};
 use crate::progress::Progress;
-use crate::table::{rel, seconds, short, sig, Column, Table};
-use crate::{EstimatorChoice, PrecisionChoice, SimulateArgs};
-use beamctl::runner::auto_lambda;
-use beamctl::{EstimatorKind, Gains, PlantSpec, Precision, RunConfig, RunReport, Trace};
-use beamest::model::ModalParams;
+use crate::report;
+use crate::settings::{self, EstimatorPlan};
+use crate::SimulateArgs;
+use beamctl::fit::{self, Model};
+use beamctl::runner::{rig, run_many, samples};
+use beamctl::{Observer, PlantSpec, RunConfig, RunReport, Trace};
+use beamest::model::{ModalParams, TransferFunction, MAX_ORDER};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
 
@@ -34,31 +36,21 @@ const MAX_DURATION_S: f64 = 1.0e6;
 /// Everything a `simulate` invocation will do, validated.
 #[derive(Debug, Clone)]
 pub struct Plan {
-    /// Estimators to run, in report order.
-    pub kinds: Vec<EstimatorKind>,
-    /// Run configuration (its `kind` is replaced per run).
+    /// Estimator settings (laws, precision, gains, λ source).
+    pub est: EstimatorPlan,
+    /// Run configuration (its `kind` is not used: `est.kinds` run side by
+    /// side).
     pub base: RunConfig,
     /// Number of modes N.
     pub modes: usize,
     /// Human description of the plant.
     pub plant_label: String,
-    /// The filter pole λ the runs use (rad/s): `--lambda`, or the runner's
-    /// [`auto_lambda`] choice.
-    pub lambda_rad_s: f64,
 }
 
 impl Plan {
-    /// The configuration of one run.
-    pub fn config(&self, kind: EstimatorKind) -> RunConfig {
-        RunConfig {
-            kind,
-            ..self.base.clone()
-        }
-    }
-
     /// Samples one run processes (as the runner counts them).
     pub fn samples_per_run(&self) -> u64 {
-        (self.base.duration_s / self.base.ts_s).round() as u64
+        samples(&self.base)
     }
 }
 
@@ -93,61 +85,21 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
             format!("must be at most {MAX_DURATION_S} s (got {})", args.duration),
         ));
     }
-    if let Some(lambda) = args.lambda {
-        finite("--lambda", lambda)?;
-        if lambda <= 0.0 {
-            return Err(CliError::usage(
-                "--lambda",
-                format!("the filter pole must be > 0 rad/s (got {lambda})"),
-            ));
-        }
-    }
     if let Some(snr) = args.snr_db {
         finite("--snr-db", snr)?;
     }
     if let Some(p) = &args.plot {
-        let png = p
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-        if !png {
-            return Err(CliError::usage(
-                "--plot",
-                format!(
-                    "only PNG output is supported: the file name must end in .png (got {})",
-                    p.display()
-                ),
-            ));
-        }
+        plot::check_extension(p)?;
     }
 
     let (plant, modes, plant_label) = resolve_plant(args, ts)?;
-    if args.paper_gains && modes != 2 {
-        return Err(CliError::usage(
-            "--paper-gains",
-            format!("the paper's gains are defined for 2 modes only (this plant has {modes})"),
-        ));
-    }
-
-    let kinds = match args.estimator {
-        EstimatorChoice::Adaptive => vec![EstimatorKind::Adaptive],
-        EstimatorChoice::Gradient => vec![EstimatorKind::Gradient],
-        EstimatorChoice::Ls => vec![EstimatorKind::LeastSquares],
-        EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
-    };
+    let est = settings::plan(&args.est, modes)?;
     let base = RunConfig {
         plant,
-        precision: match args.precision {
-            PrecisionChoice::F64 => Precision::F64,
-            PrecisionChoice::F32 => Precision::F32,
-        },
-        gains: if args.paper_gains {
-            Gains::Paper
-        } else {
-            Gains::Default
-        },
+        precision: est.precision,
+        gains: est.gains,
         duration_s: args.duration,
-        lambda_rad_s: args.lambda,
+        lambda: est.lambda,
         snr_db: args.snr_db,
         seed: args.seed,
         // Modal recovery costs ~4–7 µs: at 1 kHz it would dominate an hour
@@ -160,15 +112,11 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         },
         ..base_default
     };
-    let lambda_rad_s = base
-        .lambda_rad_s
-        .unwrap_or_else(|| auto_lambda(&base.plant));
     Ok(Plan {
-        kinds,
+        est,
         base,
         modes,
         plant_label,
-        lambda_rad_s,
     })
 }
 
@@ -336,19 +284,52 @@ struct JsonRun<'a> {
     report: &'a RunReport,
     modes: usize,
     gains: &'static str,
-    lambda_rad_s: f64,
     ts_s: f64,
     snr_db: Option<f64>,
     seed: u64,
 }
 
+/// Feeds the CSV writer, the plot recorders and the progress bar.
+struct SimObserver<'a> {
+    csv: Option<&'a mut CsvOut>,
+    recorders: Vec<Recorder>,
+    progress: &'a mut Progress,
+    ts_s: f64,
+    total: u64,
+}
+
+impl Observer for SimObserver<'_> {
+    fn estimate(&mut self, index: usize, t: &Trace<'_>) {
+        if let Some(c) = self.csv.as_deref_mut() {
+            c.estimate(index, t);
+        }
+        if let Some(r) = self.recorders.get_mut(index) {
+            r.push(t);
+        }
+        if index == 0 {
+            let done = ((t.t_s / self.ts_s).round() as u64 + 1).min(self.total);
+            self.progress.set_position(done);
+        }
+    }
+
+    fn sample(&mut self, _k: u64, t_s: f64, u: f64, y: f64) {
+        if let Some(c) = self.csv.as_deref_mut() {
+            c.row(t_s, u, y);
+        }
+    }
+
+    fn wants_samples(&self) -> bool {
+        self.csv.is_some()
+    }
+}
+
 /// Run `beamctl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
-    let several = plan.kinds.len() > 1;
+    let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
     let mut csv = match &args.csv {
-        Some(p) => Some(CsvOut::create(p, plan.modes, several)?),
+        Some(p) => Some(CsvOut::create(p, plan.modes, &names)?),
         None => None,
     };
     if let Some(p) = &args.plot {
@@ -357,38 +338,26 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 
     let per_run = plan.samples_per_run();
     let eval_every = plan.base.eval_every.max(1) as u64;
-    let mut progress = Progress::new(
-        per_run.saturating_mul(plan.kinds.len() as u64),
-        !args.json && std::io::stderr().is_terminal(),
-    );
-    let mut reports = Vec::with_capacity(plan.kinds.len());
-    let mut recorders = Vec::new();
-    for (r, &kind) in plan.kinds.iter().enumerate() {
-        let cfg = plan.config(kind);
-        progress.set_message(kind.name());
-        let offset = per_run * r as u64;
-        let mut recorder = args
-            .plot
-            .as_ref()
-            .map(|_| Recorder::new(kind.name(), plan.modes, per_run / eval_every));
-        let mut observer = |t: &Trace<'_>| {
-            if let Some(c) = csv.as_mut() {
-                c.push(kind.name(), t);
-            }
-            if let Some(rec) = recorder.as_mut() {
-                rec.push(t);
-            }
-            let done = ((t.t_s / cfg.ts_s).round() as u64 + 1).min(per_run);
-            progress.set_position(offset + done);
-        };
-        let report = beamctl::run(&cfg, &mut observer).map_err(|e| {
-            progress.finish();
-            CliError::failure(format!("simulation ({}): {e}", kind.name()))
-        })?;
-        reports.push(report);
-        recorders.extend(recorder);
-    }
+    let mut progress = Progress::new(per_run, !args.json && std::io::stderr().is_terminal());
+    progress.set_message(&names.join("+"));
+    let recorders = match &args.plot {
+        Some(_) => names
+            .iter()
+            .map(|n| Recorder::new(n, plan.modes, per_run / eval_every))
+            .collect(),
+        None => Vec::new(),
+    };
+    let mut obs = SimObserver {
+        csv: csv.as_mut(),
+        recorders,
+        progress: &mut progress,
+        ts_s: plan.base.ts_s,
+        total: per_run,
+    };
+    let result = run_many(&plan.base, &plan.est.kinds, &mut obs);
+    let recorders = std::mem::take(&mut obs.recorders);
     progress.finish();
+    let reports = result.map_err(|e| CliError::failure(format!("simulation: {e}")))?;
 
     if let Some(c) = csv.take() {
         let rows = c.finish()?;
@@ -399,14 +368,22 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     if let Some(p) = &args.plot {
         let truth = plan.base.plant.truth().modal;
         let title = format!(
-            "{} — {} s, λ = {} rad/s{}",
+            "{} — {} s, {}{}",
             plan.plant_label,
             plan.base.duration_s,
-            short(plan.lambda_rad_s, 4),
+            plan.est.lambda_label,
             noise_label(&plan.base)
         );
         let series: Vec<_> = recorders.into_iter().map(Recorder::finish).collect();
-        let labelled = plot::write(p, &title, &truth, &series, plan.base.duration_s)?;
+        let output = output_panel(&plan.base, &reports)?;
+        let labelled = plot::write(
+            p,
+            &title,
+            Some(&truth),
+            &series,
+            plan.base.duration_s,
+            Some(&output),
+        )?;
         let extra = if labelled {
             ""
         } else {
@@ -420,11 +397,83 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     } else {
         render(&plan, &reports)
     };
-    write_stdout(&text)
+    write_stdout(&text)?;
+    report::require_estimates(
+        reports
+            .iter()
+            .map(|r| (r.estimator, &r.estimate, r.tuning, r.law_updates)),
+    )
+}
+
+/// Model output vs measured y over the last 0.5 s of the run, per
+/// estimator (the rig is replayed to get the samples again).
+fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, CliError> {
+    let n = samples(cfg);
+    let keep = n.saturating_sub((0.5 / cfg.ts_s).round() as u64)..n;
+    let start = rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
+    let record = || {
+        let mut r = start.clone();
+        (0..n).map(move |_| {
+            let s = r.tick();
+            (s.u, s.y)
+        })
+    };
+    let mut panel = OutputPanel {
+        t: Vec::new(),
+        y: Vec::new(),
+        models: Vec::new(),
+    };
+    for r in reports {
+        let (fit, yhat) = match model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s) {
+            Some(model) => match fit::fit(&model, record) {
+                Some(f) => {
+                    let out = fit::model_output(&model, &f, record(), keep.clone());
+                    if panel.t.is_empty() {
+                        panel.t = out.iter().map(|o| o.0 as f64 * cfg.ts_s).collect();
+                        panel.y = out.iter().map(|o| o.1).collect();
+                    }
+                    (Some(f.percent), out.iter().map(|o| o.2).collect())
+                }
+                None => (None, Vec::new()),
+            },
+            None => (None, Vec::new()),
+        };
+        panel
+            .models
+            .push((r.estimator.name().to_string(), fit, yhat));
+    }
+    if panel.t.is_empty() {
+        let out: Vec<(f64, f64)> = record()
+            .skip(keep.start as usize)
+            .map(|(_, y)| (0.0, y))
+            .collect();
+        panel.t = (keep.start..n).map(|k| k as f64 * cfg.ts_s).collect();
+        panel.y = out.into_iter().map(|o| o.1).collect();
+    }
+    Ok(panel)
+}
+
+/// The identified model from report coefficients, if they are finite.
+pub fn model_of(a: &[f64], b: &[f64], ts_s: f64) -> Option<Model> {
+    let n = a.len() / 2;
+    if n == 0 || a.len() > MAX_ORDER || b.len() + 1 != a.len() {
+        return None;
+    }
+    let mut tf = TransferFunction {
+        modes: n,
+        a: [0.0; MAX_ORDER],
+        b: [0.0; MAX_ORDER],
+    };
+    tf.a[..a.len()].copy_from_slice(a);
+    tf.b[..b.len()].copy_from_slice(b);
+    if !tf.a.iter().chain(&tf.b).all(|v| v.is_finite()) {
+        return None;
+    }
+    Model::new(&tf, ts_s)
 }
 
 /// Print a notice on stderr.
-fn note(msg: &str) {
+pub fn note(msg: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{msg}");
 }
 
@@ -435,13 +484,6 @@ pub fn write_stdout(text: &str) -> Result<(), CliError> {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         Err(e) => Err(CliError::failure(format!("writing to stdout: {e}"))),
-    }
-}
-
-fn gains_name(g: Gains) -> &'static str {
-    match g {
-        Gains::Default => "default",
-        Gains::Paper => "paper",
     }
 }
 
@@ -459,25 +501,13 @@ fn json(plan: &Plan, reports: &[RunReport]) -> Result<String, CliError> {
         .map(|report| JsonRun {
             report,
             modes: plan.modes,
-            gains: gains_name(plan.base.gains),
-            lambda_rad_s: plan.lambda_rad_s,
+            gains: plan.base.gains.name(),
             ts_s: plan.base.ts_s,
             snr_db: plan.base.snr_db,
             seed: plan.base.seed,
         })
         .collect();
-    let text = if runs.len() == 1 {
-        serde_json::to_string_pretty(&runs[0])
-    } else {
-        serde_json::to_string_pretty(&runs)
-    }
-    .map_err(|e| CliError::failure(format!("--json: {e}")))?;
-    Ok(text + "\n")
-}
-
-/// |x̂ − x|/|x|, NaN when either is missing.
-fn rel_err(est: f64, truth: f64) -> f64 {
-    ((est - truth) / truth).abs()
+    report::to_json(&runs)
 }
 
 /// The human-readable report: a heading, the table, a footnote.
@@ -494,88 +524,54 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         if n == 1 { "" } else { "s" }
     ));
     out.push_str(&format!(
-        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), λ = {} rad/s, {}, {} gains, noise: {}\n\n",
+        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n\n",
         cfg.duration_s,
         cfg.ts_s * 1e3,
         first.samples,
         cfg.u_amplitude,
         cfg.u_freq_hz,
-        short(plan.lambda_rad_s, 4),
+        plan.est.lambda_label,
         match cfg.precision {
-            Precision::F64 => "f64",
-            Precision::F32 => "f32",
+            beamctl::Precision::F64 => "f64",
+            beamctl::Precision::F32 => "f32",
         },
-        gains_name(cfg.gains),
+        cfg.gains.name(),
         match cfg.snr_db {
             Some(s) => format!("white, SNR {s} dB, seed {}", cfg.seed),
             None => "none".to_string(),
         }
     ));
-
-    let mut t = Table::new();
-    t.group("", vec![Column::text("parameter"), Column::num("truth")]);
-    for r in reports {
-        t.group(
-            r.estimator.name(),
-            vec![Column::num("estimate"), Column::num("rel. error")],
-        );
-    }
-    let truth = &first.truth;
-    type Pick = fn(&beamctl::runner::ModalSummary) -> &Vec<f64>;
-    let params: [(&str, &str, Pick); 3] = [
-        ("ω", " (rad/s)", |m| &m.omega),
-        ("ζ", "", |m| &m.zeta),
-        ("b̄", "", |m| &m.bbar),
-    ];
-    for (sym, unit, pick) in params {
-        for i in 0..n {
-            let tv = pick(truth).get(i).copied().unwrap_or(f64::NAN);
-            let mut row = vec![format!("{sym}{}{unit}", i + 1), sig(tv, 7)];
-            for r in reports {
-                let ev = pick(&r.estimate).get(i).copied().unwrap_or(f64::NAN);
-                row.push(sig(ev, 7));
-                row.push(rel(rel_err(ev, tv)));
-            }
-            t.row(row);
-        }
-    }
-    t.rule();
-    let metric = |t: &mut Table, label: &str, f: &dyn Fn(&RunReport) -> String| {
-        let mut row = vec![label.to_string(), String::new()];
-        for r in reports {
-            row.push(f(r));
-            row.push(String::new());
-        }
-        t.row(row);
-    };
-    metric(&mut t, "time to 1%", &|r| seconds(r.time_to_1pct_s));
-    metric(&mut t, "time to 0.1%", &|r| seconds(r.time_to_0p1pct_s));
-    metric(&mut t, "max error after 1 s", &|r| {
-        r.max_error_after_1s.map_or("n/a".to_string(), rel)
-    });
-    metric(&mut t, "excitation λmin(P)", &|r| {
-        r.excitation_min_eig
-            .map_or("n/a".to_string(), |v| sig(v, 4))
-    });
-    metric(&mut t, "samples", &|r| r.samples.to_string());
-    metric(&mut t, "rejected samples", &|r| {
-        r.rejected_samples.to_string()
-    });
-    metric(&mut t, "skipped updates", &|r| {
-        r.skipped_updates.to_string()
-    });
-    out.push_str(&t.render());
-    out.push_str(
-        "\ntime to x%: simulated time after which the largest relative ω/ζ error stays below x% \
-         to the end.\nλmin(P): smallest eigenvalue of the scaled information matrix P (Lemma 1); \
-         the baselines keep no P.\n",
-    );
+    let columns: Vec<report::Column<'_>> = reports
+        .iter()
+        .map(|r| report::Column {
+            name: r.estimator.name(),
+            estimate: &r.estimate,
+            excitation_min_eig: r.excitation_min_eig,
+            samples: r.samples,
+            rejected: r.rejected_samples,
+            skipped: r.skipped_updates,
+            builds: &r.builds,
+            tuning: r.tuning,
+            fit_percent: r.fit_percent,
+            drift: r.drift_last_10pct,
+            ts_s: cfg.ts_s,
+            truth: Some(report::TruthColumn {
+                time_to_1pct_s: r.time_to_1pct_s,
+                time_to_0p1pct_s: r.time_to_0p1pct_s,
+                max_error_after_1s: r.max_error_after_1s,
+            }),
+        })
+        .collect();
+    out.push_str(&report::table(n, Some(&first.truth), &columns));
+    out.push_str(report::FOOTNOTE_TRUTH);
+    out.push_str(report::FOOTNOTE);
     out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use beamctl::EstimatorKind;
     use clap::Parser;
 
     fn args(extra: &[&str]) -> SimulateArgs {
@@ -598,7 +594,7 @@ mod tests {
         let p = plan(&args(&[])).unwrap();
         assert_eq!(p.modes, 2);
         assert_eq!(p.base.plant, PlantSpec::Paper);
-        assert_eq!(p.kinds, vec![EstimatorKind::Adaptive]);
+        assert_eq!(p.est.kinds, vec![EstimatorKind::Adaptive]);
         assert_eq!(p.base.duration_s, 20.0);
         assert_eq!(p.samples_per_run(), 200_000);
     }
@@ -633,7 +629,10 @@ mod tests {
         assert!(err(&["--modes", "3", "--zeta", "0.1,0.2"]).starts_with("--zeta: expected 3"));
         assert!(err(&["--omega", "1,2", "--bbar", "1"]).starts_with("--bbar: expected 2"));
         assert!(err(&["--modes", "1", "--paper-gains"]).starts_with("--paper-gains:"));
+        assert!(err(&["--modes", "3", "--paper-exp-gains"]).starts_with("--paper-exp-gains:"));
         assert!(err(&["--lambda", "0"]).starts_with("--lambda:"));
+        assert!(err(&["--band-hz", "5"]).starts_with("--band-hz: expected two"));
+        assert!(err(&["--band-hz", "50,5"]).starts_with("--band-hz: need"));
         assert!(err(&["--omega", "1,2,3,4"]).starts_with("--omega: at most 3"));
         assert!(err(&["--plot", "x.svg"]).starts_with("--plot:"));
         assert!(err(&["--weights", "0,1"]).starts_with("--weights:"));

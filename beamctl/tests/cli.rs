@@ -1,42 +1,11 @@
 //! End-to-end tests of the `beamctl` binary: output formats, files, and
-//! one-line errors for bad input. Simulations are kept at ≤ 1 s simulated.
+//! one-line errors for bad input. Simulations are kept at ≤ 1.5 s simulated
+//! (the truth-free tuning rule starts the law after a 0.2 s start-up
+//! window and the filters' settling time, 40/λ ≈ 0.4 s).
 
-use serde_json::Value;
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn beamctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_beamctl"))
-        .args(args)
-        .output()
-        .expect("run beamctl")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A fresh path in cargo's per-target scratch directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("beamctl-cli");
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    let p = dir.join(name);
-    let _ = std::fs::remove_file(&p);
-    p
-}
-
-fn json(o: &Output) -> Value {
-    assert!(o.status.success(), "failed: {}", stderr(o));
-    serde_json::from_str(&stdout(o)).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
-}
-
-fn num(v: &Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
+use common::*;
 
 const REPORT_KEYS: [&str; 10] = [
     "estimator",
@@ -97,7 +66,7 @@ fn simulate_all_json_is_an_array_of_three() {
         "all",
         "--json",
         "--duration",
-        "0.5",
+        "1.5",
     ]);
     let v = json(&o);
     let runs = v.as_array().expect("array");
@@ -109,7 +78,7 @@ fn simulate_all_json_is_an_array_of_three() {
     assert_eq!(names, ["adaptive", "gradient", "ls"]);
     for r in runs {
         check_report_shape(r, 2);
-        assert_eq!(r["samples"], 5_000);
+        assert_eq!(r["samples"], 15_000);
     }
     // Baselines keep no P.
     assert!(runs[1]["excitation_min_eig"].is_null());
@@ -117,7 +86,7 @@ fn simulate_all_json_is_an_array_of_three() {
 
 #[test]
 fn simulate_table_lists_every_parameter() {
-    let o = beamctl(&["simulate", "--duration", "0.5", "--modes", "3"]);
+    let o = beamctl(&["simulate", "--duration", "1.5", "--modes", "3"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = stdout(&o);
     for label in [
@@ -130,6 +99,9 @@ fn simulate_table_lists_every_parameter() {
         "b̄3",
         "time to 1%",
         "time to 0.1%",
+        "model output fit",
+        "moved over last 10%",
+        "λ (rad/s)",
         "λmin(P)",
         "samples",
         "rejected",
@@ -141,7 +113,7 @@ fn simulate_table_lists_every_parameter() {
 
 #[test]
 fn simulate_all_table_has_a_group_per_estimator() {
-    let o = beamctl(&["simulate", "--estimator", "all", "--duration", "0.3"]);
+    let o = beamctl(&["simulate", "--estimator", "all", "--duration", "1.5"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = stdout(&o);
     let title = s
@@ -181,7 +153,7 @@ fn custom_plant_from_lists() {
         "simulate",
         "--json",
         "--duration",
-        "0.2",
+        "1.5",
         "--omega",
         "40",
     ]));
@@ -195,7 +167,7 @@ fn noise_and_precision_flags() {
         "simulate",
         "--json",
         "--duration",
-        "0.3",
+        "1.5",
         "--snr-db",
         "40",
         "--seed",
@@ -211,7 +183,7 @@ fn noise_and_precision_flags() {
 }
 
 #[test]
-fn csv_has_header_and_1khz_rows() {
+fn csv_has_every_sample_and_estimates_at_1khz() {
     let path = scratch("run.csv");
     let p = path.to_str().unwrap();
     let o = beamctl(&["simulate", "--duration", "1", "--csv", p, "--json"]);
@@ -220,27 +192,34 @@ fn csv_has_header_and_1khz_rows() {
     let mut lines = text.lines();
     assert_eq!(
         lines.next(),
-        Some("t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2")
+        Some("t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s")
     );
     let rows: Vec<&str> = lines.collect();
-    assert!((999..=1001).contains(&rows.len()), "{} rows", rows.len());
+    assert_eq!(rows.len(), 10_000, "one row per sample");
     let last: Vec<&str> = rows.last().unwrap().split(',').collect();
-    assert_eq!(last.len(), 14);
+    assert_eq!(last.len(), 15);
     let t: f64 = last[0].parse().unwrap();
-    assert!((t - 1.0).abs() < 2e-3, "last t = {t}");
+    assert!((t - 0.9999).abs() < 1e-12, "last t = {t}");
     let w1: f64 = last[10].parse().unwrap(); // omega_1
     assert!((w1 / 39.1533 - 1.0).abs() < 1e-3);
+    // Estimates on every 10th row only; none in the start-up window.
+    let filled = rows.iter().filter(|r| !r.ends_with(",,")).count();
+    assert!(
+        (380..=1000).contains(&filled),
+        "{filled} rows with estimates"
+    );
+    assert!(rows[..1999].iter().all(|r| r.ends_with(",,,,,,,,,,,,")));
 }
 
 #[test]
-fn csv_with_all_has_an_estimator_column() {
+fn csv_with_all_has_prefixed_columns() {
     let path = scratch("all.csv");
     let o = beamctl(&[
         "simulate",
         "--estimator",
         "all",
         "--duration",
-        "0.2",
+        "1",
         "--modes",
         "1",
         "--csv",
@@ -251,13 +230,61 @@ fn csv_with_all_has_an_estimator_column() {
     let header = text.lines().next().unwrap();
     assert_eq!(
         header,
-        "estimator,t_s,u,y,theta_0,theta_1,theta_2,omega_1,zeta_1"
+        "t_s,u,y,adaptive_theta_0,adaptive_theta_1,adaptive_theta_2,adaptive_omega_1,adaptive_zeta_1,adaptive_lambda_rad_s,\
+gradient_theta_0,gradient_theta_1,gradient_theta_2,gradient_omega_1,gradient_zeta_1,gradient_lambda_rad_s,\
+ls_theta_0,ls_theta_1,ls_theta_2,ls_omega_1,ls_zeta_1,ls_lambda_rad_s"
     );
-    let rows = text.lines().count() - 1;
-    assert!((597..=603).contains(&rows), "{rows} rows");
-    for name in ["adaptive,", "gradient,", "ls,"] {
-        assert!(text.lines().any(|l| l.starts_with(name)), "{name}");
+    assert_eq!(text.lines().count() - 1, 10_000);
+}
+
+/// What `simulate --csv` wrote replays to the same estimates, bit for bit,
+/// in both precisions and for all three laws.
+#[test]
+fn a_simulate_csv_replays_to_the_same_estimates() {
+    for precision in ["f64", "f32"] {
+        let path = scratch(&format!("same-{precision}.csv"));
+        let p = path.to_str().unwrap();
+        let common = ["--precision", precision, "--estimator", "all", "--json"];
+        let mut sim = vec!["simulate", "--duration", "2", "--snr-db", "60", "--csv", p];
+        sim.extend(common);
+        let s = json(&beamctl(&sim));
+        let mut rep = vec!["replay", p];
+        rep.extend(common);
+        let r = json(&beamctl(&rep));
+        for (s, r) in s.as_array().unwrap().iter().zip(r.as_array().unwrap()) {
+            assert_eq!(s["estimator"], r["estimator"]);
+            for k in [
+                "estimate",
+                "builds",
+                "fit_percent",
+                "drift_last_10pct",
+                "rejected_samples",
+                "law_updates",
+                "lambda_rad_s",
+            ] {
+                assert_eq!(s[k], r[k], "{precision} {}: {k}", s["estimator"]);
+            }
+            assert_eq!(r["ts_s"], 1e-4);
+            assert_eq!(r["samples"], 20_000);
+        }
     }
+}
+
+#[test]
+fn a_run_without_an_estimate_warns_and_fails() {
+    // 0.3 s: the law would start only after the start-up window (0.2 s)
+    // and the filters' settling time.
+    let o = beamctl(&["simulate", "--duration", "0.3", "--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let r: Value = serde_json::from_str(&stdout(&o)).expect("JSON still printed");
+    assert!(r["estimate"]["omega"][0].is_null());
+    assert_eq!(r["law_updates"], 0);
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("error: no estimate from the adaptive law"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1);
 }
 
 #[test]
@@ -268,7 +295,7 @@ fn plot_writes_a_png() {
         "--estimator",
         "all",
         "--duration",
-        "0.5",
+        "1.5",
         "--plot",
         path.to_str().unwrap(),
     ]);
@@ -347,6 +374,17 @@ fn bad_inputs_fail_cleanly() {
         (&["simulate", "--estimator", "kalman"], "--estimator"),
         (&["simulate", "--precision", "f16"], "--precision"),
         (&["simulate", "--lambda", "-100"], "--lambda"),
+        (&["simulate", "--band-hz", "10"], "--band-hz"),
+        (&["simulate", "--band-hz", "50,5"], "--band-hz"),
+        (
+            &["simulate", "--band-hz", "5,50", "--lambda", "100"],
+            "--band-hz",
+        ),
+        (&["simulate", "--beam", "/nonexistent-dir/b.toml"], "--beam"),
+        (
+            &["simulate", "--modes", "1", "--paper-exp-gains"],
+            "--paper-exp-gains",
+        ),
         (&["simulate", "--snr-db", "nan"], "--snr-db"),
         (&["simulate", "--seed", "-1"], "--seed"),
         (&["simulate", "--csv", "/nonexistent-dir/x.csv"], "--csv"),
@@ -393,7 +431,7 @@ fn bad_inputs_fail_cleanly() {
 
 #[test]
 fn seed_without_snr_is_fine() {
-    let o = beamctl(&["simulate", "--seed", "5", "--duration", "0.1", "--json"]);
+    let o = beamctl(&["simulate", "--seed", "5", "--duration", "1", "--json"]);
     let _ = json(&o);
 }
 
@@ -415,6 +453,9 @@ fn help_documents_every_flag() {
         "--snr-db",
         "--seed",
         "--paper-gains",
+        "--paper-exp-gains",
+        "--band-hz",
+        "--beam",
         "--csv",
         "--plot",
         "--json",
@@ -429,6 +470,28 @@ fn help_documents_every_flag() {
         "dB",
     ] {
         assert!(h.contains(unit), "{unit} missing from help");
+    }
+    let o = beamctl(&["replay", "--help"]);
+    assert!(o.status.success());
+    let h = stdout(&o);
+    for flag in [
+        "--estimator",
+        "--precision",
+        "--lambda",
+        "--band-hz",
+        "--beam",
+        "--paper-gains",
+        "--paper-exp-gains",
+        "--columns",
+        "--ts",
+        "--modes",
+        "--weights",
+        "--csv",
+        "--plot",
+        "--json",
+        "docs/REPLAY.md",
+    ] {
+        assert!(h.contains(flag), "{flag} missing from replay help");
     }
     let o = beamctl(&["model", "--help"]);
     let h = stdout(&o);

@@ -14,8 +14,11 @@ fn main() {
         plant: PlantSpec::Modal(m),
         ..Default::default()
     };
-    let truth = cfg.plant.truth();
-    let f = filter_config(&cfg, &truth);
+    let f = tuned_filter(&RunConfig {
+        duration_s: 5.0,
+        ..cfg.clone()
+    })
+    .unwrap();
     let mut plant = cfg.plant.plant(1e-4).unwrap();
     let mut sq = SquareWave::<f64>::paper();
     let mut fb64 = FilterBank::<f64, 4, 7>::new(&f).unwrap();

@@ -15,5 +15,7 @@ pub mod scenario;
 pub mod sim_rig;
 
 pub use beamctl::runner;
-pub use beamctl::{run, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace};
+pub use beamctl::{
+    run, run_many, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace,
+};
 pub use scenario::{PlantSpec, Truth};

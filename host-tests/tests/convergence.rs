@@ -14,8 +14,18 @@ fn max_rel(report: &RunReport) -> f64 {
     report.rel_error.max()
 }
 
+/// When the law of the last build starts updating: its first sample plus
+/// the filters' settling time (40/λ, the quarantine).
+fn law_start_s(r: &RunReport, ts_s: f64) -> f64 {
+    let b = r
+        .builds
+        .first()
+        .expect("the tuning rule built an estimator");
+    b.sample as f64 * ts_s + (40.0 / (b.lambda_rad_s * ts_s)).ceil() * ts_s
+}
+
 #[test]
-fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_half_a_second() {
+fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_0p1s_of_the_law_starting() {
     let r = simulate(&RunConfig::default());
     for i in 0..2 {
         assert!(
@@ -35,8 +45,15 @@ fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_half_a_second() {
     }
     // The truth's b̄ is eq. 32 applied to eq. 46's numerator: [9.6293, 16.1458].
     assert!((r.truth.bbar[0] - 9.6293).abs() < 1e-4 && (r.truth.bbar[1] - 16.1458).abs() < 1e-4);
+    // λ and scales from the data: a 0.2 s start-up window, then the law
+    // is held while the filters settle (40/λ).
     let t = r.time_to_0p1pct_s.expect("converges to 0.1%");
-    assert!(t <= 0.5, "0.1% reached only at {t} s");
+    let start = law_start_s(&r, 1e-4);
+    assert!(
+        t <= start + 0.1,
+        "0.1% reached only at {t} s (law from {start} s)"
+    );
+    assert_eq!(r.tuning, "converged");
     let exc = r.excitation_min_eig.expect("adaptive law keeps P");
     assert!(exc > 0.0, "square wave is persistently exciting (Lemma 1)");
 }

@@ -38,6 +38,7 @@ use beamest::pipeline::{
 use beamest::rig::chips::ads131m02::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::rig::{bench, ConverterModels, ConverterRig, Rig};
+use beamest::tuning::LambdaSource;
 use beamest::Real;
 use heapless::spsc::Queue;
 
@@ -205,7 +206,8 @@ enum Converters {
 fn reference<T: Real>(y0: f64, conv: Converters) -> ModalParams<f64> {
     let filter = bench::filter_config(y0);
     let mut est =
-        build_estimator::<T, 4, 7, 28>(EstimatorKind::Adaptive, Gains::Default, &filter).unwrap();
+        build_estimator::<T, 4, 7, 28>(EstimatorKind::Adaptive, Gains::Default, &filter, None)
+            .unwrap();
     let square = SquareWave::<f64>::new(bench::EXCITATION_V, bench::EXCITATION_HZ, 1e4).unwrap();
     let mut rig = Rig::new(bench::plant().unwrap(), square);
     let cfg = bench::conversion();
@@ -320,7 +322,7 @@ where
     let report = runner::run(
         &RunConfig {
             precision,
-            lambda_rad_s: Some(bench::LAMBDA_RAD_S),
+            lambda: LambdaSource::Fixed(bench::LAMBDA_RAD_S),
             duration_s: SECONDS,
             ..RunConfig::default()
         },

@@ -11,14 +11,18 @@
 //! * θ' = −ΓHW (eq. 41).
 //!
 //! # Design
-//! * **P, Q: exact discrete solution (34)** with φ held over a sample:
-//!   P ← e^{−lTs}P + Ts·φφᵀ. It is applied as a *lazy decay*: we store
+//! * **P, Q: exponential decay plus a rectangle rule.** P ← e^{−lTs}P +
+//!   Ts·φφᵀ (Q likewise) decays exactly but adds each sample's increment by
+//!   the rectangle rule; it is not the exact solution of eq. 34 (that would
+//!   weight the increment by (1 − e^{−lTs})/l and integrate φ between
+//!   samples). Both P and Q get the same weights, so the fixed point
+//!   PΘ = Q is that of the exact sums. It is applied as a *lazy decay*: we store
 //!   P̃ = P/g and let the scalar g carry the decay (g ← g·e^{−lTs}); P̃ only
 //!   receives the increments Ts·φφᵀ/g, and whenever g < ½ both g and P̃ are
 //!   rescaled by exactly 2. The matrices are then plain sums (no per-step
 //!   multiplication to round), which makes compensated summation cheap.
-//! * **H in information form.** We keep R = H⁻¹, whose exact update (39) is
-//!   R ← e^{−γTs}R + Ts·φφᵀ (lazy decay likewise), and never form H. With
+//! * **H in information form.** We keep R = H⁻¹, updated like P by eq. 39
+//!   (R ← e^{−γTs}R + Ts·φφᵀ, lazy decay likewise), and never form H. With
 //!   the paper's H0, explicit Euler and classical RK4 of eq. 37 make H
 //!   indefinite at the 5th sample and then overflow (test
 //!   `estimator::tests::explicit_riccati_steps_break_down_with_the_paper_gains`).
@@ -26,9 +30,14 @@
 //!   R(0) > 0 plus sums of φφᵀ ⪰ 0, accumulated exactly enough that
 //!   rounding cannot make it indefinite.
 //! * **θ by a backward-Euler step.** The explicit step
-//!   θ ← θ − TsΓH(Pθ − Q) is stable only while TsΓλmax(HP) < 2, and with
-//!   γ ≠ l (the paper's l = 0.01, γ = 0.1) λmax(HP) reaches the thousands
-//!   while H0 dominates. The implicit step
+//!   θ ← θ − TsΓH(Pθ − Q) is stable only while TsΓλmax(HP) < 2. With the
+//!   paper's gains (Γ = 80, l = 0.01, γ = 0.1) λmax(HP) ≤ e^{(γ−l)t}, ≈ 6
+//!   at 20 s: the explicit step would be stable over the paper's 20 s run
+//!   and would cross its limit (λmax < 250) only after ~61 s. With the
+//!   default gains (θ step K·Ts·Γ = 10, γ = l) λmax(HP) → 1 within
+//!   milliseconds, so the explicit step is unstable from the start (test
+//!   `explicit_step_stability_as_stated`, host-tests/tests/claims.rs). The
+//!   implicit step
 //!   θ⁺ = θ − TsΓH(Pθ⁺ − Q) ⇔ (R + TsΓP)·Δ = −TsΓ·W, θ⁺ = θ + Δ
 //!   is unconditionally stable for any Γ, H0, l, γ and has the same fixed
 //!   point Pθ = Q; it costs one root-free LDLᵀ solve per θ step.

@@ -211,6 +211,14 @@ pub trait Estimator<T: Real, const NP: usize> {
     /// ([`QUARANTINE_TIME_CONSTANTS`] filter time constants). The length to
     /// [`Estimator::hold`] for after a start, a resume or an overrun.
     fn settling_samples(&self) -> u32;
+    /// Hold the law for the filters' settling time
+    /// ([`Estimator::settling_samples`], without counting a rejection): for
+    /// an estimator that joins a signal already in motion, whose filters
+    /// start from rest — the start-up and re-centring of [`crate::tuning`].
+    fn hold_for_settling(&mut self) {
+        let n = self.settling_samples();
+        self.hold(n);
+    }
 }
 
 /// An estimator borrowed mutably is an estimator (so a caller can lend one
@@ -390,6 +398,19 @@ pub type GradientEstimator<T, const D: usize, const NP: usize> =
 pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
     Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
 
+/// Samples covering [`QUARANTINE_TIME_CONSTANTS`] filter time constants
+/// (at least the interpolation window), saturating at `u32::MAX`: how long
+/// an [`Identifier`] built with `filter` holds its law after a rejected
+/// sample or [`Estimator::hold_for_settling`].
+pub fn quarantine_samples_for(filter: &FilterConfig) -> u32 {
+    let n = libm::ceil(QUARANTINE_TIME_CONSTANTS / (filter.lambda_rad_s * filter.ts_s));
+    if n >= u32::MAX as f64 {
+        u32::MAX
+    } else {
+        (n as u32).max(8)
+    }
+}
+
 /// (1 − e^{−x})/x, accurate for small x ≥ 0 (the exact-step factor of the
 /// rank-one laws).
 pub(crate) fn one_minus_exp_over_x<T: Real>(x: T) -> T {
@@ -475,7 +496,8 @@ mod tests {
     enum Step {
         Euler,
         Rk4,
-        /// The exact discrete solution (what eq. 39 and the laws' information
+        /// The discrete form the laws use (exponential decay plus the
+        /// rectangle rule: what eq. 39 and the laws. information
         /// form amount to), as a Sherman–Morrison update of H.
         Exact,
     }

@@ -2,7 +2,7 @@
 //! filters, and the law is frozen until the filters have forgotten the
 //! substitute (see the `estimator` module documentation, "Bad input").
 
-use super::{INPUT_LIMIT, QUARANTINE_TIME_CONSTANTS};
+use super::{quarantine_samples_for, INPUT_LIMIT};
 use crate::filter_bank::FilterConfig;
 use crate::scalar::Real;
 
@@ -40,7 +40,7 @@ impl<T: Real> InputScreen<T> {
             last_u: T::ZERO,
             last_y: T::ZERO,
             quarantine: 0,
-            quarantine_len: quarantine_samples(filter),
+            quarantine_len: quarantine_samples_for(filter),
             rejected: 0,
         }
     }
@@ -101,16 +101,5 @@ impl<T: Real> InputScreen<T> {
         self.last_y = T::ZERO;
         self.quarantine = 0;
         self.rejected = 0;
-    }
-}
-
-/// Samples covering [`QUARANTINE_TIME_CONSTANTS`] filter time constants
-/// (at least the interpolation window), saturating at `u32::MAX`.
-fn quarantine_samples(filter: &FilterConfig) -> u32 {
-    let n = libm::ceil(QUARANTINE_TIME_CONSTANTS / (filter.lambda_rad_s * filter.ts_s));
-    if n >= u32::MAX as f64 {
-        u32::MAX
-    } else {
-        (n as u32).max(8)
     }
 }

@@ -1,0 +1,146 @@
+//! Which law, at which gains: the default gains of each law (scaled
+//! coordinates) and the paper's two published sets — its simulation
+//! (Section IV.A) and its experiment (Section IV.B) — mapped exactly into
+//! the same scaled coordinates ([`beamest::filter_bank::Scaling`]).
+
+use crate::runner::RunError;
+use beamest::estimator::{
+    AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
+    LeastSquaresConfig, LeastSquaresEstimator,
+};
+use beamest::filter_bank::{FilterConfig, Scaling};
+use beamest::Real;
+use serde::Serialize;
+
+/// Which update law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EstimatorKind {
+    /// The proposed law (eqs. 33–41).
+    Adaptive,
+    /// The gradient baseline (eq. 47).
+    Gradient,
+    /// The least-squares baseline (eq. 48).
+    #[serde(rename = "ls")]
+    LeastSquares,
+}
+
+impl EstimatorKind {
+    /// All three, in report order.
+    pub const ALL: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Adaptive => "adaptive",
+            Self::Gradient => "gradient",
+            Self::LeastSquares => "ls",
+        }
+    }
+}
+
+/// Which gains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Gains {
+    /// The defaults of each law's config (scaled coordinates).
+    Default,
+    /// The paper's simulation gains (Section IV.A), two modes only.
+    Paper,
+    /// The paper's experimental gains (Section IV.B), two modes only.
+    PaperExperiment,
+}
+
+impl Gains {
+    /// The name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Default => "default",
+            Self::Paper => "paper",
+            Self::PaperExperiment => "paper_experiment",
+        }
+    }
+}
+
+/// The paper's experimental gains (Section IV.B), physical units, two
+/// modes: the proposed law's Γ = 10 and H(0), with l = 0.01, γ = 0.1.
+pub const EXPERIMENT_GAIN: f64 = 10.0;
+/// H(0) of the experiment (Section IV.B).
+pub const EXPERIMENT_H0: [f64; 7] = [1e23, 1e15, 1e24, 1e21, 1e22, 1e24, 1e25];
+/// Γ1 of the gradient law (47) in the experiment (Section IV.B).
+pub const EXPERIMENT_GRADIENT_GAIN: [f64; 7] = [1e11, 1e10, 1e19, 1e16, 1e17, 1e19, 1e21];
+/// Γ2(0) of the least-squares law (48) in the experiment (Section IV.B).
+pub const EXPERIMENT_LS_GAIN0: [f64; 7] = [1e10, 1e16, 1e17, 1e21, 1e24, 1e23, 1e27];
+
+fn two_modes<const NP: usize>(v: &[f64; 7]) -> Result<[f64; NP], RunError> {
+    v.as_slice()
+        .try_into()
+        .map_err(|_| RunError::Estimator("the paper's gains are defined for 2 modes only".into()))
+}
+
+/// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a
+/// boxed trait object, starting from the scaled estimate `theta0` (zero if
+/// `None`).
+pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize>(
+    kind: EstimatorKind,
+    gains: Gains,
+    filter: &FilterConfig,
+    theta0: Option<&[f64; NP]>,
+) -> Result<Box<dyn Estimator<T, NP>>, RunError> {
+    let scaling = Scaling::<NP>::new(filter);
+    let theta0 = theta0.copied().unwrap_or([0.0; NP]);
+    let err = |e| RunError::Estimator(format!("{e}"));
+    Ok(match kind {
+        EstimatorKind::Adaptive => {
+            let cfg = match gains {
+                Gains::Default => AdaptiveConfig::default(),
+                Gains::Paper => AdaptiveConfig::paper(
+                    &scaling,
+                    &two_modes(&AdaptiveConfig::<7>::PAPER_H0_2_MODES)?,
+                ),
+                Gains::PaperExperiment => AdaptiveConfig {
+                    gain: EXPERIMENT_GAIN,
+                    ..AdaptiveConfig::paper(&scaling, &two_modes(&EXPERIMENT_H0)?)
+                },
+            };
+            Box::new(
+                AdaptiveEstimator::<T, D, NP, NS>::new(filter, &AdaptiveConfig { theta0, ..cfg })
+                    .map_err(err)?,
+            )
+        }
+        EstimatorKind::Gradient => {
+            let cfg = match gains {
+                Gains::Default => GradientConfig::default(),
+                Gains::Paper => GradientConfig::from_physical(
+                    &scaling,
+                    &two_modes(&GradientConfig::<7>::PAPER_GAIN_2_MODES)?,
+                ),
+                Gains::PaperExperiment => {
+                    GradientConfig::from_physical(&scaling, &two_modes(&EXPERIMENT_GRADIENT_GAIN)?)
+                }
+            };
+            Box::new(
+                GradientEstimator::<T, D, NP>::new(filter, &GradientConfig { theta0, ..cfg })
+                    .map_err(err)?,
+            )
+        }
+        EstimatorKind::LeastSquares => {
+            let cfg = match gains {
+                Gains::Default => LeastSquaresConfig::default(),
+                Gains::Paper => LeastSquaresConfig::from_physical(
+                    &scaling,
+                    &two_modes(&LeastSquaresConfig::<7>::PAPER_GAIN0_2_MODES)?,
+                ),
+                Gains::PaperExperiment => {
+                    LeastSquaresConfig::from_physical(&scaling, &two_modes(&EXPERIMENT_LS_GAIN0)?)
+                }
+            };
+            Box::new(
+                LeastSquaresEstimator::<T, D, NP>::new(
+                    filter,
+                    &LeastSquaresConfig { theta0, ..cfg },
+                )
+                .map_err(err)?,
+            )
+        }
+    })
+}

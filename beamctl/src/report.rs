@@ -1,0 +1,197 @@
+//! The result table and JSON shared by `simulate` (with the truth) and
+//! `replay` (without), and the exit status when a run produced no
+//! estimate.
+
+use crate::error::CliError;
+use crate::table::{rel, seconds, sig, Column as TableColumn, Table};
+use beamctl::runner::{Build, ModalSummary};
+use beamctl::EstimatorKind;
+use serde::Serialize;
+
+/// Metrics that need the truth (simulation only).
+#[derive(Debug, Clone, Copy)]
+pub struct TruthColumn {
+    /// See `RunReport::time_to_1pct_s`.
+    pub time_to_1pct_s: Option<f64>,
+    /// See `RunReport::time_to_0p1pct_s`.
+    pub time_to_0p1pct_s: Option<f64>,
+    /// See `RunReport::max_error_after_1s`.
+    pub max_error_after_1s: Option<f64>,
+}
+
+/// One estimator's column group.
+#[derive(Debug, Clone)]
+pub struct Column<'a> {
+    /// Law name.
+    pub name: &'static str,
+    /// Final estimate.
+    pub estimate: &'a ModalSummary,
+    /// λmin(P), adaptive law only.
+    pub excitation_min_eig: Option<f64>,
+    /// Samples read.
+    pub samples: u64,
+    /// Rejected samples.
+    pub rejected: u64,
+    /// Skipped law updates.
+    pub skipped: u64,
+    /// Every build of the tuning rule.
+    pub builds: &'a [Build],
+    /// How the tuning rule ended.
+    pub tuning: &'static str,
+    /// Model output fit, %.
+    pub fit_percent: Option<f64>,
+    /// Movement over the last 10% of the record.
+    pub drift: Option<f64>,
+    /// Sample period (s), to turn build indices into times.
+    pub ts_s: f64,
+    /// Truth metrics, when known.
+    pub truth: Option<TruthColumn>,
+}
+
+/// The table: estimate (and with the truth, truth and relative error) per
+/// parameter, then the metrics.
+pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> String {
+    let mut t = Table::new();
+    let mut head = vec![TableColumn::text("parameter")];
+    if truth.is_some() {
+        head.push(TableColumn::num("truth"));
+    }
+    t.group("", head);
+    for c in cols {
+        let mut g = vec![TableColumn::num("estimate")];
+        if truth.is_some() {
+            g.push(TableColumn::num("rel. error"));
+        }
+        t.group(c.name, g);
+    }
+    type Pick = fn(&ModalSummary) -> &Vec<f64>;
+    let params: [(&str, &str, Pick); 3] = [
+        ("ω", " (rad/s)", |m| &m.omega),
+        ("ζ", "", |m| &m.zeta),
+        ("b̄", "", |m| &m.bbar),
+    ];
+    for (sym, unit, pick) in params {
+        for i in 0..n {
+            let mut row = vec![format!("{sym}{}{unit}", i + 1)];
+            let tv = truth.map(|tr| pick(tr).get(i).copied().unwrap_or(f64::NAN));
+            if let Some(tv) = tv {
+                row.push(sig(tv, 7));
+            }
+            for c in cols {
+                let ev = pick(c.estimate).get(i).copied().unwrap_or(f64::NAN);
+                row.push(sig(ev, 7));
+                if let Some(tv) = tv {
+                    row.push(rel(((ev - tv) / tv).abs()));
+                }
+            }
+            t.row(row);
+        }
+    }
+    t.rule();
+    let with_truth = truth.is_some();
+    let metric = |t: &mut Table, label: &str, f: &dyn Fn(&Column<'_>) -> String| {
+        let mut row = vec![label.to_string()];
+        if with_truth {
+            row.push(String::new());
+        }
+        for c in cols {
+            row.push(f(c));
+            if with_truth {
+                row.push(String::new());
+            }
+        }
+        t.row(row);
+    };
+    if with_truth {
+        let tr = |c: &Column<'_>| {
+            c.truth.unwrap_or(TruthColumn {
+                time_to_1pct_s: None,
+                time_to_0p1pct_s: None,
+                max_error_after_1s: None,
+            })
+        };
+        metric(&mut t, "time to 1%", &|c| seconds(tr(c).time_to_1pct_s));
+        metric(&mut t, "time to 0.1%", &|c| seconds(tr(c).time_to_0p1pct_s));
+        metric(&mut t, "max error after 1 s", &|c| {
+            tr(c).max_error_after_1s.map_or("n/a".to_string(), rel)
+        });
+    }
+    metric(&mut t, "model output fit", &|c| {
+        c.fit_percent
+            .map_or("n/a".to_string(), |f| format!("{f:.3} %"))
+    });
+    metric(&mut t, "moved over last 10%", &|c| {
+        c.drift.map_or("n/a".to_string(), rel)
+    });
+    metric(&mut t, "λ (rad/s)", &|c| lambda_path(c.builds));
+    metric(&mut t, "λ last built at", &|c| match c.builds.last() {
+        Some(b) => format!("{:.3} s ({})", b.sample as f64 * c.ts_s, c.tuning),
+        None => format!("never ({})", c.tuning),
+    });
+    metric(&mut t, "excitation λmin(P)", &|c| {
+        c.excitation_min_eig
+            .map_or("n/a".to_string(), |v| sig(v, 4))
+    });
+    metric(&mut t, "samples", &|c| c.samples.to_string());
+    metric(&mut t, "rejected samples", &|c| c.rejected.to_string());
+    metric(&mut t, "skipped updates", &|c| c.skipped.to_string());
+    t.render()
+}
+
+/// "94 → 129": the λ of every build.
+fn lambda_path(builds: &[Build]) -> String {
+    if builds.is_empty() {
+        return "n/a".to_string();
+    }
+    builds
+        .iter()
+        .map(|b| crate::table::short(b.lambda_rad_s, 4))
+        .collect::<Vec<_>>()
+        .join(" → ")
+}
+
+/// Footnote of the truth metrics.
+pub const FOOTNOTE_TRUTH: &str = "\ntime to x%: simulated time after which the largest relative \
+ω/ζ error stays below x% to the end.";
+
+/// Footnote of the truth-free metrics.
+pub const FOOTNOTE: &str = "\nmodel output fit: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), ŷ = the final \
+model driven by the recorded u (initial state fitted).\nmoved over last 10%: largest \
+(max − min)/|final| of ω̂, ζ̂ over the last 10% of the record.\nλ: the filter pole of each \
+build of the tuning rule (start-up window, then re-centred on the estimate; docs/SETTINGS.md); \
+last built at = when the last estimator was built, and how the rule ended.\nλmin(P): smallest eigenvalue of the scaled information \
+matrix P (Lemma 1); the baselines keep no P.\n";
+
+/// Pretty JSON: one object for one run, an array for several.
+pub fn to_json<T: Serialize>(runs: &[T]) -> Result<String, CliError> {
+    let text = if runs.len() == 1 {
+        serde_json::to_string_pretty(&runs[0])
+    } else {
+        serde_json::to_string_pretty(runs)
+    }
+    .map_err(|e| CliError::failure(format!("--json: {e}")))?;
+    Ok(text + "\n")
+}
+
+/// Exit status after the report is printed: an error (exit 1) naming the
+/// first law that produced no estimate, and why.
+pub fn require_estimates<'a>(
+    runs: impl IntoIterator<Item = (EstimatorKind, &'a ModalSummary, &'static str, u64)>,
+) -> Result<(), CliError> {
+    for (kind, estimate, tuning, updates) in runs {
+        if !estimate.is_valid() {
+            let why = if tuning == "startup" {
+                "the start-up window never completed (u or y never non-zero and finite)"
+            } else if updates == 0 {
+                "the law never updated (all samples rejected, or the record ends within the start-up window and the filters' settling time)"
+            } else {
+                "the final estimate is not a valid modal model (recovery failed)"
+            };
+            return Err(CliError::failure(format!(
+                "no estimate from the {} law: {why}",
+                kind.name()
+            )));
+        }
+    }
+    Ok(())
+}

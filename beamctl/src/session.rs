@@ -1,0 +1,264 @@
+//! Several estimators fed the same samples, evaluated at the telemetry
+//! rate: the part of a run that `beamctl simulate` (samples from the
+//! simulated rig) and `beamctl replay` (samples from a file) share. Knows
+//! nothing of the truth; the simulation scores the evaluations it is
+//! handed.
+
+use crate::fit::{Fit, Model};
+use crate::gains::{EstimatorKind, Gains};
+use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
+use crate::tuned::{Build, Totals, Tuned};
+use beamest::modal::modal_from_tf;
+use beamest::model::{ModalParams, TransferFunction};
+use beamest::tuning::TuningConfig;
+use beamest::Real;
+use serde::Serialize;
+
+/// One estimator's estimate at an evaluation instant.
+#[derive(Debug, Clone)]
+pub struct Eval<const NP: usize> {
+    /// Θ̂ (physical units, eq. 29); NaN before the first build.
+    pub theta: [f64; NP],
+    /// ω̂, ζ̂, b̄ if an estimator runs and recovery succeeded.
+    pub modal: Option<ModalParams<f64>>,
+    /// The estimator's λ (rad/s), once built.
+    pub lambda_rad_s: Option<f64>,
+}
+
+/// The part of a report that needs no truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Outcome {
+    /// Final estimate (NaN where there is none).
+    pub estimate: ModalSummary,
+    /// λmin of the scaled P at the end (Lemma 1), None for the baselines.
+    pub excitation_min_eig: Option<f64>,
+    /// Samples rejected as non-finite or out of range (start-up window
+    /// included).
+    pub rejected_samples: u64,
+    /// Law updates skipped (singular step).
+    pub skipped_updates: u64,
+    /// Law updates applied (0: the law never ran, no estimate).
+    pub law_updates: u64,
+    /// The estimator's state integrity check at the end of the run.
+    pub state_ok: bool,
+    /// The final filter pole λ (rad/s); None if no estimator was built.
+    pub lambda_rad_s: Option<f64>,
+    /// How the tuning rule ended: `startup` (never built), `reviewing`,
+    /// `fixed`, `converged`, `max_recentres`, `timeout`.
+    pub tuning: &'static str,
+    /// Every estimator the rule built, in order (sample index, λ, U0, Y0).
+    pub builds: Vec<Build>,
+    /// Model output vs measured output: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) of the
+    /// final model driven by the recorded u (None without an estimate or
+    /// for an unstable model).
+    pub fit_percent: Option<f64>,
+    /// How much the estimate moved over the last 10% of the record: the
+    /// largest (max − min)/|final| of ω̂_i, ζ̂_i over the evaluations in it
+    /// (None if recovery failed in it or it holds fewer than two).
+    pub drift_last_10pct: Option<f64>,
+}
+
+/// ω̂, ζ̂ over time, kept to measure the drift at the end.
+#[derive(Debug, Default, Clone)]
+struct History {
+    t: Vec<f64>,
+    values: Vec<Option<Vec<f64>>>,
+}
+
+impl History {
+    fn push(&mut self, t: f64, m: Option<&ModalParams<f64>>) {
+        self.t.push(t);
+        self.values.push(m.map(|m| {
+            let n = m.modes;
+            m.omega_rad_s[..n]
+                .iter()
+                .chain(&m.zeta[..n])
+                .copied()
+                .collect()
+        }));
+    }
+
+    /// See [`Outcome::drift_last_10pct`].
+    fn drift(&self, end_s: f64) -> Option<f64> {
+        let from = 0.9 * end_s;
+        let start = self.t.partition_point(|&t| t < from);
+        let window = &self.values[start..];
+        if window.len() < 2 {
+            return None;
+        }
+        let last = window.last()?.as_ref()?;
+        let mut worst = 0.0f64;
+        for (j, &f) in last.iter().enumerate() {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for v in window {
+                let x = v.as_ref()?[j];
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+            worst = worst.max((hi - lo) / f.abs());
+        }
+        worst.is_finite().then_some(worst)
+    }
+}
+
+/// Samples between the evaluations kept for the drift (0.1 s of record).
+pub fn drift_every(ts_s: f64) -> u64 {
+    (0.1 / ts_s).round().max(1.0) as u64
+}
+
+/// Estimators of one model size and precision run side by side.
+pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
+    kinds: Vec<EstimatorKind>,
+    runs: Vec<Tuned<T, D, NP, NS>>,
+    history: Vec<History>,
+    weights: Vec<T>,
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP, NS> {
+    /// One estimator per kind under the tuning rule; modal recovery with
+    /// output weights `weights` (one per mode).
+    pub fn new(
+        kinds: &[EstimatorKind],
+        gains: Gains,
+        tuning: &TuningConfig,
+        weights: &[f64],
+    ) -> Result<Self, RunError> {
+        let runs = kinds
+            .iter()
+            .map(|&k| Tuned::new(k, gains, tuning))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            kinds: kinds.to_vec(),
+            history: vec![History::default(); runs.len()],
+            runs,
+            weights: weights.iter().map(|&w| T::from_f64(w)).collect(),
+        })
+    }
+
+    /// Feed one sample to every estimator.
+    #[inline]
+    pub fn step(&mut self, u: f64, y: f64) {
+        let (u, y) = (T::from_f64(u), T::from_f64(y));
+        for r in &mut self.runs {
+            r.step(u, y);
+        }
+    }
+
+    /// Number of estimators.
+    pub fn len(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// True without estimators.
+    pub fn is_empty(&self) -> bool {
+        self.runs.is_empty()
+    }
+
+    /// The law of estimator `i`.
+    pub fn kind(&self, i: usize) -> EstimatorKind {
+        self.kinds[i]
+    }
+
+    /// Evaluate estimator `i` at time `t_s` (recovery in the estimator's
+    /// own precision, as the firmware does); `record` keeps it for the
+    /// drift (callers record on the [`drift_every`] grid and the last
+    /// sample, so the drift does not depend on the evaluation rate).
+    pub fn evaluate(&mut self, i: usize, t_s: f64, record: bool) -> Eval<NP> {
+        let run = &self.runs[i];
+        let (theta, modal) = match run.estimate() {
+            Some(est) => {
+                let th = est.theta().map(|v| v.to_f64());
+                let m = modal_from_tf(&est.transfer_function(), &self.weights)
+                    .ok()
+                    .map(|m| to_f64_modal(&m));
+                (th, m)
+            }
+            None => ([f64::NAN; NP], None),
+        };
+        if record {
+            self.history[i].push(t_s, modal.as_ref());
+        }
+        Eval {
+            theta,
+            modal,
+            lambda_rad_s: run.lambda_rad_s(),
+        }
+    }
+
+    /// The final transfer function of estimator `i` (f64), if any.
+    pub fn transfer_function(&self, i: usize) -> Option<TransferFunction<f64>> {
+        self.runs[i]
+            .estimate()
+            .map(|e| to_f64_tf(&e.transfer_function()))
+    }
+
+    /// The identified model of estimator `i` for [`crate::fit::fit`], if any.
+    pub fn model(&self, i: usize, ts_s: f64) -> Option<Model> {
+        Model::new(&self.transfer_function(i)?, ts_s)
+    }
+
+    /// Counters of estimator `i` over the record.
+    pub fn totals(&self, i: usize) -> Totals {
+        self.runs[i].totals()
+    }
+
+    /// The truth-free part of estimator `i`'s report. `end_s` is the time
+    /// of the last sample, `fit` the model-output fit (see [`crate::fit::fit`]).
+    pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
+        let run = &self.runs[i];
+        let n = self.weights.len();
+        let (estimate, exc, ok) = match run.estimate() {
+            Some(est) => {
+                let tf = est.transfer_function();
+                let modal = modal_from_tf(&tf, &self.weights)
+                    .ok()
+                    .map(|m| to_f64_modal(&m));
+                (
+                    ModalSummary::new(modal.as_ref(), &to_f64_tf(&tf)),
+                    est.excitation_level().map(|v| v.to_f64()),
+                    est.health().state_ok,
+                )
+            }
+            None => (ModalSummary::empty(n), None, true),
+        };
+        let totals = run.totals();
+        Outcome {
+            estimate,
+            excitation_min_eig: exc,
+            rejected_samples: totals.rejected,
+            skipped_updates: totals.skipped,
+            law_updates: totals.updates,
+            state_ok: ok,
+            lambda_rad_s: run.lambda_rad_s(),
+            tuning: run.phase_label(),
+            builds: run.builds().to_vec(),
+            fit_percent: fit.map(|f| f.percent),
+            drift_last_10pct: self.history[i].drift(end_s),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drift_spans_the_last_tenth() {
+        let mut h = History::default();
+        let m = |w: f64| ModalParams::new(&[w], &[0.1], &[1.0], None).unwrap();
+        for k in 0..=100 {
+            let t = k as f64 * 0.1;
+            // Moves by 1% in the first 90%, then by 1e-4 in the last 10%.
+            let w = if t < 9.0 {
+                100.0 + t / 9.0
+            } else {
+                101.0 + (t - 9.0) * 1e-2
+            };
+            h.push(t, Some(&m(w)));
+        }
+        let d = h.drift(10.0).unwrap();
+        assert!((d - 0.01 / 101.01).abs() < 1e-6, "{d}");
+        h.push(10.1, None);
+        assert_eq!(h.drift(10.1), None);
+    }
+}

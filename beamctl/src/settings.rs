@@ -1,0 +1,137 @@
+//! The estimator flags `simulate` and `replay` share (law, precision,
+//! gains, where λ comes from), validated into what the runs use.
+
+use crate::error::CliError;
+use crate::{EstimatorArgs, EstimatorChoice, PrecisionChoice};
+use beamctl::{EstimatorKind, Gains, Precision};
+use beamest::tuning::LambdaSource;
+use std::f64::consts::PI;
+
+/// The filter pole of the paper's Λ(s) = (s+100)^4 (Section IV.A), used
+/// with the paper's gain presets.
+pub const PAPER_LAMBDA_RAD_S: f64 = 100.0;
+
+/// Validated estimator settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatorPlan {
+    /// Laws, in report order.
+    pub kinds: Vec<EstimatorKind>,
+    /// Float type.
+    pub precision: Precision,
+    /// Gain set.
+    pub gains: Gains,
+    /// Where λ comes from.
+    pub lambda: LambdaSource,
+    /// How λ is chosen, for the report heading.
+    pub lambda_label: String,
+}
+
+/// Validate the shared flags for an `modes`-mode model.
+pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliError> {
+    let kinds = match args.estimator {
+        EstimatorChoice::Adaptive => vec![EstimatorKind::Adaptive],
+        EstimatorChoice::Gradient => vec![EstimatorKind::Gradient],
+        EstimatorChoice::Ls => vec![EstimatorKind::LeastSquares],
+        EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
+    };
+    let precision = match args.precision {
+        PrecisionChoice::F64 => Precision::F64,
+        PrecisionChoice::F32 => Precision::F32,
+    };
+    let (gains, preset) = match (args.paper_gains, args.paper_exp_gains) {
+        (true, _) => (Gains::Paper, Some("--paper-gains")),
+        (_, true) => (Gains::PaperExperiment, Some("--paper-exp-gains")),
+        _ => (Gains::Default, None),
+    };
+    if let Some(flag) = preset {
+        if modes != 2 {
+            return Err(CliError::usage(
+                flag,
+                format!("the paper's gains are defined for 2 modes only (this model has {modes})"),
+            ));
+        }
+    }
+    let (lambda, lambda_label) = if let Some(l) = args.lambda {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(CliError::usage(
+                "--lambda",
+                format!("the filter pole must be a finite number > 0 rad/s (got {l})"),
+            ));
+        }
+        (
+            LambdaSource::Fixed(l),
+            format!("λ = {} rad/s (fixed)", short(l)),
+        )
+    } else if let Some(band) = &args.band_hz {
+        let (f1, f2) = match band.as_slice() {
+            &[f1, f2] => (f1, f2),
+            _ => {
+                return Err(CliError::usage(
+                    "--band-hz",
+                    format!("expected two frequencies F1,F2 in Hz (got {})", band.len()),
+                ))
+            }
+        };
+        if !(f1.is_finite() && f2.is_finite() && f1 > 0.0 && f1 <= f2) {
+            return Err(CliError::usage(
+                "--band-hz",
+                format!("need finite 0 < F1 <= F2 (got {f1},{f2})"),
+            ));
+        }
+        let (lo, hi) = (2.0 * PI * f1, 2.0 * PI * f2);
+        (
+            LambdaSource::Band {
+                lo_rad_s: lo,
+                hi_rad_s: hi,
+            },
+            format!(
+                "λ: auto, from the band {}–{} Hz ({} rad/s), re-centred",
+                short(f1),
+                short(f2),
+                short((lo * hi).sqrt())
+            ),
+        )
+    } else if let Some(path) = &args.beam {
+        let params = crate::model::load(path)?;
+        let m = params.modal(modes).map_err(|e| {
+            CliError::usage(
+                "--beam",
+                format!("{}: {}", path.display(), crate::model::explain(e, &params)),
+            )
+        })?;
+        let (lo, hi) = (m.omega_rad_s[0], m.omega_rad_s[modes - 1]);
+        (
+            LambdaSource::Band {
+                lo_rad_s: lo,
+                hi_rad_s: hi,
+            },
+            format!(
+                "λ: auto, from the beam model's band {}–{} rad/s ({} rad/s), re-centred",
+                short(lo),
+                short(hi),
+                short((lo * hi).sqrt())
+            ),
+        )
+    } else if preset.is_some() {
+        (
+            LambdaSource::Fixed(PAPER_LAMBDA_RAD_S),
+            "λ = 100 rad/s (the paper's Λ(s) = (s+100)⁴)".to_string(),
+        )
+    } else {
+        (
+            LambdaSource::Data,
+            "λ: auto, from the data, re-centred".to_string(),
+        )
+    };
+    Ok(EstimatorPlan {
+        kinds,
+        precision,
+        gains,
+        lambda,
+        lambda_label,
+    })
+}
+
+fn short(v: f64) -> String {
+    crate::table::short(v, 4)
+}

@@ -1,0 +1,262 @@
+//! End-to-end tests of `beamctl replay`: recorded data from outside this
+//! project, missing samples, column choice, outputs, one-line errors for
+//! bad files, and no panic on arbitrary bytes.
+
+mod common;
+
+use common::*;
+
+/// Recorded data simulated outside this project (host-tests/data,
+/// written by generate_replay_data.py with numpy/scipy, plants the tests
+/// never name): the replay, given nothing but the file, reaches ω, ζ
+/// within 1e-5 of the truth the generator recorded — noise-free, as
+/// `simulate` does on its own plants. One file starts with the beam already
+/// moving.
+#[test]
+fn external_recordings_replay_to_1e5_with_no_flag_but_the_file() {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data");
+    let truth: Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{data}/replay_truth.json")).expect("truth file"),
+    )
+    .expect("truth JSON");
+    let files = truth.as_object().expect("object");
+    assert_eq!(files.len(), 3);
+    for (name, t) in files {
+        let path = format!("{data}/{name}.csv.gz");
+        let r = json(&beamctl(&["replay", &path, "--json"]));
+        assert_eq!(r["samples"], 30_000, "{name}");
+        for (k, key) in [("omega", "omega_rad_s"), ("zeta", "zeta")] {
+            for i in 0..2 {
+                let est = num(&r["estimate"][k][i]);
+                let tru = num(&t[key][i]);
+                let e = (est / tru - 1.0).abs();
+                assert!(e < 1e-5, "{name} {k}{}: {est} vs {tru} ({e:e})", i + 1);
+            }
+        }
+        for i in 0..2 {
+            let e = (num(&r["estimate"]["bbar"][i]) / num(&t["bbar"][i]) - 1.0).abs();
+            assert!(e < 1e-4, "{name} b̄{}: {e:e}", i + 1);
+        }
+        assert!(
+            num(&r["fit_percent"]) > 99.99,
+            "{name}: {}",
+            r["fit_percent"]
+        );
+        assert!(num(&r["drift_last_10pct"]) < 1e-5, "{name}");
+        assert_eq!(r["rejected_samples"], 0);
+    }
+}
+
+/// A small replayable file: `simulate --csv` of the paper's plant.
+fn recorded(name: &str, seconds: &str) -> PathBuf {
+    let path = scratch(name);
+    let o = beamctl(&[
+        "simulate",
+        "--duration",
+        seconds,
+        "--csv",
+        path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    path
+}
+
+#[test]
+fn replay_table_has_no_truth_but_the_fit_and_drift() {
+    let path = recorded("table.csv", "2");
+    let o = beamctl(&["replay", path.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = stdout(&o);
+    for label in [
+        "ω1",
+        "ζ2",
+        "b̄2",
+        "model output fit",
+        "moved over last 10%",
+        "λ (rad/s)",
+        "rejected samples",
+    ] {
+        assert!(s.contains(label), "missing {label} in\n{s}");
+    }
+    for truth_only in ["truth", "rel. error", "time to 1%"] {
+        assert!(!s.contains(truth_only), "{truth_only} in\n{s}");
+    }
+}
+
+#[test]
+fn nan_and_inf_samples_are_skipped_and_counted() {
+    let path = recorded("nan.csv", "4");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(|l| l.to_string()).collect();
+    let mut bad = 0;
+    for (row, what) in [
+        (5_000, "nan"),
+        (20_001, "inf"),
+        (30_000, "-inf"),
+        (30_001, ""),
+    ] {
+        let mut f: Vec<String> = lines[row].split(',').map(String::from).collect();
+        f[2] = what.to_string(); // y
+        lines[row] = f.join(",");
+        bad += 1;
+    }
+    let bad_path = scratch("nan-edited.csv");
+    std::fs::write(&bad_path, lines.join("\n") + "\n").unwrap();
+    let r = json(&beamctl(&["replay", bad_path.to_str().unwrap(), "--json"]));
+    assert_eq!(r["rejected_samples"], bad);
+    assert_eq!(r["samples"], 40_000);
+    for i in 0..2 {
+        let e = (num(&r["estimate"]["omega"][i]) / [39.1533, 245.3711][i] - 1.0).abs();
+        assert!(e < 1e-6, "omega{}: {e:e}", i + 1);
+    }
+}
+
+#[test]
+fn replay_chooses_columns_and_takes_a_given_ts() {
+    let dir = scratch("cols.csv");
+    let src = recorded("cols-src.csv", "2");
+    // Only y and u, in another order and under other names, no time.
+    let text = std::fs::read_to_string(&src).unwrap();
+    let mut out = String::from("strain,drive\n");
+    for l in text.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        out.push_str(&format!("{},{}\n", f[2], f[1]));
+    }
+    std::fs::write(&dir, out).unwrap();
+    let a = json(&beamctl(&[
+        "replay",
+        dir.to_str().unwrap(),
+        "--ts",
+        "1e-4",
+        "--columns",
+        "drive,strain",
+        "--json",
+    ]));
+    let b = json(&beamctl(&["replay", src.to_str().unwrap(), "--json"]));
+    assert_eq!(a["estimate"], b["estimate"]);
+    assert_eq!(a["ts_s"], 1e-4);
+}
+
+#[test]
+fn replay_writes_csv_and_plot() {
+    let src = recorded("out-src.csv", "2");
+    let (csv, png) = (scratch("replay-est.csv"), scratch("replay.png"));
+    let o = beamctl(&[
+        "replay",
+        src.to_str().unwrap(),
+        "--estimator",
+        "all",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("t_s,u,y,adaptive_theta_0,"));
+    assert_eq!(text.lines().count(), 1 + 2000, "one row per ms of record");
+    let bytes = std::fs::read(&png).unwrap();
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"));
+}
+
+/// Bad input files: one line naming the file (and the line), exit 2.
+#[test]
+fn replay_bad_inputs_fail_cleanly() {
+    let write = |name: &str, text: &str| {
+        let p = scratch(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let cases: Vec<(String, &str)> = vec![
+        ("/nonexistent-dir/x.csv".into(), "cannot open"),
+        (write("empty.csv", ""), "the file is empty"),
+        (write("header.csv", "t,u,y\n"), "no data rows"),
+        (
+            write("count.csv", "t,u,y\n0,1,2\n1e-4,1\n"),
+            "line 3: 2 fields",
+        ),
+        (
+            write("text.csv", "t,u,y\n0,1,2\n1e-4,1,x\n"),
+            "line 3: field 3 (y) is not a number",
+        ),
+        (
+            write(
+                "uneven.csv",
+                "t,u,y\n0,1,2\n1e-4,1,2\n2e-4,1,2\n3.5e-4,1,2\n",
+            ),
+            "line 5: non-uniform sampling",
+        ),
+        (
+            write("back.csv", "t,u,y\n0,1,2\n1e-4,1,2\n0.5e-4,1,2\n"),
+            "line 4: the time column does not increase",
+        ),
+        (
+            write("names.csv", "time,in,out\n0,1,2\n"),
+            "line 1: no column named",
+        ),
+    ];
+    for (file, what) in &cases {
+        let o = beamctl(&["replay", file]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{file}: {err}");
+        assert!(err.starts_with("error: "), "{err}");
+        assert!(err.contains(file.as_str()), "{err}");
+        assert!(err.contains(what), "{file}: expected {what:?} in {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(!err.contains("panicked"));
+        assert!(o.stdout.is_empty());
+    }
+    // Flag errors name the flag.
+    let ok = write("ok.csv", "t,u,y\n0,1,2\n1e-4,1,2\n");
+    for (args, flag) in [
+        (vec!["replay", &ok, "--columns", "a,b"], "--columns"),
+        (vec!["replay", &ok, "--ts", "0"], "--ts"),
+        (vec!["replay", &ok, "--weights", "1"], "--weights"),
+        (
+            vec!["replay", &ok, "--modes", "3", "--paper-gains"],
+            "--paper-gains",
+        ),
+        (vec!["replay", &ok, "--plot", "x.svg"], "--plot"),
+    ] {
+        let o = beamctl(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr(&o).contains(flag), "{args:?}: {}", stderr(&o));
+    }
+    // A valid file without excitation has no estimate: exit 1, one line.
+    let flat = write("flat.csv", &{
+        let mut s = String::from("t,u,y\n");
+        for k in 0..5000 {
+            s.push_str(&format!("{},0,0\n", k as f64 * 1e-4));
+        }
+        s
+    });
+    let o = beamctl(&["replay", &flat]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("start-up window never completed"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+mod replay_fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// The binary on arbitrary bytes: exit 0, 1 or 2, never a panic.
+        #[test]
+        fn arbitrary_files_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..400), n in 0u32..1000) {
+            let p = scratch(&format!("fuzz-{n}.csv"));
+            let mut b = b"t,u,y\n".to_vec();
+            b.extend(bytes);
+            std::fs::write(&p, &b).unwrap();
+            let o = beamctl(&["replay", p.to_str().unwrap()]);
+            let code = o.status.code();
+            prop_assert!(matches!(code, Some(0..=2)), "{code:?}");
+            prop_assert!(!stderr(&o).contains("panicked"));
+        }
+    }
+}
