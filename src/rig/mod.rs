@@ -34,8 +34,10 @@ pub mod converter;
 pub mod noise;
 pub mod plant;
 pub mod sim;
+pub mod timing;
 
 pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
 pub use plant::{ModalPlant, PlantError};
 pub use sim::{Rig, Sample};
+pub use timing::{ConverterTiming, TimedPlant};
