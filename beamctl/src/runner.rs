@@ -374,6 +374,7 @@ pub fn filter_config(cfg: &RunConfig, truth: &Truth) -> FilterConfig {
             y_scale: output_scale(truth, cfg.u_amplitude),
         },
         hold: cfg.hold,
+        ..FilterConfig::default()
     }
 }
 
