@@ -43,7 +43,7 @@ use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::pipeline::{bring_up, NoSink, Pipeline};
-use beamest::rig::{bench, ConverterModels, ConverterRig};
+use beamest::rig::{bench, ConverterModels};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
@@ -213,11 +213,7 @@ fn build_sample_task(producer: Producer<'static, Record>) -> &'static mut Sample
             board::exit(false);
         }
     }
-    let Ok(plant) = bench::plant() else {
-        fail("plant construction")
-    };
-    let Ok(rig) = ConverterRig::new(models, plant, &bench::conversion(), bench::AMPLIFIER_GAIN)
-    else {
+    let Ok(rig) = bench::converter_rig(models) else {
         fail("rig settings")
     };
     let Ok(stand_in) =
