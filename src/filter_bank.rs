@@ -15,6 +15,22 @@
 //!   back to the paper's Θ (eq. 29).
 //! * **Exact zero-order hold on u.** The DAC holds u between samples, so
 //!   x⁺ = Φx + G₀u is exact.
+//! * **The converters' timing on u** ([`FilterConfig::timing`],
+//!   [`OutputTiming`]). A real ADC's y_k is a sinc³ average of the last
+//!   three periods and the DAC takes u_k late; both are LTI, so the bank
+//!   drives its u channel with the same timing (the sinc³ of a held
+//!   staircase, delayed, is a cubic B-spline of the samples): exact under
+//!   the hold, up to five gain vectors on u. Chosen over a pure fractional
+//!   delay (two gain vectors) by measurement against the exact sinc3 rig,
+//!   20 s, noise-free (`cargo run --release -p host-tests --example
+//!   adc_delay`): worst residual bias of ω, ζ on the paper's plant — none
+//!   5.6e-3, delay 1.6e-5, sinc³ kernel 3.0e-10 (f64; f32 1.6e-5 vs
+//!   1.5e-6, the f32 floor); on a 155/1520 rad/s plant 3.5e-2, 1.8e-3
+//!   (above the 1e-3 acceptance), 7.5e-8. Cost on the Cortex-M4F `f32`
+//!   step (`cargo xtask qemu`): 1,617 → 1,667 instructions (a delay with
+//!   its own two-tap path, measured on a variant: 1,642); 1,633 with the
+//!   timing off. State: +96 B (BENCHMARKS.md, "Memory"). Default off:
+//!   results unchanged bit for bit.
 //! * **Interpolating hold on y.** y is *sampled*, not held. Over
 //!   [t_k, t_{k+1}] the filter is driven by the polynomial p through nearby
 //!   samples, integrated exactly: x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the
@@ -40,11 +56,6 @@ mod timing;
 
 use timing::{InputTaps, U_HIST, U_TAPS};
 
-/// Length of the u ring (a power of two > [`U_HIST`]). It is stored twice
-/// over (each u written at `head` and `head + U_RING`), so the taps'
-/// window is always contiguous.
-const U_RING: usize = 16;
-const _: () = assert!(U_RING.is_power_of_two() && U_RING > U_HIST);
 pub use timing::{OutputAverage, OutputTiming, MAX_OUTPUT_DELAY_SAMPLES};
 
 /// How the sampled output y is interpolated between samples for the filter.
@@ -159,7 +170,7 @@ impl core::fmt::Display for FilterConfigError {
             Self::Scale => "invalid signal scale u_scale or y_scale: must be positive and finite",
             Self::Dimensions => "invalid filter sizes: need NP = 2*D - 1 with D even, 2..=6",
             Self::Timing => {
-                "invalid output timing: delay_samples must be finite, 0..=4 (1..=4 with Sinc3)"
+                "invalid output timing: delay_samples must be finite, 0..=3 (1..=3 with Sinc3)"
             }
         })
     }
@@ -395,8 +406,8 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     /// for a delayed or averaged output (`timing`).
     taps_u: [[T; D]; U_TAPS],
     /// History index of the first tap's u, and the number of taps.
-    taps_u_first: usize,
-    taps_u_count: usize,
+    taps_u_first: u8,
+    taps_u_count: u8,
     /// Gains on y_{k−2} … y_{k+3}.
     taps_y: [[T; D]; WINDOW],
     inv_u_scale: T,
@@ -408,11 +419,8 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     x_y: CompensatedArray<T, D>,
     /// y window y_{k−2} … y_{k+3} (scaled).
     y_win: [T; WINDOW],
-    /// u history (scaled), a doubled ring: u_{n−r} at `u_head + U_RING −
-    /// r` for r < U_RING (a ring, not a shifted array: the history is
-    /// U_HIST long).
-    u_ring: [T; 2 * U_RING],
-    u_head: usize,
+    /// u history u_n, u_{n−1}, … (scaled; newest first).
+    u_hist: [T; U_HIST],
 }
 
 impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
@@ -427,12 +435,18 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         let m = FilterMatrices::<D>::new(&c, rho_ts, cfg.hold);
         let (aug, n) = FilterMatrices::<D>::augmented(&c, rho_ts);
         let taps = InputTaps::<D>::new(&aug, n, &cfg.timing);
-        // Stored oldest first, ending with the tap at `first` (the newest u
-        // the kernel reaches): one tap is the last entry.
+        // One tap: at its own history index. More: a window of U_TAPS
+        // history entries from `start` (unused taps zero), so that the loop
+        // has a fixed length.
+        let start = if taps.count == 1 {
+            taps.first
+        } else {
+            taps.first.min(U_HIST - U_TAPS)
+        };
         let mut gains = [[0.0f64; D]; U_TAPS];
         for (g, t) in gains
             .iter_mut()
-            .rev()
+            .skip(taps.first - start)
             .zip(taps.gains.iter().take(taps.count))
         {
             *g = *t;
@@ -440,16 +454,16 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         Ok(Self {
             phi_minus_i: m.phi_minus_i.map(|row| row.map(T::from_f64)),
             taps_u: gains.map(|row| row.map(T::from_f64)),
-            taps_u_first: taps.first,
-            taps_u_count: taps.count,
+            // Both < U_HIST ≤ 255.
+            taps_u_first: start as u8,
+            taps_u_count: taps.count as u8,
             taps_y: m.taps_y.map(|row| row.map(T::from_f64)),
             inv_u_scale: T::from_f64(1.0 / cfg.scales.u_scale),
             inv_y_scale: T::from_f64(1.0 / cfg.scales.y_scale),
             x_u: CompensatedArray::default(),
             x_y: CompensatedArray::default(),
             y_win: [T::ZERO; WINDOW],
-            u_ring: [T::ZERO; 2 * U_RING],
-            u_head: 0,
+            u_hist: [T::ZERO; U_HIST],
         })
     }
 
@@ -458,7 +472,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         self.x_u = CompensatedArray::default();
         self.x_y = CompensatedArray::default();
         self.y_win = [T::ZERO; WINDOW];
-        self.u_ring = [T::ZERO; 2 * U_RING];
+        self.u_hist = [T::ZERO; U_HIST];
     }
 
     /// Push sample n: `u` is the input held over [t_n, t_{n+1}), `y` the
@@ -477,14 +491,11 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             Some(&v) => v,
             None => y * self.inv_y_scale,
         });
-        self.u_head = (self.u_head + 1) & (U_RING - 1);
-        let us = u * self.inv_u_scale;
-        if let Some(slot) = self.u_ring.get_mut(self.u_head) {
-            *slot = us;
-        }
-        if let Some(slot) = self.u_ring.get_mut(self.u_head + U_RING) {
-            *slot = us;
-        }
+        let h = self.u_hist;
+        self.u_hist = core::array::from_fn(|k| match k.checked_sub(1) {
+            Some(i) => h.get(i).copied().unwrap_or(T::ZERO),
+            None => u * self.inv_u_scale,
+        });
         // Advance both filters over [t_{n−3}, t_{n−2}]:
         // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last
         // (with the low word's share when compensated). One channel at a
@@ -500,18 +511,16 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             self.x_y.add(i, *d);
         }
         let mut du = self.free_response(&self.x_u);
-        // The taps' u: a contiguous window of the doubled ring, oldest
-        // first (the gains are stored in that order).
-        let newest = self.u_head + U_RING - self.taps_u_first;
+        let start = usize::from(self.taps_u_first);
         if self.taps_u_count == 1 {
             // The zero-order hold (and integer point delays): one gain.
-            let uv = self.u_ring.get(newest).copied().unwrap_or(T::ZERO);
-            for (d, gi) in du.iter_mut().zip(self.taps_u[U_TAPS - 1].iter()) {
+            let uv = self.u_hist.get(start).copied().unwrap_or(T::ZERO);
+            for (d, gi) in du.iter_mut().zip(self.taps_u[0].iter()) {
                 *d += *gi * uv;
             }
         } else if let Some(Ok(win)) = self
-            .u_ring
-            .get(newest + 1 - U_TAPS..newest + 1)
+            .u_hist
+            .get(start..start + U_TAPS)
             .map(<&[T; U_TAPS]>::try_from)
         {
             for (g, uv) in self.taps_u.iter().zip(win.iter()) {

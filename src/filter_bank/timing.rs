@@ -38,12 +38,14 @@
 use crate::linalg::{expm, Block, EXPM_MAX};
 
 /// Largest total delay [`OutputTiming::delay_samples`] accepted (samples):
-/// the u history the bank keeps ([`U_HIST`]) covers it.
-pub const MAX_OUTPUT_DELAY_SAMPLES: f64 = 4.0;
+/// the u history the bank keeps covers it.
+pub const MAX_OUTPUT_DELAY_SAMPLES: f64 = 3.0;
 /// Gain vectors on u at most (the sinc³ kernel at a fractional shift).
 pub(crate) const U_TAPS: usize = 5;
-/// Length of the u history u_n … u_{n−U_HIST+1} the bank keeps.
-pub(crate) const U_HIST: usize = 10;
+/// Length of the u history u_n … u_{n−U_HIST+1} the bank keeps: the
+/// look-ahead's three and the kernel's reach at the largest delay (the
+/// sinc³ at d = 3: u_{n−3−5}).
+pub(crate) const U_HIST: usize = 9;
 /// The bank integrates [t_{n−3}, t_{n−2}] at push n (its look-ahead):
 /// u_{n−3−i} is history entry `LAG + i`.
 const LAG: i64 = 3;

@@ -12,21 +12,28 @@
 //!
 //! # One tick ([`ConverterRig::tick`], at each sample instant t_k)
 //! 1. u = the DAC model's held output × the amplifier gain: the voltage on
-//!    the piezo over the period [t_{k−1}, t_k) that just ended;
-//! 2. the plant advances over that period with u held (exact, `f64`) and
-//!    y(t_k) is sampled, plus measurement noise if configured;
+//!    the piezo over the period [t_{k−1}, t_k) that just ended (with a DAC
+//!    latency δ, [`ConverterTiming`]: from t_{k−1} + δ on, the previous
+//!    value before);
+//! 2. the plant advances over that period (exact, `f64`,
+//!    [`TimedPlant`]) and the ADC's view of it is formed: y(t_k), or with
+//!    [`ConverterTiming::sinc3`] the ADS131M02's sinc³ average of y over
+//!    the last three periods; plus measurement noise if configured;
 //! 3. the ADC model's inputs are set through the analog front end (the
 //!    pipeline's [`ConversionConfig`] run backwards, [`AnalogFrontEnd`]):
-//!    channel 0 the bridge volts for y(t_k), channel 1 the monitor volts
-//!    for u (the monitor sampled at t_k measured the voltage held before
-//!    it);
+//!    channel 0 the bridge volts for that y, channel 1 the monitor volts
+//!    for the drive (point sample: the voltage held just before t_k;
+//!    sinc3: its sinc³ average);
 //! 4. `convert()`: one DRDY period, the model quantises both inputs.
 //!
 //! The pipeline's tick then reads that conversion through the ADS131M02
 //! driver and writes u_k through the AD5761R driver, so the pair it hands
 //! the estimator is (u_k held over [t_k, t_{k+1}), y(t_k)) — the pairing of
 //! `Rig::tick` and of the host runner (test
-//! `host-tests/tests/firmware_pipeline.rs`, sample for sample).
+//! `host-tests/tests/firmware_pipeline.rs`, sample for sample) when the
+//! timing is [`ConverterTiming::IDEAL`] (the default of
+//! [`ConverterRig::new`]); `rig::bench::converter_rig` sets the board's
+//! timing, which the estimator then models (`FilterConfig::timing`).
 //!
 //! Faults are injected in the models ([`ConverterModels::adc`]: bad CRC,
 //! stuck data, saturation, dropped conversions, bus errors, brown-out).

@@ -34,12 +34,16 @@
 //! The decimator is modelled by its continuous limit (three boxcars of
 //! width T). The chip's filter sums 3·256 − 2 modulator samples: for point
 //! samples at the modulator rate it is the continuous cascade advanced by
-//! 3/(2·256) = 0.0059 sample (group delay 1.494 instead of 1.5) with a
-//! magnitude difference below (ωT/256)²/8 ≈ 1e-9 at the beam's modes
-//! (`host-tests/examples/adc_delay.rs` measures both). Where the modulator
-//! samples sit relative to DRDY is not in the data sheet. The bridge is
-//! averaged in y (before the front end's nonlinearity), and the ADC's
-//! settling after a reset starts from rest.
+//! 3/(2·256) = 0.0059 sample (group delay 1.494 instead of 1.5): each
+//! boxcar of 256 point samples is sin(ωT/2)/(256·sin(ωT/512)) against
+//! sin(ωT/2)/(ωT/2), a relative magnitude difference of (ωT/512)²/6 per
+//! boxcar, 1.1e-9 for the three at ω₂ = 245 rad/s, 4.4e-8 at 1520 rad/s
+//! (`host-tests/examples/adc_delay.rs` measures the shift: +0.00586
+//! sample). Where the modulator samples sit relative to DRDY is not in the
+//! data sheet. The bridge is averaged in y, before the front end's
+//! nonlinearity, not in volts (the quarter bridge's relative nonlinearity
+//! is GF·ε/2 ≈ 1e-4 here, so the difference is second order in the
+//! signal's change over 0.3 ms); the ADC's memory starts from rest.
 
 use super::plant::{ModalPlant, ModeSpec, PlantError};
 use crate::linalg::{expm, Block, EXPM_MAX};
