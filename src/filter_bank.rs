@@ -405,7 +405,8 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     /// zero-order hold) for [`OutputTiming::IDEAL`], up to [`U_TAPS`]
     /// for a delayed or averaged output (`timing`).
     taps_u: [[T; D]; U_TAPS],
-    /// History index of the first tap's u, and the number of taps.
+    /// Where the taps read `u_hist` (tap k: `u_hist[taps_u_first + k]`),
+    /// and the number of nonzero taps (1: only `taps_u[0]` is read).
     taps_u_first: u8,
     taps_u_count: u8,
     /// Gains on y_{k−2} … y_{k+3}.
