@@ -43,7 +43,9 @@
 //! data sheet. The bridge is averaged in y, before the front end's
 //! nonlinearity, not in volts (the quarter bridge's relative nonlinearity
 //! is GF·ε/2 ≈ 1e-4 here, so the difference is second order in the
-//! signal's change over 0.3 ms); the ADC's memory starts from rest.
+//! signal's change over 0.3 ms); the ADC's memory starts from rest (the
+//! chip instead delivers its first two conversions after a reset from a
+//! fast-settling sinc1 path, §8.3.7.1.1: start-up only).
 
 use super::plant::{ModalPlant, ModeSpec, PlantError};
 use crate::linalg::{expm, Block, EXPM_MAX};
