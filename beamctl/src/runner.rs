@@ -352,6 +352,7 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
             y_scale: b.y_scale,
         },
         hold: cfg.hold,
+        ..FilterConfig::default()
     })
 }
 

@@ -58,11 +58,26 @@ struct DiscreteMode<T> {
     x: [T; 2],
 }
 
+/// One mode's continuous description: η'' + 2ζωη' + ω²η = g·u, its
+/// output contribution `pos`·η + `vel`·η'.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct ModeSpec {
+    pub omega: f64,
+    pub zeta: f64,
+    pub gain: f64,
+    pub pos: f64,
+    pub vel: f64,
+}
+
 /// An `n`-mode beam simulated exactly under a held input.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModalPlant<T> {
     modes: usize,
     m: [DiscreteMode<T>; MAX_MODES],
+    /// The continuous modes and the sample period (for
+    /// [`super::timing::TimedPlant`], which discretizes them its own way).
+    spec: [ModeSpec; MAX_MODES],
+    ts_s: f64,
 }
 
 impl<T: Real> ModalPlant<T> {
@@ -167,12 +182,22 @@ impl<T: Real> ModalPlant<T> {
             x: [T::ZERO; 2],
         };
         let mut m = [zero; MAX_MODES];
+        let mut spec = [ModeSpec::default(); MAX_MODES];
         let params = omega.iter().zip(zeta).zip(gain).zip(pos).zip(vel);
-        for (mode, ((((&w, &z), &g), &c), &v)) in m.iter_mut().zip(params).take(n) {
+        for ((mode, sp), ((((&w, &z), &g), &c), &v)) in
+            m.iter_mut().zip(spec.iter_mut()).zip(params).take(n)
+        {
             let finite = [w, z, g, c, v].iter().all(|v| v.is_finite());
             if !finite || !(w > 0.0) || z < 0.0 {
                 return Err(PlantError::Value);
             }
+            *sp = ModeSpec {
+                omega: w,
+                zeta: z,
+                gain: g,
+                pos: c,
+                vel: v,
+            };
             let mut aug = [[0.0f64; EXPM_MAX]; EXPM_MAX];
             aug[0][1] = ts;
             aug[1][0] = -w * w * ts;
@@ -189,12 +214,32 @@ impl<T: Real> ModalPlant<T> {
                 x: [T::ZERO; 2],
             };
         }
-        Ok(Self { modes: n, m })
+        Ok(Self {
+            modes: n,
+            m,
+            spec,
+            ts_s: ts,
+        })
     }
 
     /// Number of modes.
     pub fn modes(&self) -> usize {
         self.modes
+    }
+
+    /// Sample period (s).
+    pub fn ts_s(&self) -> f64 {
+        self.ts_s
+    }
+
+    /// The continuous modes (the first [`Self::modes`] entries).
+    pub(crate) fn specs(&self) -> &[ModeSpec] {
+        self.spec.get(..self.modes).unwrap_or(&[])
+    }
+
+    /// Each mode's state [η, η'] (the first [`Self::modes`] entries).
+    pub(crate) fn states(&self) -> impl Iterator<Item = [T; 2]> + '_ {
+        self.m.iter().take(self.modes).map(|md| md.x)
     }
 
     /// Output y at the current sample instant.
