@@ -184,19 +184,39 @@ mod tests {
         let tf = paper_plant_tf();
         let w = [-2.0, 2.0];
         let set = ModelSet::TransferFunction;
-        let a = experiment_bound(&tf, &w, 1e-4, paper_input(5.0), NoiseLevel::SnrDb(40.0), set)
-            .unwrap();
+        let a = experiment_bound(
+            &tf,
+            &w,
+            1e-4,
+            paper_input(5.0),
+            NoiseLevel::SnrDb(40.0),
+            set,
+        )
+        .unwrap();
         assert!((a.snr_db - 40.0).abs() < 1e-9);
-        let b = experiment_bound(&tf, &w, 1e-4, paper_input(5.0), NoiseLevel::Sd(a.sigma), set)
-            .unwrap();
+        let b = experiment_bound(
+            &tf,
+            &w,
+            1e-4,
+            paper_input(5.0),
+            NoiseLevel::Sd(a.sigma),
+            set,
+        )
+        .unwrap();
         assert_eq!(a, b);
         assert_eq!(a.parameters, 7);
         assert_eq!(a.samples, 50_000);
         // A NaN input is held, not propagated.
-        let nan = paper_input(5.0).enumerate().map(|(k, u)| if k == 7 { f64::NAN } else { u });
+        let nan = paper_input(5.0)
+            .enumerate()
+            .map(|(k, u)| if k == 7 { f64::NAN } else { u });
         let c = experiment_bound(&tf, &w, 1e-4, nan, NoiseLevel::Sd(a.sigma), set).unwrap();
         assert!(c.zeta.rel.iter().all(|v| v.is_finite()));
-        let r = a.ratio(&[a.omega.rel[0], 0.0], &[2.0 * a.zeta.rel[0], 0.0], &[0.0, 0.0]);
+        let r = a.ratio(
+            &[a.omega.rel[0], 0.0],
+            &[2.0 * a.zeta.rel[0], 0.0],
+            &[0.0, 0.0],
+        );
         assert_eq!(r.omega, [1.0, 0.0]);
         assert_eq!(r.zeta, [2.0, 0.0]);
     }

@@ -37,8 +37,7 @@ pub enum EstimatorKind {
 
 impl EstimatorKind {
     /// The paper's three laws, in report order.
-    pub const PAPER_LAWS: [EstimatorKind; 3] =
-        [Self::Adaptive, Self::Gradient, Self::LeastSquares];
+    pub const PAPER_LAWS: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
 
     /// Every estimator, in report order (`--estimator all`): the paper's
     /// three laws, then the robust estimator.

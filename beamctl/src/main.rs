@@ -237,7 +237,9 @@ fn parse_seeds(s: &str) -> Result<SeedList, String> {
     let seeds: Vec<u64> = if let Some((a, b)) = s.split_once("..") {
         let (a, b) = (num(a)?, num(b.strip_prefix('=').unwrap_or(b))?);
         if b < a {
-            return Err(format!("empty range {s} (write A..B with A <= B, both included)"));
+            return Err(format!(
+                "empty range {s} (write A..B with A <= B, both included)"
+            ));
         }
         if b - a >= MAX_SEEDS as u64 {
             return Err(format!("at most {MAX_SEEDS} seeds"));
@@ -389,7 +391,7 @@ pub struct SimulateArgs {
     #[arg(
         long,
         value_name = "SIGMA",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with = "snr_db"
     )]
     pub noise_sd: Option<f64>,
@@ -506,7 +508,7 @@ pub struct ReplayArgs {
     #[arg(
         long,
         value_name = "SIGMA",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         requires = "crlb"
     )]
     pub noise_sd: Option<f64>,
@@ -545,7 +547,7 @@ pub struct CrlbArgs {
     pub snr_db: Option<f64>,
 
     /// Noise on y as a standard deviation (units of y, > 0).
-    #[arg(long, value_name = "SIGMA", allow_negative_numbers = true)]
+    #[arg(long, value_name = "SIGMA", allow_hyphen_values = true)]
     pub noise_sd: Option<f64>,
 
     /// Which parameters are unknown: tf (the estimators' 4N − 1

@@ -200,8 +200,22 @@ fn render(plan: &Plan, report: &SeedsReport) -> String {
             |c| &c.omega.rel,
             |m| &m.omega,
         ),
-        ("ζ", "", |p| &p.zeta, |r| &r.zeta, |c| &c.zeta.rel, |m| &m.zeta),
-        ("b̄", "", |p| &p.bbar, |r| &r.bbar, |c| &c.bbar.rel, |m| &m.bbar),
+        (
+            "ζ",
+            "",
+            |p| &p.zeta,
+            |r| &r.zeta,
+            |c| &c.zeta.rel,
+            |m| &m.zeta,
+        ),
+        (
+            "b̄",
+            "",
+            |p| &p.bbar,
+            |r| &r.bbar,
+            |c| &c.bbar.rel,
+            |m| &m.bbar,
+        ),
     ];
     let at = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(f64::NAN);
     let truth = report
@@ -247,7 +261,9 @@ fn render(plan: &Plan, report: &SeedsReport) -> String {
         }
         t.row(row);
     };
-    metric(&mut t, "max ω/ζ error, any seed", &|s| rel(s.max_rel_error));
+    metric(&mut t, "max ω/ζ error, any seed", &|s| {
+        rel(s.max_rel_error)
+    });
     metric(&mut t, "seeds without estimate", &|s| {
         if s.failed_seeds.is_empty() {
             "none".to_string()

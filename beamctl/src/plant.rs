@@ -157,4 +157,3 @@ fn join(v: &[f64]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
-

@@ -366,7 +366,9 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 let sigma = match (given, outcome.robust.and_then(|r| r.noise_rms)) {
                     (Some(sd), _) => Some((sd, "given")),
                     (None, Some(sd)) => Some((sd, "robust_residual")),
-                    (None, None) => f.as_ref().map(|f| (f.residual_rms, "model_output_residual")),
+                    (None, None) => f
+                        .as_ref()
+                        .map(|f| (f.residual_rms, "model_output_residual")),
                 };
                 let tf = session.transfer_function(i);
                 let bound = match (tf, sigma) {
@@ -444,7 +446,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         return String::new();
     };
     let mut out = format!(
-        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {}, {}, {} gains\n\n",
+        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {}, {}, {} gains\n",
         first.file,
         first.samples,
         first.ts_s,
@@ -481,10 +483,11 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         .collect();
     if let Some((set, _)) = plan.crlb {
         out.push_str(&format!(
-            "bound:  Cramér–Rao at each final estimate, {}, that model driven from rest by the recorded u\n\n",
+            "bound:  Cramér–Rao at each final estimate, {}, that model driven from rest by the recorded u\n",
             beamctl::bound::model_set_description(set, plan.modes)
         ));
     }
+    out.push('\n');
     out.push_str(&report::table(plan.modes, None, None, &columns));
     out.push_str(report::FOOTNOTE);
     if reports.iter().any(|r| r.outcome.robust.is_some()) {
@@ -493,8 +496,9 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     if plan.crlb.is_some() {
         out.push_str(
             "CRB (rel.): the relative 1σ no unbiased estimator could beat if the estimate were the \
-truth, at the noise σ shown (given, the robust estimator's residual, or the residual of the \
-model output fit).\n",
+truth, at the noise σ shown: given (--noise-sd), OE residual (the robust estimator's \
+output-error residual RMS) or fit residual (RMS of y − ŷ of the model output fit, which holds \
+any bias of the estimate too).\n",
         );
     }
     out

@@ -95,7 +95,13 @@ pub fn table(
     type PickBound = fn(&ExperimentBound) -> &Vec<f64>;
     type PickRatio = fn(&BoundRatio) -> &Vec<f64>;
     let params: [(&str, &str, Pick, PickBound, PickRatio); 3] = [
-        ("ω", " (rad/s)", |m| &m.omega, |b| &b.omega.rel, |r| &r.omega),
+        (
+            "ω",
+            " (rad/s)",
+            |m| &m.omega,
+            |b| &b.omega.rel,
+            |r| &r.omega,
+        ),
         ("ζ", "", |m| &m.zeta, |b| &b.zeta.rel, |r| &r.zeta),
         ("b̄", "", |m| &m.bbar, |b| &b.bbar.rel, |r| &r.bbar),
     ];
@@ -184,16 +190,30 @@ pub fn table(
         });
     }
     if cols.iter().any(|c| c.bound.is_some()) {
-        metric(&mut t, "σ for the CRB", &|c| match (c.bound, c.sigma_source) {
-            (Some(b), Some(src)) => format!("{} ({src})", sig(b.sigma, 4)),
-            (Some(b), None) => sig(b.sigma, 4),
-            _ => "n/a".to_string(),
-        });
+        metric(
+            &mut t,
+            "σ for the CRB",
+            &|c| match (c.bound, c.sigma_source) {
+                (Some(b), Some(src)) => format!("{} ({})", sig(b.sigma, 4), sigma_label(src)),
+                (Some(b), None) => sig(b.sigma, 4),
+                _ => "n/a".to_string(),
+            },
+        );
     }
     metric(&mut t, "samples", &|c| c.samples.to_string());
     metric(&mut t, "rejected samples", &|c| c.rejected.to_string());
     metric(&mut t, "skipped updates", &|c| c.skipped.to_string());
     t.render()
+}
+
+/// The table's short name of a σ source (`given`, `robust_residual`,
+/// `model_output_residual`).
+fn sigma_label(source: &str) -> &str {
+    match source {
+        "robust_residual" => "OE residual",
+        "model_output_residual" => "fit residual",
+        other => other,
+    }
 }
 
 /// An error ÷ bound ratio: "1.03", "41.7", "2.1e3"; "n/a" if not finite.

@@ -96,7 +96,10 @@ pub fn summarize(
     bound: Option<ExperimentBound>,
 ) -> SeedsReport {
     let kinds = per_seed.first().map_or(0, Vec::len);
-    let noise_sd = per_seed.first().and_then(|r| r.first()).and_then(|r| r.noise_sd);
+    let noise_sd = per_seed
+        .first()
+        .and_then(|r| r.first())
+        .and_then(|r| r.noise_sd);
     let mut columns: Vec<Vec<RunReport>> = vec![Vec::new(); kinds];
     for runs in per_seed {
         for (k, mut r) in runs.into_iter().enumerate().take(kinds) {
@@ -152,10 +155,7 @@ fn summary(seeds: &[u64], runs: Vec<RunReport>, bound: Option<&ExperimentBound>)
         rms_over_crlb: bound.map(|b| b.ratio(&rms.omega, &rms.zeta, &rms.bbar)),
         mean_rel_error: both(false),
         rms_rel_error: rms,
-        max_rel_error: runs
-            .iter()
-            .map(|r| r.rel_error.max())
-            .fold(0.0, f64::max),
+        max_rel_error: runs.iter().map(|r| r.rel_error.max()).fold(0.0, f64::max),
         failed_seeds: seeds
             .iter()
             .zip(&runs)

@@ -396,7 +396,9 @@ fn noise_label(cfg: &RunConfig) -> String {
 /// The noise part of the heading: "none", or the level and σ (and the
 /// seed, unless several run).
 pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> String {
-    let sigma = sigma.map_or(String::new(), |s| format!("σ = {}", crate::table::sig(s, 4)));
+    let sigma = sigma.map_or(String::new(), |s| {
+        format!("σ = {}", crate::table::sig(s, 4))
+    });
     let seed = seed.map_or(String::new(), |s| format!(", seed {s}"));
     match (cfg.snr_db, cfg.noise_sd) {
         (_, Some(_)) => format!("white, {sigma}{seed}"),
@@ -448,7 +450,12 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         plan.plant_label,
         if n == 1 { "" } else { "s" }
     ));
-    out.push_str(&run_line(plan, first.samples, first.noise_sd, Some(cfg.seed)));
+    out.push_str(&run_line(
+        plan,
+        first.samples,
+        first.noise_sd,
+        Some(cfg.seed),
+    ));
     if let Some(b) = &first.crlb {
         out.push_str(&bound_line(b, n));
     }
