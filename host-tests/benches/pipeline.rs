@@ -26,11 +26,11 @@ use beamest::excitation::{
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{
-    AdcFlags, AdcReading, AdcScale, BridgeConfig, ConversionConfig, DacLatch, DacOutcome, Eq17,
-    FaultKind, InputSource, Linearisation, NoSink, OutputQuantity, PiezoDac, Pipeline,
-    PipelineConfig, PrefilterConfig, Sink, StrainAdc, ADS131M02_VREF_V,
+    AdcFlags, AdcReading, DacLatch, DacOutcome, FaultKind, InputSource, NoSink, PiezoDac, Pipeline,
+    PipelineConfig, PrefilterConfig, Sink, StrainAdc,
 };
 use beamest::plant::ModalPlant;
+use beamest::rig::bench::conversion;
 use beamest::Real;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
@@ -38,33 +38,6 @@ const WARMUP: usize = 10_000;
 /// 2 s: 14 whole periods of the 7 Hz square wave, so the replayed codes
 /// stay consistent with the excitation when they wrap around.
 const MEASURED: usize = 20_000;
-
-fn conversion() -> ConversionConfig {
-    ConversionConfig {
-        bridge_adc: AdcScale {
-            vref_v: ADS131M02_VREF_V,
-            pga_gain: 128,
-        },
-        bridge: BridgeConfig {
-            excitation_v: 5.0,
-            gauge_factor: 2.1,
-            amplifier_gain: 1.0,
-            null_offset_v: 0.0,
-            linearisation: Linearisation::Exact,
-            invert: false,
-        },
-        output: OutputQuantity::Deflection(Eq17 {
-            length_m: 0.36,
-            gauge_lever_arm_m: 0.34,
-            thickness_m: 1e-3,
-        }),
-        monitor_adc: AdcScale {
-            vref_v: ADS131M02_VREF_V,
-            pga_gain: 1,
-        },
-        monitor_v_per_v: 0.01,
-    }
-}
 
 /// Bridge codes of the paper's plant under 0.1·square(7 Hz), WARMUP + MEASURED.
 fn codes() -> Vec<i32> {

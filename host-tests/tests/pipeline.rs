@@ -16,12 +16,12 @@ use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{
-    recover, AdcFlags, AdcReading, AdcScale, BridgeConfig, ConversionConfig, Counters, DacLatch,
-    DacOutcome, Eq17, FaultKind, InputSource, Linearisation, NoSink, OutputQuantity, PiezoDac,
-    Pipeline, PipelineConfig, Prefilter, PrefilterConfig, PrefilterState, StrainAdc,
-    TelemetryRecord, ADS131M02_VREF_V,
+    recover, AdcFlags, AdcReading, Counters, DacLatch, DacOutcome, FaultKind, InputSource,
+    Linearisation, NoSink, PiezoDac, Pipeline, PipelineConfig, Prefilter, PrefilterConfig,
+    PrefilterState, StrainAdc, TelemetryRecord,
 };
 use beamest::plant::ModalPlant;
+use beamest::rig::bench::conversion;
 use beamest::Real;
 use heapless::spsc::Queue;
 use host_tests::sim_rig::{Injected, SimAdc, SimDac, SimRig};
@@ -33,37 +33,6 @@ const LAMBDA: f64 = 100.0;
 const U0: f64 = 0.1;
 const SECONDS: f64 = 20.0;
 const C_BAR: [f64; 2] = [-2.0, 2.0];
-
-/// A realistic front end for the paper's beam: quarter bridge (GF 2.1, the
-/// paper's WFLA-6-11 class) at 5 V straight into the ADS131M02 at PGA 128
-/// (±9.4 mV), eq. 17 with Table I's L = 0.36 m, h = 1 mm and the gauge
-/// 20 mm from the clamp (L₁ = 0.34 m); monitor 100 V → 1 V at PGA 1.
-fn conversion() -> ConversionConfig {
-    ConversionConfig {
-        bridge_adc: AdcScale {
-            vref_v: ADS131M02_VREF_V,
-            pga_gain: 128,
-        },
-        bridge: BridgeConfig {
-            excitation_v: 5.0,
-            gauge_factor: 2.1,
-            amplifier_gain: 1.0,
-            null_offset_v: 0.0,
-            linearisation: Linearisation::Exact,
-            invert: false,
-        },
-        output: OutputQuantity::Deflection(Eq17 {
-            length_m: 0.36,
-            gauge_lever_arm_m: 0.34,
-            thickness_m: 1e-3,
-        }),
-        monitor_adc: AdcScale {
-            vref_v: ADS131M02_VREF_V,
-            pga_gain: 1,
-        },
-        monitor_v_per_v: 0.01,
-    }
-}
 
 fn plant() -> ModalPlant<f64> {
     ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS).unwrap()

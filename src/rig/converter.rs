@@ -250,47 +250,16 @@ impl<'a> ConverterRig<'a> {
 mod tests {
     use super::*;
     use crate::drivers::ad5761r::{self, Ad5761r};
-    use crate::drivers::ads131m02::{self, Ads131m02, PgaGain};
+    use crate::drivers::ads131m02::Ads131m02;
     use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-    use crate::pipeline::{
-        adc_scales, bring_up, BridgeConfig, Eq17, Linearisation, OutputQuantity, PiezoDac,
-        StrainAdc,
-    };
+    use crate::pipeline::{bring_up, PiezoDac, StrainAdc};
+    use crate::rig::bench::{adc_config, conversion};
     use crate::rig::chips::ads131m02::quantize;
 
     struct NoDelay;
 
     impl embedded_hal::delay::DelayNs for NoDelay {
         fn delay_ns(&mut self, _ns: u32) {}
-    }
-
-    fn adc_config() -> ads131m02::Config {
-        ads131m02::Config {
-            gains: [PgaGain::G128, PgaGain::G1],
-            ..ads131m02::Config::default()
-        }
-    }
-
-    fn conversion() -> ConversionConfig {
-        let [bridge_adc, monitor_adc] = adc_scales(&adc_config());
-        ConversionConfig {
-            bridge_adc,
-            bridge: BridgeConfig {
-                excitation_v: 5.0,
-                gauge_factor: 2.1,
-                amplifier_gain: 1.0,
-                null_offset_v: 0.0,
-                linearisation: Linearisation::Exact,
-                invert: false,
-            },
-            output: OutputQuantity::Deflection(Eq17 {
-                length_m: 0.36,
-                gauge_lever_arm_m: 0.34,
-                thickness_m: 1e-3,
-            }),
-            monitor_adc,
-            monitor_v_per_v: 0.01,
-        }
     }
 
     fn plant() -> ModalPlant<f64> {
