@@ -1,0 +1,225 @@
+//! Scenario runs for the robustness tests of issue 9: a
+//! [`ScenarioRig`] on the paper's plant feeds an estimator sample by
+//! sample, and the estimate is scored at the telemetry rate against the
+//! truth *in force* (after a plant step, the new plant's).
+//!
+//! Settings are truth-free: λ = 100 rad/s (the paper's), U0, Y0 = RMS of
+//! the measured u, y over the first 0.2 s of the same run (noise and
+//! events included).
+
+use beamest::estimator::{Estimator, StepStatus};
+use beamest::excitation::SquareWave;
+use beamest::filter_bank::{FilterConfig, SignalScales};
+use beamest::modal::modal_from_tf;
+use beamest::model::{ModalParams, TransferFunction, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use beamest::plant::ModalPlant;
+use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, Scenario, ScenarioRig};
+use beamest::supervise::Supervision;
+use beamest::Real;
+
+/// Sample period (the paper's 0.1 ms).
+pub const TS_S: f64 = 1e-4;
+/// The paper's output weights C̄ (eq. 24).
+pub const WEIGHTS: [f64; 2] = [-2.0, 2.0];
+
+/// The rig of these runs.
+pub type PaperRig = ScenarioRig<f64, SquareWave<f64>>;
+
+/// The paper's plant under 0.1·square(7 Hz) going through `scenario`, with
+/// white noise at `snr_db` (relative to the noise-free y's RMS over the
+/// first 2 s) and `extra` modes beyond the model.
+pub fn paper_rig(
+    scenario: Scenario,
+    snr_db: Option<f64>,
+    seed: u64,
+    extra: Option<&ModalParams<f64>>,
+) -> PaperRig {
+    let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS_S)
+        .expect("the paper's plant");
+    rig_for(plant, scenario, snr_db, seed, extra)
+}
+
+/// Any plant under 0.1·square(7 Hz) going through `scenario` (see
+/// [`paper_rig`]).
+pub fn rig_for(
+    plant: ModalPlant<f64>,
+    scenario: Scenario,
+    snr_db: Option<f64>,
+    seed: u64,
+    extra: Option<&ModalParams<f64>>,
+) -> PaperRig {
+    let mut rig =
+        ScenarioRig::new(Rig::new(plant, SquareWave::paper()), scenario).expect("a valid scenario");
+    if let Some(m) = extra {
+        let p = ModalPlant::from_modal(m, TS_S).expect("valid extra modes");
+        rig = rig.with_extra_modes(p).expect("same Ts");
+    }
+    if let Some(snr) = snr_db {
+        let mut probe = rig.noise_free();
+        let n = (2.0 / TS_S) as usize;
+        let rms = ((0..n).map(|_| probe.tick().y.powi(2)).sum::<f64>() / n as f64).sqrt();
+        let noise = GaussianNoise::new(noise_sd_for_snr(rms, snr), seed).expect("finite SNR");
+        rig = rig.with_noise(noise);
+    }
+    rig
+}
+
+/// λ = 100 rad/s and U0, Y0 = RMS of what this rig will deliver over its
+/// first 0.2 s (measured on a copy; non-finite samples skipped).
+pub fn startup_filter(rig: &PaperRig) -> FilterConfig {
+    let mut probe = rig.clone();
+    let (mut su, mut sy, mut n) = (0.0, 0.0, 0usize);
+    for _ in 0..(0.2 / TS_S) as usize {
+        let s = probe.tick();
+        if s.u.is_finite() && s.y.is_finite() {
+            su += s.u * s.u;
+            sy += s.y * s.y;
+            n += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    FilterConfig {
+        ts_s: TS_S,
+        lambda_rad_s: 100.0,
+        scales: SignalScales {
+            u_scale: (su / n).sqrt(),
+            y_scale: (sy / n).sqrt(),
+        },
+        ..FilterConfig::default()
+    }
+}
+
+/// ω1, ω2, ζ1, ζ2 of a two-mode transfer function (C̄ = [−2, 2]).
+pub fn omega_zeta<T: Real>(tf: &TransferFunction<T>) -> Option<[f64; 4]> {
+    let w = [T::from_f64(WEIGHTS[0]), T::from_f64(WEIGHTS[1])];
+    let m = modal_from_tf(tf, &w).ok()?;
+    let v = [m.omega_rad_s[0], m.omega_rad_s[1], m.zeta[0], m.zeta[1]].map(|x| x.to_f64());
+    v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// Largest relative error of ω1, ω2, ζ1, ζ2 (∞ if not recoverable).
+pub fn max_rel_error(est: &[f64; 4], truth: &[f64; 4]) -> f64 {
+    est.iter()
+        .zip(truth)
+        .map(|(e, t)| ((e - t) / t).abs())
+        .fold(0.0, f64::max)
+}
+
+/// What a run recorded at the telemetry rate.
+#[derive(Debug, Clone, Default)]
+pub struct RunTrace {
+    /// Time of each evaluation (s).
+    pub t: Vec<f64>,
+    /// Largest relative ω/ζ error against the truth in force (∞: none).
+    pub err: Vec<f64>,
+    /// The estimate (NaN when not recoverable).
+    pub est: Vec<[f64; 4]>,
+    /// Supervisor states.
+    pub sup: Vec<Option<Supervision<f64>>>,
+    /// Steps: [updated, frozen, rejected, skipped].
+    pub steps: [u64; 4],
+    /// Samples the caller's input filter rejected (NaN handed over).
+    pub largest_theta: f64,
+}
+
+impl RunTrace {
+    /// Largest error over evaluations with t in [from, to).
+    pub fn max_err(&self, from: f64, to: f64) -> f64 {
+        self.t
+            .iter()
+            .zip(&self.err)
+            .filter(|(t, _)| **t >= from && **t < to)
+            .map(|(_, e)| *e)
+            .fold(0.0, f64::max)
+    }
+
+    /// The first time ≥ `from` after which the error stays below `tol`
+    /// until `to` (None if it never does).
+    pub fn settled_after(&self, from: f64, to: f64, tol: f64) -> Option<f64> {
+        let mut since = None;
+        for (t, e) in self.t.iter().zip(&self.err) {
+            if *t < from || *t >= to {
+                continue;
+            }
+            if *e < tol {
+                since.get_or_insert(*t);
+            } else {
+                since = None;
+            }
+        }
+        since
+    }
+
+    /// The change statistic's largest value seen at the evaluations (the
+    /// detector's own peak since it was armed, at the last evaluation).
+    pub fn change_peak(&self) -> f64 {
+        self.sup
+            .iter()
+            .filter_map(|s| s.map(|s| s.change_peak))
+            .fold(0.0, f64::max)
+    }
+
+    /// Changes detected by the end.
+    pub fn changes(&self) -> u32 {
+        self.sup
+            .iter()
+            .rev()
+            .find_map(|s| s.map(|s| s.changes))
+            .unwrap_or(0)
+    }
+}
+
+/// Feed `samples` ticks of `rig` to `est` (through `filter` when given: it
+/// maps each raw sample to what the estimator gets), evaluating every
+/// `eval_every` samples against the truth in force.
+pub fn run<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    rig: &mut PaperRig,
+    samples: u64,
+    eval_every: u64,
+    filter: &mut dyn FnMut(u64, Sample<f64>) -> Sample<f64>,
+) -> RunTrace {
+    let mut tr = RunTrace::default();
+    for k in 0..samples {
+        let raw = rig.tick();
+        let s = filter(k, raw);
+        let st = est.step(T::from_f64(s.u), T::from_f64(s.y));
+        tr.steps[match st {
+            StepStatus::Updated => 0,
+            StepStatus::Frozen => 1,
+            StepStatus::Rejected => 2,
+            StepStatus::Skipped => 3,
+        }] += 1;
+        if (k + 1) % eval_every == 0 {
+            let truth = omega_zeta(&rig.plant().transfer_function()).expect("valid truth");
+            let e = omega_zeta(&est.transfer_function());
+            tr.t.push(k as f64 * TS_S);
+            tr.err
+                .push(e.map_or(f64::INFINITY, |e| max_rel_error(&e, &truth)));
+            tr.est.push(e.unwrap_or([f64::NAN; 4]));
+            tr.sup.push(est.supervision().map(|s| Supervision {
+                reason: s.reason,
+                frozen: s.frozen,
+                forgetting: s.forgetting,
+                lemma1_ratio: s.lemma1_ratio.map(|r| r.to_f64()),
+                input_level: s.input_level.to_f64(),
+                changes: s.changes,
+                change_statistic: s.change_statistic.to_f64(),
+                change_peak: s.change_peak.to_f64(),
+                last_change_sample: s.last_change_sample,
+            }));
+            let big = est
+                .theta()
+                .iter()
+                .map(|v| v.to_f64().abs())
+                .fold(0.0, f64::max);
+            tr.largest_theta = tr.largest_theta.max(big);
+        }
+    }
+    tr
+}
+
+/// No input filter.
+pub fn direct(_k: u64, s: Sample<f64>) -> Sample<f64> {
+    s
+}

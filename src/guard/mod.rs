@@ -1,0 +1,596 @@
+//! The sensor guard: float-level checks of each (u, y) pair before it may
+//! reach an estimator, and the removal of sensor offsets and drift —
+//! one implementation, used by the pipeline after its conversion
+//! ([`crate::pipeline`]) and by the host tools, which feed floats.
+//!
+//! Each pair is classified when it arrives ([`SensorGuard::push`]):
+//!
+//! | fault | seen as | decided |
+//! |---|---|---|
+//! | [`SampleFault::NonFinite`] | u or y NaN or ±∞ | at once |
+//! | [`SampleFault::Saturated`] | y at or beyond a rail of the configured range (the converter's full scale in units of y), approached continuously | at once |
+//! | [`SampleFault::Open`] | y *jumps* to a rail from more than half of full scale away and stays there | at once |
+//! | [`SampleFault::Stuck`] | y repeats exactly `stuck_after` more times (2.5 ms at the default 25) | after the run; the run's earlier samples are caught in the delay line |
+//! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
+//! | [`LevelEvent::Offset`] | a step of y: its second difference beyond [`JUMP_FACTOR`] × its running RMS | at once; the step is subtracted from then on |
+//! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
+//!
+//! A faulty sample is handed on as NaN ([`Guarded::for_estimator`]), which
+//! the estimators reject and follow with their quarantine
+//! ([`crate::estimator`], *Bad input*): nothing of it reaches Θ̂. Level
+//! events are not faults: the sample is good once its offset is removed.
+//!
+//! # Open bridge, in the reading
+//! The rig's gauge is one arm of a quarter bridge excited with 2.0 V: the
+//! gauge node sits at ≈ V_exc/2 and the ADS131M02 sees the bridge's few
+//! hundred µV. If the gauge opens, its node is pulled to a supply rail
+//! through the completion resistor, the differential input becomes
+//! ±V_exc/2 = ±1 V, far beyond the ±9.4 mV range at PGA 128 (docs/RIG.md):
+//! the converter reads its positive or negative full-scale code, constant,
+//! and the pipeline converts that to the y of the rail. An overload, by
+//! contrast, grows into the rail with the signal. Without a configured
+//! range (the host tools on recorded floats) neither can be told from a
+//! stuck sensor: both show as [`SampleFault::Stuck`] (and the jump into an
+//! open rail as an offset step first).
+//!
+//! # Offsets and drift do not bias
+//! * **Offset steps** are removed where they happen: a step d of y makes
+//!   its second difference jump by d at that sample while a smooth signal
+//!   sampled at 10 kHz changes it by ~(ωTs)²·|y|; the jump is estimated as
+//!   the second difference itself and subtracted from every later sample,
+//!   so the estimator never sees the step (no transient, no hold).
+//! * **Slow offsets and drift** are removed by a second-order high-pass
+//!   applied identically to u and y ([`HighPass`], on by default at
+//!   [`DEFAULT_HIGHPASS_RAD_S`]): identical filtering commutes with the
+//!   plant, so the estimate is unchanged (see its module docs), and its
+//!   double zero at DC removes a constant and a ramp exactly.
+//!
+//! Measured bias with and without: docs/ROBUSTNESS.md.
+//!
+//! # Order
+//! Classification at entry; a delay line of `stuck_after + 1` samples
+//! (the estimate lags by 2.6 ms at the default); then the high-pass, fed
+//! only good samples (a faulty sample leaves its states as they were: they
+//! hold the slow level, which a millisecond's gap does not move).
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub(crate) mod delay;
+pub mod highpass;
+
+pub use delay::MAX_DELAY;
+pub use highpass::HighPass;
+
+use crate::scalar::Real;
+use delay::DelayLine;
+
+/// Default stuck run: 25 repeats (2.5 ms at 10 kHz; a live sensor's
+/// readings never repeat that often, a noise-free simulated beam's a few
+/// times at most).
+pub const DEFAULT_STUCK_AFTER: u16 = 25;
+/// Default corner of the DC-removing high-pass (rad/s): 10× below the
+/// lowest mode the rig is built for (the paper's beam: 39 rad/s), 2.5
+/// octaves below the paper's 7 Hz drive.
+pub const DEFAULT_HIGHPASS_RAD_S: f64 = 3.0;
+/// An offset step is a second difference beyond this many times its
+/// running RMS (with white noise σ: 16·√6·σ ≈ 39σ, never reached by chance).
+pub const JUMP_FACTOR: f64 = 16.0;
+/// Time constant of the second difference's running mean square (s).
+pub const JUMP_REFERENCE_S: f64 = 0.1;
+/// A jump to a rail from more than this fraction of full scale (half the
+/// range's span) away is an open bridge, not an overload: an overload
+/// reaches the rail within one sample's motion of the signal, an open gauge
+/// from wherever the signal was (3% of full scale on the rig).
+pub const OPEN_JUMP_FRACTION: f64 = 0.5;
+/// A drift is flagged when y's slow level has moved by this fraction of
+/// y's RMS since the last flag.
+pub const DRIFT_FRACTION: f64 = 0.05;
+/// Time constant of the slow level (two stages) and of y's RMS (s).
+pub const LEVEL_S: f64 = 0.25;
+
+/// Why a sample was not passed on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SampleFault {
+    /// u or y not finite.
+    NonFinite,
+    /// y at a rail of the range.
+    Saturated,
+    /// y repeated too long.
+    Stuck,
+    /// y jumped to a rail and stays (open gauge).
+    Open,
+    /// Rejected by the caller (a converter error).
+    Upstream,
+}
+
+/// A change of y's level (the sample itself is good).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LevelEvent {
+    /// A step; removed from this sample on.
+    Offset,
+    /// A slow drift (removed by the high-pass).
+    Drift,
+}
+
+/// Invalid guard settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GuardError {
+    /// Ts not positive and finite.
+    SamplePeriod,
+    /// Range not finite with min < max.
+    Range,
+    /// `stuck_after` ≥ [`MAX_DELAY`].
+    StuckAfter,
+    /// High-pass corner not in (0, π/Ts).
+    Highpass,
+}
+
+impl core::fmt::Display for GuardError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::SamplePeriod => "guard: sample period not positive and finite",
+            Self::Range => "guard: range must be finite with min < max",
+            Self::StuckAfter => "guard: stuck_after exceeds the delay line",
+            Self::Highpass => "guard: high-pass corner must be in (0, pi/Ts)",
+        })
+    }
+}
+
+impl core::error::Error for GuardError {}
+
+/// Settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GuardConfig {
+    /// Sample period Ts (s).
+    pub ts_s: f64,
+    /// The converter's rails in units of y, [min, max] (`None`: unknown,
+    /// saturation and open bridges are then seen as stuck readings).
+    pub range: Option<[f64; 2]>,
+    /// Repeats that make a stuck reading (0: off; < [`MAX_DELAY`]).
+    pub stuck_after: u16,
+    /// Corner of the DC-removing high-pass on u and y (rad/s; `None`:
+    /// off).
+    pub highpass_rad_s: Option<f64>,
+    /// Detect and remove offset steps.
+    pub offset_steps: bool,
+}
+
+impl GuardConfig {
+    /// The defaults at sample period `ts_s`: no range, stuck after
+    /// [`DEFAULT_STUCK_AFTER`], high-pass at [`DEFAULT_HIGHPASS_RAD_S`],
+    /// offset steps removed.
+    pub fn new(ts_s: f64) -> Self {
+        Self {
+            ts_s,
+            range: None,
+            stuck_after: DEFAULT_STUCK_AFTER,
+            highpass_rad_s: Some(DEFAULT_HIGHPASS_RAD_S),
+            offset_steps: true,
+        }
+    }
+}
+
+/// Samples per fault kind and level events (saturating; each sample is
+/// counted once, by its final classification).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GuardCounts {
+    /// [`SampleFault::NonFinite`] samples.
+    pub non_finite: u32,
+    /// [`SampleFault::Saturated`] samples.
+    pub saturated: u32,
+    /// [`SampleFault::Stuck`] samples.
+    pub stuck: u32,
+    /// [`SampleFault::Open`] samples.
+    pub open: u32,
+    /// [`SampleFault::Upstream`] samples.
+    pub upstream: u32,
+    /// Offset steps removed.
+    pub offset: u32,
+    /// Drift flags.
+    pub drift: u32,
+}
+
+impl GuardCounts {
+    /// Samples not passed on.
+    pub fn rejected(&self) -> u32 {
+        [
+            self.non_finite,
+            self.saturated,
+            self.stuck,
+            self.open,
+            self.upstream,
+        ]
+        .iter()
+        .fold(0u32, |a, &v| a.saturating_add(v))
+    }
+
+    fn bump(&mut self, f: SampleFault, n: u32) {
+        let c = match f {
+            SampleFault::NonFinite => &mut self.non_finite,
+            SampleFault::Saturated => &mut self.saturated,
+            SampleFault::Stuck => &mut self.stuck,
+            SampleFault::Open => &mut self.open,
+            SampleFault::Upstream => &mut self.upstream,
+        };
+        *c = c.saturating_add(n);
+    }
+}
+
+/// A sample leaving the guard.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Guarded<T> {
+    /// Its index (pushes since the start; the guard's output lags its
+    /// input by the delay line).
+    pub index: u64,
+    /// u, high-passed (the raw u if faulty).
+    pub u: T,
+    /// y with its offset steps removed, high-passed (the raw y if faulty).
+    pub y: T,
+    /// Why it is not to be used, if so.
+    pub fault: Option<SampleFault>,
+}
+
+impl<T: Real> Guarded<T> {
+    /// The pair to give an estimator: (u, y), or NaN for a faulty sample
+    /// (rejected there and followed by its quarantine).
+    pub fn for_estimator(&self) -> (T, T) {
+        match self.fault {
+            None => (self.u, self.y),
+            Some(_) => {
+                let nan = T::from_f64(f64::NAN);
+                (nan, nan)
+            }
+        }
+    }
+}
+
+/// What the latest push saw, at once (before the delay line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Screening {
+    /// Its fault at entry (a stuck run is reported from the sample that
+    /// completes it).
+    pub fault: Option<SampleFault>,
+    /// A level event at this sample.
+    pub level: Option<LevelEvent>,
+}
+
+/// The guard's state (see the module docs).
+#[derive(Debug, Clone)]
+pub struct SensorGuard<T> {
+    range: Option<(T, T)>,
+    open_jump: T,
+    stuck_after: u16,
+    offset_steps: bool,
+    delay: DelayLine<T>,
+    hp: Option<HighPass<T>>,
+    index: u64,
+    counts: GuardCounts,
+    last: Screening,
+    // Stuck runs.
+    last_y: T,
+    repeats: u16,
+    // Open episodes: the rail being held.
+    open_rail: Option<T>,
+    /// The last accepted raw y (for the open test).
+    last_good_y: Option<T>,
+    // Offset steps.
+    offset: T,
+    /// The last two accepted offset-free y (most recent first) and how many.
+    hist: [T; 2],
+    hist_len: u8,
+    jump_ms: T,
+    jump_learn: u32,
+    alpha_jump: T,
+    jump_factor2: T,
+    // Drift.
+    alpha_level: T,
+    level1: T,
+    level2: T,
+    level_ms: T,
+    level_ref: Option<T>,
+    level_learn: u32,
+    drift_fraction2: T,
+}
+
+impl<T: Real> SensorGuard<T> {
+    /// A guard with `cfg`.
+    ///
+    /// # Errors
+    /// [`GuardError`] naming the invalid setting.
+    pub fn new(cfg: &GuardConfig) -> Result<Self, GuardError> {
+        let ts = cfg.ts_s;
+        if !(ts > 0.0 && ts.is_finite()) {
+            return Err(GuardError::SamplePeriod);
+        }
+        let range = match cfg.range {
+            Some([lo, hi]) if lo.is_finite() && hi.is_finite() && lo < hi => {
+                Some((T::from_f64(lo), T::from_f64(hi)))
+            }
+            Some(_) => return Err(GuardError::Range),
+            None => None,
+        };
+        if usize::from(cfg.stuck_after) >= MAX_DELAY {
+            return Err(GuardError::StuckAfter);
+        }
+        let hp = match cfg.highpass_rad_s {
+            Some(w) => Some(HighPass::new(w, ts).ok_or(GuardError::Highpass)?),
+            None => None,
+        };
+        let alpha = |tau: f64| T::from_f64(-libm::expm1(-ts / tau));
+        let span = cfg.range.map_or(0.0, |[lo, hi]| hi - lo);
+        let samples = |s: f64| libm::ceil(s / ts).min(u32::MAX as f64) as u32;
+        Ok(Self {
+            range,
+            open_jump: T::from_f64(OPEN_JUMP_FRACTION * 0.5 * span),
+            stuck_after: cfg.stuck_after,
+            offset_steps: cfg.offset_steps,
+            // No stuck test, no delay.
+            delay: DelayLine::new(
+                if cfg.stuck_after > 0 {
+                    usize::from(cfg.stuck_after) + 1
+                } else {
+                    0
+                },
+                T::ZERO,
+            ),
+            hp,
+            index: 0,
+            counts: GuardCounts::default(),
+            last: Screening::default(),
+            last_y: T::ZERO,
+            repeats: 0,
+            open_rail: None,
+            last_good_y: None,
+            offset: T::ZERO,
+            hist: [T::ZERO; 2],
+            hist_len: 0,
+            jump_ms: T::ZERO,
+            jump_learn: samples(JUMP_REFERENCE_S),
+            alpha_jump: alpha(JUMP_REFERENCE_S),
+            jump_factor2: T::from_f64(JUMP_FACTOR * JUMP_FACTOR),
+            alpha_level: alpha(LEVEL_S),
+            level1: T::ZERO,
+            level2: T::ZERO,
+            level_ms: T::ZERO,
+            level_ref: None,
+            level_learn: samples(8.0 * LEVEL_S),
+            drift_fraction2: T::from_f64(DRIFT_FRACTION * DRIFT_FRACTION),
+        })
+    }
+
+    /// Take one raw pair (u held over the coming period, y sampled now);
+    /// returns the pair leaving the delay line, once it is full.
+    #[inline]
+    pub fn push(&mut self, u: T, y: T) -> Option<Guarded<T>> {
+        self.push_checked(u, y, true)
+    }
+
+    /// [`SensorGuard::push`] for a caller that has already judged the
+    /// sample (`valid` false: a converter error, counted as
+    /// [`SampleFault::Upstream`] and otherwise ignored).
+    #[inline]
+    pub fn push_checked(&mut self, u: T, y: T, valid: bool) -> Option<Guarded<T>> {
+        let index = self.index;
+        self.push_at(u, y, valid, index)
+    }
+
+    /// [`SensorGuard::push_checked`] with the caller's sample index (a
+    /// pipeline whose index skips ticks lost to an overrun); the next
+    /// default index follows it.
+    #[inline]
+    pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
+        self.index = index.wrapping_add(1);
+        let (fault, level, stuck_started) = self.classify(u, y, valid);
+        self.last = Screening { fault, level };
+        if let Some(f) = fault {
+            self.counts.bump(f, 1);
+        }
+        let entry = (u, y - self.offset, fault, index);
+        let out = if self.delay.delay() == 0 {
+            Some(entry)
+        } else {
+            self.delay.push(entry)
+        };
+        if stuck_started {
+            // The run's earlier samples are still in the line.
+            let n = usize::from(self.stuck_after);
+            // (This sample itself was marked and counted at entry.)
+            let flipped = self.delay.invalidate_recent(n + 1, SampleFault::Stuck);
+            self.counts.bump(SampleFault::Stuck, flipped);
+        }
+        let (u, y, fault, index) = out?;
+        let (u, y) = match (fault, self.hp.as_mut()) {
+            (None, Some(hp)) => hp.push(u, y),
+            _ => (u, y),
+        };
+        if fault.is_none() {
+            self.drift(y);
+        }
+        Some(Guarded { index, u, y, fault })
+    }
+
+    /// Classify at entry: (fault, level event, a stuck run completes now).
+    #[inline]
+    fn classify(&mut self, u: T, y: T, valid: bool) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
+        if !valid {
+            self.interrupt();
+            return (Some(SampleFault::Upstream), None, false);
+        }
+        if !(u.is_finite() && y.is_finite()) {
+            self.interrupt();
+            return (Some(SampleFault::NonFinite), None, false);
+        }
+        if let Some((lo, hi)) = self.range {
+            if y <= lo || y >= hi {
+                let rail = if y >= hi { hi } else { lo };
+                let jumped = self
+                    .last_good_y
+                    .is_some_and(|g| (rail - g).abs() > self.open_jump);
+                let open = self.open_rail == Some(rail) || jumped;
+                self.interrupt();
+                if open {
+                    self.open_rail = Some(rail);
+                    return (Some(SampleFault::Open), None, false);
+                }
+                return (Some(SampleFault::Saturated), None, false);
+            }
+        }
+        self.open_rail = None;
+        if y == self.last_y {
+            self.repeats = self.repeats.saturating_add(1);
+        } else {
+            self.repeats = 0;
+            self.last_y = y;
+        }
+        if self.stuck_after > 0 && self.repeats >= self.stuck_after {
+            let started = self.repeats == self.stuck_after;
+            self.hist_len = 0;
+            return (Some(SampleFault::Stuck), None, started);
+        }
+        self.last_good_y = Some(y);
+        let level = self.offset_step(y);
+        (None, level, false)
+    }
+
+    /// A faulty sample breaks the runs and the second-difference history.
+    fn interrupt(&mut self) {
+        self.repeats = 0;
+        self.hist_len = 0;
+    }
+
+    /// Offset-step test on an accepted y (see the module docs).
+    #[inline]
+    fn offset_step(&mut self, y: T) -> Option<LevelEvent> {
+        let yc = y - self.offset;
+        let [y1, y2] = self.hist;
+        self.hist = [yc, y1];
+        if self.hist_len < 2 {
+            self.hist_len += 1;
+            return None;
+        }
+        let d2 = yc - (y1 + y1 - y2);
+        let e2 = d2 * d2;
+        if self.jump_learn > 0 {
+            self.jump_learn -= 1;
+            self.jump_ms += self.alpha_jump * (e2 - self.jump_ms);
+            return None;
+        }
+        if self.offset_steps && e2 > self.jump_factor2 * self.jump_ms && self.jump_ms > T::ZERO {
+            // Remove the step from here on: this sample's y becomes the
+            // extrapolation of the previous two.
+            self.offset += d2;
+            if let Some(first) = self.hist.first_mut() {
+                *first = yc - d2;
+            }
+            self.counts.offset = self.counts.offset.saturating_add(1);
+            return Some(LevelEvent::Offset);
+        }
+        // The reference takes values up to the threshold (a step does not
+        // raise its own yardstick).
+        let clipped = e2.min(self.jump_factor2 * self.jump_ms);
+        self.jump_ms += self.alpha_jump * (clipped - self.jump_ms);
+        None
+    }
+
+    /// Drift test on a good, offset-free (and high-passed) output.
+    #[inline]
+    fn drift(&mut self, y_out: T) {
+        // The level the high-pass (or nothing) left in y: track the raw
+        // offset-free level through the filter's complement.
+        let level_in = match self.hp.as_ref() {
+            Some(hp) => hp.y_level(),
+            None => y_out,
+        };
+        let a = self.alpha_level;
+        self.level1 += a * (level_in - self.level1);
+        self.level2 += a * (self.level1 - self.level2);
+        let ac = match self.hp.as_ref() {
+            Some(_) => y_out,
+            None => y_out - self.level2,
+        };
+        self.level_ms += a * (ac * ac - self.level_ms);
+        if self.level_learn > 0 {
+            self.level_learn -= 1;
+            if self.level_learn == 0 {
+                self.level_ref = Some(self.level2);
+            }
+            return;
+        }
+        if let Some(r) = self.level_ref {
+            let dev = self.level2 - r;
+            if dev * dev > self.drift_fraction2 * self.level_ms {
+                self.level_ref = Some(self.level2);
+                self.counts.drift = self.counts.drift.saturating_add(1);
+                self.last.level = Some(LevelEvent::Drift);
+            }
+        }
+    }
+
+    /// What the latest push saw at entry (flags for telemetry: these are
+    /// known at once, before the sample leaves the delay line).
+    pub fn last_screening(&self) -> Screening {
+        self.last
+    }
+
+    /// The counters.
+    pub fn counts(&self) -> GuardCounts {
+        self.counts
+    }
+
+    /// Total offset removed by the step detector (units of y).
+    pub fn offset(&self) -> T {
+        self.offset
+    }
+
+    /// Samples between a push and its output.
+    pub fn delay_samples(&self) -> usize {
+        self.delay.delay()
+    }
+
+    /// Counters back to zero.
+    pub fn reset_counts(&mut self) {
+        self.counts = GuardCounts::default();
+    }
+
+    /// Turn the level corrections on or off between samples: the
+    /// high-pass (a new corner restarts it) and the offset-step removal.
+    ///
+    /// # Errors
+    /// [`GuardError::Highpass`] for an invalid corner (nothing changed).
+    pub fn set_level_correction(
+        &mut self,
+        highpass_rad_s: Option<f64>,
+        offset_steps: bool,
+        ts_s: f64,
+    ) -> Result<(), GuardError> {
+        self.hp = match highpass_rad_s {
+            Some(w) => Some(HighPass::new(w, ts_s).ok_or(GuardError::Highpass)?),
+            None => None,
+        };
+        self.offset_steps = offset_steps;
+        Ok(())
+    }
+
+    /// A new time series (the caller restarted its estimator and lost the
+    /// samples in the line): the delay line is emptied and the runs and
+    /// histories restart; the high-pass, the removed offset and the
+    /// counters are kept.
+    pub fn clear(&mut self) {
+        self.delay.clear();
+        self.repeats = 0;
+        self.hist_len = 0;
+        self.open_rail = None;
+    }
+}
+
+#[cfg(test)]
+mod tests;
