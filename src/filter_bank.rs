@@ -15,6 +15,22 @@
 //!   back to the paper's Θ (eq. 29).
 //! * **Exact zero-order hold on u.** The DAC holds u between samples, so
 //!   x⁺ = Φx + G₀u is exact.
+//! * **The converters' timing on u** ([`FilterConfig::timing`],
+//!   [`OutputTiming`]). A real ADC's y_k is a sinc³ average of the last
+//!   three periods and the DAC takes u_k late; both are LTI, so the bank
+//!   drives its u channel with the same timing (the sinc³ of a held
+//!   staircase, delayed, is a cubic B-spline of the samples): exact under
+//!   the hold, up to five gain vectors on u. Chosen over a pure fractional
+//!   delay (two gain vectors) by measurement against the exact sinc3 rig,
+//!   20 s, noise-free (`cargo run --release -p host-tests --example
+//!   adc_delay`): worst residual bias of ω, ζ on the paper's plant — none
+//!   5.6e-3, delay 1.6e-5, sinc³ kernel 3.0e-10 (f64; f32 1.6e-5 vs
+//!   1.5e-6, the f32 floor); on a 155/1520 rad/s plant 3.5e-2, 1.8e-3
+//!   (above the 1e-3 acceptance), 7.5e-8. Cost on the Cortex-M4F `f32`
+//!   step (`cargo xtask qemu`): 1,617 → 1,667 instructions (a delay with
+//!   its own two-tap path, measured on a variant: 1,642); 1,633 with the
+//!   timing off. State: +96 B (BENCHMARKS.md, "Memory"). Default off:
+//!   results unchanged bit for bit.
 //! * **Interpolating hold on y.** y is *sampled*, not held. Over
 //!   [t_k, t_{k+1}] the filter is driven by the polynomial p through nearby
 //!   samples, integrated exactly: x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the
@@ -32,9 +48,15 @@
 //!   (`linalg::expm`, computed in f64 at construction, never Euler).
 
 use crate::compensated::CompensatedArray;
-use crate::linalg::{dot, expm, solve_dense, EXPM_MAX};
+use crate::linalg::{dot, expm, solve_dense, Block, EXPM_MAX};
 use crate::model::binomial;
 use crate::scalar::Real;
+
+mod timing;
+
+use timing::{InputTaps, U_HIST, U_TAPS};
+
+pub use timing::{OutputAverage, OutputTiming, MAX_OUTPUT_DELAY_SAMPLES};
 
 /// How the sampled output y is interpolated between samples for the filter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -135,6 +157,9 @@ pub enum FilterConfigError {
     Scale,
     /// `NP` must equal 2·D − 1 and D must be even, 2..=6.
     Dimensions,
+    /// The output timing's delay is not finite or outside its range
+    /// ([`OutputTiming::is_valid`]).
+    Timing,
 }
 
 impl core::fmt::Display for FilterConfigError {
@@ -144,6 +169,9 @@ impl core::fmt::Display for FilterConfigError {
             Self::Lambda => "invalid filter pole lambda_rad_s: must be positive and finite",
             Self::Scale => "invalid signal scale u_scale or y_scale: must be positive and finite",
             Self::Dimensions => "invalid filter sizes: need NP = 2*D - 1 with D even, 2..=6",
+            Self::Timing => {
+                "invalid output timing: delay_samples must be finite, 0..=3 (1..=3 with Sinc3)"
+            }
         })
     }
 }
@@ -162,6 +190,9 @@ pub struct FilterConfig {
     pub scales: SignalScales,
     /// Interpolation of y.
     pub hold: OutputHold,
+    /// How the measured y lags the input (the converters' timing), modelled
+    /// on the u channel; [`OutputTiming::IDEAL`] by default.
+    pub timing: OutputTiming,
 }
 
 impl Default for FilterConfig {
@@ -172,6 +203,7 @@ impl Default for FilterConfig {
             lambda_rad_s: 100.0,
             scales: SignalScales::default(),
             hold: OutputHold::Quintic,
+            timing: OutputTiming::IDEAL,
         }
     }
 }
@@ -191,6 +223,9 @@ impl FilterConfig {
         }
         if d % 2 != 0 || d < 2 || d + WINDOW > EXPM_MAX || np != 2 * d - 1 {
             return Err(FilterConfigError::Dimensions);
+        }
+        if !self.timing.is_valid() {
+            return Err(FilterConfigError::Timing);
         }
         Ok(())
     }
@@ -305,21 +340,7 @@ impl<const D: usize> FilterMatrices<D> {
     /// Discretize for normalized coefficients `c` and ρ·Ts = `rho_ts`.
     /// The caller validates D (D + [`WINDOW`] ≤ `EXPM_MAX`).
     pub(crate) fn new(c: &[f64; D], rho_ts: f64, hold: OutputHold) -> Self {
-        let lt = rho_ts;
-        // Augmented system in τ = t/Ts: [x; q0..q5], x' = ρTs(A_n x + e_{D−1} q0),
-        // q_m' = q_{m+1}; starting from q_m(0) = 1 drives x with τ^m/m!.
-        let n = D + WINDOW;
-        let mut m = [[0.0f64; EXPM_MAX]; EXPM_MAX];
-        for i in 0..D - 1 {
-            m[i][i + 1] = lt;
-        }
-        for j in 0..D {
-            m[D - 1][j] = -lt * c[j];
-        }
-        m[D - 1][D] = lt;
-        for q in 0..WINDOW - 1 {
-            m[D + q][D + q + 1] = 1.0;
-        }
+        let (m, n) = Self::augmented(c, rho_ts);
         let e = expm(&m, n);
         let mut g = [[0.0f64; D]; WINDOW];
         let mut phi_minus_i = [[0.0f64; D]; D];
@@ -350,6 +371,26 @@ impl<const D: usize> FilterMatrices<D> {
             taps_y,
         }
     }
+
+    /// The augmented system in τ = t/Ts and its size: [x; q0..q5],
+    /// x' = ρTs(A_n x + e_{D−1} q0), q_m' = q_{m+1}; starting from
+    /// q_m(0) = 1 drives x with τ^m/m!.
+    pub(crate) fn augmented(c: &[f64; D], rho_ts: f64) -> (Block, usize) {
+        let lt = rho_ts;
+        let n = D + WINDOW;
+        let mut m = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+        for i in 0..D - 1 {
+            m[i][i + 1] = lt;
+        }
+        for j in 0..D {
+            m[D - 1][j] = -lt * c[j];
+        }
+        m[D - 1][D] = lt;
+        for q in 0..WINDOW - 1 {
+            m[D + q][D + q + 1] = 1.0;
+        }
+        (m, n)
+    }
 }
 
 /// The two D-state filters (u and y) with their delay lines.
@@ -360,7 +401,14 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     /// Φ − I (Φ = e^{A·Ts} is within λTs ≈ 0.01 of I: storing the
     /// difference keeps its full precision in `f32`).
     phi_minus_i: [[T; D]; D],
-    gain_u: [T; D],
+    /// Gains on u_{n−3−i} over the interval integrated at push n: one (the
+    /// zero-order hold) for [`OutputTiming::IDEAL`], up to [`U_TAPS`]
+    /// for a delayed or averaged output (`timing`).
+    taps_u: [[T; D]; U_TAPS],
+    /// Where the taps read `u_hist` (tap k: `u_hist[taps_u_first + k]`),
+    /// and the number of nonzero taps (1: only `taps_u[0]` is read).
+    taps_u_first: u8,
+    taps_u_count: u8,
     /// Gains on y_{k−2} … y_{k+3}.
     taps_y: [[T; D]; WINDOW],
     inv_u_scale: T,
@@ -372,8 +420,8 @@ pub struct FilterBank<T, const D: usize, const NP: usize> {
     x_y: CompensatedArray<T, D>,
     /// y window y_{k−2} … y_{k+3} (scaled).
     y_win: [T; WINDOW],
-    /// u delay line u_{k+1}, u_{k+2}, u_{k+3} (scaled).
-    u_win: [T; 3],
+    /// u history u_n, u_{n−1}, … (scaled; newest first).
+    u_hist: [T; U_HIST],
 }
 
 impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
@@ -384,17 +432,39 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         for (j, cj) in c.iter_mut().enumerate() {
             *cj = binomial(D, j);
         }
-        let m = FilterMatrices::<D>::new(&c, cfg.lambda_rad_s * cfg.ts_s, cfg.hold);
+        let rho_ts = cfg.lambda_rad_s * cfg.ts_s;
+        let m = FilterMatrices::<D>::new(&c, rho_ts, cfg.hold);
+        let (aug, n) = FilterMatrices::<D>::augmented(&c, rho_ts);
+        let taps = InputTaps::<D>::new(&aug, n, &cfg.timing);
+        // One tap: at its own history index. More: a window of U_TAPS
+        // history entries from `start` (unused taps zero), so that the loop
+        // has a fixed length.
+        let start = if taps.count == 1 {
+            taps.first
+        } else {
+            taps.first.min(U_HIST - U_TAPS)
+        };
+        let mut gains = [[0.0f64; D]; U_TAPS];
+        for (g, t) in gains
+            .iter_mut()
+            .skip(taps.first - start)
+            .zip(taps.gains.iter().take(taps.count))
+        {
+            *g = *t;
+        }
         Ok(Self {
             phi_minus_i: m.phi_minus_i.map(|row| row.map(T::from_f64)),
-            gain_u: m.gain_u.map(T::from_f64),
+            taps_u: gains.map(|row| row.map(T::from_f64)),
+            // Both < U_HIST ≤ 255.
+            taps_u_first: start as u8,
+            taps_u_count: taps.count as u8,
             taps_y: m.taps_y.map(|row| row.map(T::from_f64)),
             inv_u_scale: T::from_f64(1.0 / cfg.scales.u_scale),
             inv_y_scale: T::from_f64(1.0 / cfg.scales.y_scale),
             x_u: CompensatedArray::default(),
             x_y: CompensatedArray::default(),
             y_win: [T::ZERO; WINDOW],
-            u_win: [T::ZERO; 3],
+            u_hist: [T::ZERO; U_HIST],
         })
     }
 
@@ -403,7 +473,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         self.x_u = CompensatedArray::default();
         self.x_y = CompensatedArray::default();
         self.y_win = [T::ZERO; WINDOW];
-        self.u_win = [T::ZERO; 3];
+        self.u_hist = [T::ZERO; U_HIST];
     }
 
     /// Push sample n: `u` is the input held over [t_n, t_{n+1}), `y` the
@@ -422,8 +492,11 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             Some(&v) => v,
             None => y * self.inv_y_scale,
         });
-        let u_k = self.u_win[0];
-        self.u_win = [self.u_win[1], self.u_win[2], u * self.inv_u_scale];
+        let h = self.u_hist;
+        self.u_hist = core::array::from_fn(|k| match k.checked_sub(1) {
+            Some(i) => h.get(i).copied().unwrap_or(T::ZERO),
+            None => u * self.inv_u_scale,
+        });
         // Advance both filters over [t_{n−3}, t_{n−2}]:
         // x ← x + ((Φ − I)x + Σ taps·y), the small increment summed last
         // (with the low word's share when compensated). One channel at a
@@ -439,8 +512,25 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
             self.x_y.add(i, *d);
         }
         let mut du = self.free_response(&self.x_u);
-        for ((d, g), i) in du.iter_mut().zip(self.gain_u.iter()).zip(0..D) {
-            *d += *g * u_k;
+        let start = usize::from(self.taps_u_first);
+        if self.taps_u_count == 1 {
+            // The zero-order hold (and integer point delays): one gain.
+            let uv = self.u_hist.get(start).copied().unwrap_or(T::ZERO);
+            for (d, gi) in du.iter_mut().zip(self.taps_u[0].iter()) {
+                *d += *gi * uv;
+            }
+        } else if let Some(Ok(win)) = self
+            .u_hist
+            .get(start..start + U_TAPS)
+            .map(<&[T; U_TAPS]>::try_from)
+        {
+            for (g, uv) in self.taps_u.iter().zip(win.iter()) {
+                for (d, gi) in du.iter_mut().zip(g.iter()) {
+                    *d += *gi * *uv;
+                }
+            }
+        }
+        for (i, d) in du.iter().enumerate() {
             self.x_u.add(i, *d);
         }
         self.regressor()

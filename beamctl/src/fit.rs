@@ -179,6 +179,10 @@ pub struct Fit {
     pub percent: f64,
     /// Coefficients of the fitted free response (the initial state).
     pub initial: Vec<f64>,
+    /// RMS of the residual y − ŷ over the finite samples (units of y): an
+    /// a-posteriori estimate of the measurement noise's σ when the model is
+    /// right (it also holds any model error).
+    pub residual_rms: f64,
 }
 
 /// Fit of `model` driven by the u of the record against its y (see the
@@ -263,6 +267,7 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     (sst > 0.0 && percent.is_finite()).then_some(Fit {
         percent,
         initial: c,
+        residual_rms: ((sse_head + sse_tail) / n as f64).sqrt(),
     })
 }
 

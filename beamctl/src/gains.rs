@@ -2,11 +2,18 @@
 //! coordinates) and the paper's two published sets — its simulation
 //! (Section IV.A) and its experiment (Section IV.B) — mapped exactly into
 //! the same scaled coordinates ([`beamest::filter_bank::Scaling`]).
+//!
+//! The robust estimator ([`beamest::estimator::robust`]) runs the proposed
+//! law as its start-up law and then the same law on the output error of a
+//! simulated model. It has no published gains: with a paper preset its
+//! start-up law takes the preset's proposed-law gains and its output-error
+//! law keeps [`RobustConfig::default`]'s.
 
 use crate::runner::RunError;
+use beamest::estimator::robust::DEFAULT_RECORD;
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
-    LeastSquaresConfig, LeastSquaresEstimator,
+    LeastSquaresConfig, LeastSquaresEstimator, RobustConfig, RobustEstimator,
 };
 use beamest::filter_bank::{FilterConfig, Scaling};
 use beamest::Real;
@@ -23,11 +30,23 @@ pub enum EstimatorKind {
     /// The least-squares baseline (eq. 48).
     #[serde(rename = "ls")]
     LeastSquares,
+    /// The noise-robust output-error estimator
+    /// ([`beamest::estimator::robust`]).
+    Robust,
 }
 
 impl EstimatorKind {
-    /// All three, in report order.
-    pub const ALL: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
+    /// The paper's three laws, in report order.
+    pub const PAPER_LAWS: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
+
+    /// Every estimator, in report order (`--estimator all`): the paper's
+    /// three laws, then the robust estimator.
+    pub const ALL: [EstimatorKind; 4] = [
+        Self::Adaptive,
+        Self::Gradient,
+        Self::LeastSquares,
+        Self::Robust,
+    ];
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -35,6 +54,7 @@ impl EstimatorKind {
             Self::Adaptive => "adaptive",
             Self::Gradient => "gradient",
             Self::LeastSquares => "ls",
+            Self::Robust => "robust",
         }
     }
 }
@@ -77,9 +97,49 @@ fn two_modes<const NP: usize>(v: &[f64; 7]) -> Result<[f64; NP], RunError> {
         .map_err(|_| RunError::Estimator("the paper's gains are defined for 2 modes only".into()))
 }
 
+/// The proposed law's configuration for a gain set.
+fn adaptive_config<const NP: usize>(
+    gains: Gains,
+    scaling: &Scaling<NP>,
+) -> Result<AdaptiveConfig<NP>, RunError> {
+    Ok(match gains {
+        Gains::Default => AdaptiveConfig::default(),
+        Gains::Paper => {
+            AdaptiveConfig::paper(scaling, &two_modes(&AdaptiveConfig::<7>::PAPER_H0_2_MODES)?)
+        }
+        Gains::PaperExperiment => AdaptiveConfig {
+            gain: EXPERIMENT_GAIN,
+            ..AdaptiveConfig::paper(scaling, &two_modes(&EXPERIMENT_H0)?)
+        },
+    })
+}
+
+/// The robust estimator with its default 2 s start-up record.
+pub type HostRobust<T, const D: usize, const NP: usize, const NS: usize> =
+    RobustEstimator<T, D, NP, NS, DEFAULT_RECORD>;
+
+/// Build the robust estimator for `filter` on the heap (its start-up
+/// record makes it ~160 KB in `f32`, ~320 KB in `f64`). With a paper
+/// preset its start-up law takes the preset's proposed-law gains (see the
+/// module docs).
+pub fn build_robust<T: Real, const D: usize, const NP: usize, const NS: usize>(
+    gains: Gains,
+    filter: &FilterConfig,
+) -> Result<Box<HostRobust<T, D, NP, NS>>, RunError> {
+    let scaling = Scaling::<NP>::new(filter);
+    let cfg = RobustConfig {
+        startup: adaptive_config(gains, &scaling)?,
+        ..RobustConfig::default()
+    };
+    HostRobust::<T, D, NP, NS>::new(filter, &cfg)
+        .map(Box::new)
+        .map_err(|e| RunError::Estimator(format!("{e}")))
+}
+
 /// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a
 /// boxed trait object, starting from the scaled estimate `theta0` (zero if
-/// `None`).
+/// `None`; the robust estimator ignores it and starts its start-up law from
+/// zero).
 pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize>(
     kind: EstimatorKind,
     gains: Gains,
@@ -90,18 +150,9 @@ pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize
     let theta0 = theta0.copied().unwrap_or([0.0; NP]);
     let err = |e| RunError::Estimator(format!("{e}"));
     Ok(match kind {
+        EstimatorKind::Robust => build_robust::<T, D, NP, NS>(gains, filter)?,
         EstimatorKind::Adaptive => {
-            let cfg = match gains {
-                Gains::Default => AdaptiveConfig::default(),
-                Gains::Paper => AdaptiveConfig::paper(
-                    &scaling,
-                    &two_modes(&AdaptiveConfig::<7>::PAPER_H0_2_MODES)?,
-                ),
-                Gains::PaperExperiment => AdaptiveConfig {
-                    gain: EXPERIMENT_GAIN,
-                    ..AdaptiveConfig::paper(&scaling, &two_modes(&EXPERIMENT_H0)?)
-                },
-            };
+            let cfg = adaptive_config(gains, &scaling)?;
             Box::new(
                 AdaptiveEstimator::<T, D, NP, NS>::new(filter, &AdaptiveConfig { theta0, ..cfg })
                     .map_err(err)?,

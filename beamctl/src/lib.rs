@@ -10,6 +10,9 @@
 //! * [`session`] — several estimators fed the same samples and evaluated;
 //! * [`gains`] — the laws and their gain sets (defaults, the paper's);
 //! * [`fit`] — model output vs measured output (fit %);
+//! * [`bound`] — the Cramér–Rao bound of an experiment, and error ÷ bound;
+//! * [`seeds`] — one configuration over several noise seeds: RMS errors
+//!   and RMS ÷ bound;
 //! * [`csvin`] — reading recorded samples for `beamctl replay`.
 //! * [`link`] — the host end of the serial link (`beamctl monitor`,
 //!   `beamctl send`) and a fake device that speaks the protocol.
@@ -21,12 +24,14 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_docs)]
 
+pub mod bound;
 pub mod csvin;
 pub mod fit;
 pub mod gains;
 pub mod link;
 pub mod runner;
 pub mod scenario;
+pub mod seeds;
 pub mod session;
 pub mod tuned;
 

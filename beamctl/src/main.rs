@@ -1,10 +1,14 @@
 //! `beamctl` — host command line for the beam estimator.
 //!
-//! * `beamctl simulate` runs the proposed adaptive law (eqs. 33–41) or the
-//!   gradient (47) / least-squares (48) baselines against the simulated beam
-//!   (through [`beamctl::run`]) and reports the estimates against the truth,
-//!   like the paper's Table III; optionally writes the time series (CSV) and
-//!   a plot of the estimates vs time (PNG, like Fig. 4).
+//! * `beamctl simulate` runs the proposed adaptive law (eqs. 33–41), the
+//!   gradient (47) / least-squares (48) baselines or the noise-robust
+//!   estimator against the simulated beam (through [`beamctl::run`]) and
+//!   reports the estimates against the truth, like the paper's Table III
+//!   (with noise: also against the Cramér–Rao bound, over one seed or
+//!   several); optionally writes the time series (CSV) and a plot of the
+//!   estimates vs time (PNG, like Fig. 4).
+//! * `beamctl crlb` prints the Cramér–Rao bound of an experiment before
+//!   it is run.
 //! * `beamctl model` prints the physical beam's modal model (Section II and
 //!   Appendix: Tables I–II → β_iL, ω_i, ζ_i, m_ii, k_ii, c_ii, z_i, b̄_i, c_i,
 //!   and the transfer function of eqs. 25–26).
@@ -18,10 +22,13 @@
 //! (`error: --flag: what is wrong`) with exit code 2 for bad usage and 1 for
 //! failures while running.
 
+mod crlb;
 mod csvout;
 mod error;
 mod model;
 mod monitor;
+mod multiseed;
+mod plant;
 mod plot;
 mod progress;
 mod replay;
@@ -66,7 +73,29 @@ enum Command {
     /// judge the estimate without the truth (model output fit, drift).
     #[command(long_about = REPLAY_ABOUT)]
     Replay(ReplayArgs),
+    /// The Cramér–Rao bound of an experiment: the best accuracy of ω, ζ, b̄
+    /// any unbiased estimator can reach on it.
+    #[command(long_about = CRLB_ABOUT)]
+    Crlb(CrlbArgs),
 }
+
+const CRLB_ABOUT: &str = "\
+The Cramér–Rao bound (CRB) of an experiment: the smallest standard deviation of ω_i, ζ_i, \
+b̄_i that any unbiased estimator can reach, from the Fisher information of the sampled y \
+(white Gaussian noise of σ on y, the held input known; beamest::crlb). Run it before an \
+experiment to learn what accuracy it can give at best; `beamctl simulate` with noise \
+reports each estimator's error ÷ this bound.
+
+The experiment is the one `beamctl simulate` runs with the same flags: the plant (the \
+plant flags as for simulate), u = 0.1·square(7 Hz) from rest at Ts = 0.1 ms, for \
+--duration, with noise given as --snr-db (relative to the RMS of the noise-free y over \
+the whole record, as simulate defines it) or --noise-sd.
+
+The bound depends on what is unknown: by default the estimators' own transfer-function \
+set (the 4N − 1 coefficients of B(s)/A(s), eq. 29, which every estimator here \
+identifies); --model-set modal bounds the paper's 3N parameters ω, ζ, b̄ with the output \
+and velocity weights known (smaller: on the paper's plant half on ζ1). Output: per \
+parameter its value, the absolute 1σ bound and the relative one.";
 
 const MONITOR_ABOUT: &str = "\
 Watch a device's estimates live over the serial link (docs/PROTOCOL.md): from a serial \
@@ -100,7 +129,10 @@ estimators) and answers.";
 
 const SIMULATE_ABOUT: &str = "\
 Run an estimator against the simulated beam and compare its estimates with the truth \
-(like the paper's Table III).
+(like the paper's Table III). With noise (--snr-db or --noise-sd) the Cramér–Rao bound of \
+the experiment (see `beamctl crlb`) is reported too, and each estimator's relative error \
+÷ that bound; --seeds runs several noise realisations and reports the RMS error over them \
+and RMS ÷ bound.
 
 The estimator sees only what the firmware would: the held input \
 u = 0.1·square(7 Hz) and the sampled output y (plus optional white noise) at \
@@ -139,7 +171,9 @@ Output: the estimate (ω, ζ, b̄ per mode), the model output fit \
 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) of the final model driven by the recorded u (initial state \
 fitted), how much the estimate moved over the last 10% of the record, λ and the \
 tuning rule's outcome, λmin(P) (adaptive law), samples, rejected samples and skipped \
-updates. Exit status 1 if no estimate was produced, 2 for bad flags or input.";
+updates; for the robust estimator its phase and a-posteriori noise RMS; with --crlb the \
+Cramér–Rao bound at the final estimate (see --crlb). Exit status 1 if no estimate was \
+produced, 2 for bad flags or input.";
 
 const MODEL_ABOUT: &str = "\
 Print the physical beam's modal model: per mode the root β_iL of eq. 20, ω_i, ζ_i, \
@@ -159,8 +193,65 @@ pub enum EstimatorChoice {
     Gradient,
     /// The least-squares baseline (eq. 48).
     Ls,
-    /// All three, reported side by side.
+    /// The noise-robust estimator: the proposed law on the output error of
+    /// a simulated model, refined over a 2 s start-up record (near the
+    /// Cramér–Rao bound under white noise on y).
+    Robust,
+    /// All four (adaptive, gradient, ls, robust), side by side.
     All,
+}
+
+/// Which parameters the Cramér–Rao bound treats as unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ModelSetChoice {
+    /// The estimators' transfer-function set: 4N − 1 coefficients (eq. 29).
+    Tf,
+    /// The paper's modal set: ω, ζ, b̄ (3N), output and velocity weights
+    /// known.
+    Modal,
+}
+
+impl ModelSetChoice {
+    /// The core's model set.
+    pub fn set(self) -> beamest::crlb::ModelSet {
+        match self {
+            Self::Tf => beamest::crlb::ModelSet::TransferFunction,
+            Self::Modal => beamest::crlb::ModelSet::Modal,
+        }
+    }
+}
+
+/// A list of noise seeds: `A..B` (inclusive) or `S1,S2,...`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeedList(pub Vec<u64>);
+
+/// Most seeds one `--seeds` may name.
+pub const MAX_SEEDS: usize = 1000;
+
+fn parse_seeds(s: &str) -> Result<SeedList, String> {
+    let num = |v: &str| {
+        v.trim()
+            .parse::<u64>()
+            .map_err(|_| format!("'{v}' is not a seed (a non-negative integer)"))
+    };
+    let seeds: Vec<u64> = if let Some((a, b)) = s.split_once("..") {
+        let (a, b) = (num(a)?, num(b.strip_prefix('=').unwrap_or(b))?);
+        if b < a {
+            return Err(format!(
+                "empty range {s} (write A..B with A <= B, both included)"
+            ));
+        }
+        if b - a >= MAX_SEEDS as u64 {
+            return Err(format!("at most {MAX_SEEDS} seeds"));
+        }
+        (a..=b).collect()
+    } else {
+        s.split(',').map(num).collect::<Result<_, _>>()?
+    };
+    if seeds.len() > MAX_SEEDS {
+        return Err(format!("at most {MAX_SEEDS} seeds"));
+    }
+    Ok(SeedList(seeds))
 }
 
 /// Floating-point type of the estimator.
@@ -175,7 +266,7 @@ pub enum PrecisionChoice {
 /// Estimator settings shared by `simulate` and `replay`.
 #[derive(Debug, Clone, Args)]
 pub struct EstimatorArgs {
-    /// Update law to run; `all` runs the three side by side on the same
+    /// Update law to run; `all` runs the four side by side on the same
     /// samples.
     #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::Adaptive)]
     pub estimator: EstimatorChoice,
@@ -209,7 +300,8 @@ pub struct EstimatorArgs {
 
     /// Use the paper's simulation gains (Section IV.A: Γ = 80, H(0),
     /// l = 0.01, γ = 0.1, Γ1, Γ2(0)) and its filter Λ(s) = (s+100)^4 unless
-    /// --lambda/--band-hz/--beam is given; 2 modes only.
+    /// --lambda/--band-hz/--beam is given; 2 modes only. The robust
+    /// estimator's start-up law takes the proposed law's gains.
     #[arg(long, conflicts_with = "paper_exp_gains")]
     pub paper_gains: bool,
 
@@ -220,21 +312,9 @@ pub struct EstimatorArgs {
     pub paper_exp_gains: bool,
 }
 
-/// Options of `beamctl simulate`.
+/// The simulated plant (`simulate`, `crlb`).
 #[derive(Debug, Clone, Args)]
-pub struct SimulateArgs {
-    #[command(flatten)]
-    pub est: EstimatorArgs,
-
-    /// Simulated time in seconds (> 0; sampled at Ts = 0.1 ms).
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        default_value_t = 20.0,
-        allow_negative_numbers = true
-    )]
-    pub duration: f64,
-
+pub struct PlantArgs {
     /// Number of modes N, 1..=3 [default: 2, or the length of
     /// --omega/--zeta/--bbar/--weights when one is given].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=3))]
@@ -280,14 +360,43 @@ pub struct SimulateArgs {
         allow_hyphen_values = true
     )]
     pub weights: Option<Vec<f64>>,
+}
 
-    /// Add white Gaussian noise to y at this signal-to-noise ratio in dB
-    /// (relative to the RMS of the noise-free y over the first 2 s)
-    /// [default: no noise].
+/// Options of `beamctl simulate`.
+#[derive(Debug, Clone, Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub est: EstimatorArgs,
+
+    /// Simulated time in seconds (> 0; sampled at Ts = 0.1 ms).
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
+    pub duration: f64,
+
+    #[command(flatten)]
+    pub plant: PlantArgs,
+
+    /// Add white Gaussian noise to y at this signal-to-noise ratio in dB,
+    /// relative to the RMS of the noise-free y over the whole run (the
+    /// Cramér–Rao bound's definition) [default: no noise].
     #[arg(long, value_name = "DB", allow_negative_numbers = true)]
     pub snr_db: Option<f64>,
 
-    /// Seed of the measurement noise (used with --snr-db).
+    /// Add white Gaussian noise of this standard deviation to y (units of
+    /// y, > 0) instead of giving an SNR.
+    #[arg(
+        long,
+        value_name = "SIGMA",
+        allow_hyphen_values = true,
+        conflicts_with = "snr_db"
+    )]
+    pub noise_sd: Option<f64>,
+
+    /// Seed of the measurement noise (used with --snr-db/--noise-sd).
     #[arg(
         long,
         value_name = "N",
@@ -295,6 +404,24 @@ pub struct SimulateArgs {
         allow_negative_numbers = true
     )]
     pub seed: u64,
+
+    /// Run every seed of this list, A..B (both included) or S1,S2,..., and
+    /// report per estimator the RMS and mean of the relative errors over
+    /// them and RMS ÷ Cramér–Rao bound (needs --snr-db or --noise-sd; with
+    /// --json: per-seed reports too).
+    #[arg(
+        long,
+        value_name = "A..B",
+        value_parser = parse_seeds,
+        conflicts_with_all = ["seed", "csv", "plot"]
+    )]
+    pub seeds: Option<SeedList>,
+
+    /// The model set of the Cramér–Rao bound reported with noise: tf (the
+    /// estimators' 4N − 1 transfer-function coefficients) or modal (ω, ζ,
+    /// b̄ with the weights known; see `beamctl crlb --help`) [default: tf].
+    #[arg(long, value_enum, value_name = "SET")]
+    pub model_set: Option<ModelSetChoice>,
 
     /// Write every sample to this CSV file: t_s (s), u, y — replayable with
     /// `beamctl replay` — and on every 10th row (1 kHz) the estimates:
@@ -368,6 +495,70 @@ pub struct ReplayArgs {
     /// reports with --estimator all). Non-finite numbers are written as null.
     #[arg(long)]
     pub json: bool,
+
+    /// Also compute the Cramér–Rao bound at each final estimate: that
+    /// model driven from rest by the recorded u, with white noise of σ =
+    /// --noise-sd, or else the a-posteriori noise estimate (the robust
+    /// estimator's output-error residual RMS; for the other laws the RMS
+    /// of y − ŷ of the model output fit).
+    #[arg(long)]
+    pub crlb: bool,
+
+    /// σ of the measurement noise on y for --crlb (units of y, > 0).
+    #[arg(
+        long,
+        value_name = "SIGMA",
+        allow_hyphen_values = true,
+        requires = "crlb"
+    )]
+    pub noise_sd: Option<f64>,
+
+    /// The model set of --crlb: tf (the estimators' 4N − 1 coefficients) or
+    /// modal (ω, ζ, b̄ with the weights known).
+    #[arg(
+        long,
+        value_enum,
+        value_name = "SET",
+        default_value_t = ModelSetChoice::Tf,
+        requires = "crlb"
+    )]
+    pub model_set: ModelSetChoice,
+}
+
+/// Options of `beamctl crlb`.
+#[derive(Debug, Clone, Args)]
+#[command(group(clap::ArgGroup::new("noise").required(true).args(["snr_db", "noise_sd"])))]
+pub struct CrlbArgs {
+    #[command(flatten)]
+    pub plant: PlantArgs,
+
+    /// Length of the experiment in seconds (> 0; sampled at Ts = 0.1 ms).
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
+    pub duration: f64,
+
+    /// Noise on y as a signal-to-noise ratio in dB, relative to the RMS of
+    /// the noise-free y over the whole experiment (as `simulate --snr-db`).
+    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
+    pub snr_db: Option<f64>,
+
+    /// Noise on y as a standard deviation (units of y, > 0).
+    #[arg(long, value_name = "SIGMA", allow_hyphen_values = true)]
+    pub noise_sd: Option<f64>,
+
+    /// Which parameters are unknown: tf (the estimators' 4N − 1
+    /// transfer-function coefficients) or modal (the paper's ω, ζ, b̄, with
+    /// the output and velocity weights known).
+    #[arg(long, value_enum, value_name = "SET", default_value_t = ModelSetChoice::Tf)]
+    pub model_set: ModelSetChoice,
+
+    /// Print one JSON object on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Options of `beamctl model`.
@@ -404,6 +595,7 @@ fn main() -> ExitCode {
         Command::Monitor(args) => monitor::run(args),
         Command::Send(args) => send::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Crlb(args) => crlb::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,6 +15,12 @@
 //! * **Modal recovery at a reduced rate**: every 0.1 s of record time, or
 //!   every 1 ms with `--csv`/`--plot` (recovery costs ~4 µs, the estimator
 //!   step ~70 ns).
+//! * **`--crlb`**: the bound at each final estimate (that model driven
+//!   from rest by the recorded u; a record that does not start at rest is
+//!   bounded as if it did), with σ from `--noise-sd` or the a-posteriori
+//!   noise estimate: the robust estimator's output-error residual RMS, for
+//!   the other laws the RMS of y − ŷ of the model output fit (which also
+//!   holds their bias, so it over-states σ when they are biased).
 
 use crate::csvout::CsvOut;
 use crate::error::{CliError, EXIT_USAGE};
@@ -23,11 +29,13 @@ use crate::report::{self, Column};
 use crate::settings::{self, EstimatorPlan};
 use crate::simulate::{note, write_stdout};
 use crate::ReplayArgs;
+use beamctl::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use beamctl::csvin::{Columns, Reader};
 use beamctl::fit;
 use beamctl::runner::Outcome;
 use beamctl::session::{drift_every, Session};
 use beamctl::{EstimatorKind, Precision, Trace};
+use beamest::crlb::ModelSet;
 use beamest::model::default_output_weight;
 use beamest::tuning::TuningConfig;
 use beamest::Real;
@@ -46,6 +54,8 @@ struct Plan {
     weights: Vec<f64>,
     columns: Columns,
     ts_s: Option<f64>,
+    /// `--crlb`: the model set and a given σ.
+    crlb: Option<(ModelSet, Option<f64>)>,
 }
 
 fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
@@ -99,12 +109,14 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
     if let Some(p) = &args.plot {
         plot::check_extension(p)?;
     }
+    crate::simulate::check_noise(None, args.noise_sd)?;
     Ok(Plan {
         est,
         modes,
         weights,
         columns,
         ts_s: args.ts,
+        crlb: args.crlb.then(|| (args.model_set.set(), args.noise_sd)),
     })
 }
 
@@ -130,6 +142,11 @@ pub struct ReplayReport {
     /// Estimate and truth-free metrics.
     #[serde(flatten)]
     pub outcome: Outcome,
+    /// With `--crlb`: the Cramér–Rao bound at the final estimate.
+    pub crlb: Option<ExperimentBound>,
+    /// Where the σ of `crlb` came from: `given` (--noise-sd),
+    /// `robust_residual` or `model_output_residual`.
+    pub crlb_sigma_source: Option<&'static str>,
 }
 
 /// Everything a replay produced, before formatting.
@@ -344,6 +361,41 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         let model = session.model(i, ts);
         let f = model.as_ref().and_then(|m| fit::fit(m, record));
         let outcome = session.outcome(i, end_s, f.as_ref());
+        let (crlb, crlb_sigma_source) = match plan.crlb {
+            Some((set, given)) => {
+                let sigma = match (given, outcome.robust.and_then(|r| r.noise_rms)) {
+                    (Some(sd), _) => Some((sd, "given")),
+                    (None, Some(sd)) => Some((sd, "robust_residual")),
+                    (None, None) => f
+                        .as_ref()
+                        .map(|f| (f.residual_rms, "model_output_residual")),
+                };
+                let tf = session.transfer_function(i);
+                let bound = match (tf, sigma) {
+                    (Some(tf), Some((sd, _))) => experiment_bound(
+                        &tf,
+                        &plan.weights,
+                        ts,
+                        record().map(|(u, _)| u),
+                        NoiseLevel::Sd(sd),
+                        set,
+                    )
+                    .map_err(|e| e.to_string()),
+                    _ => Err("no estimate or no noise estimate".to_string()),
+                };
+                match bound {
+                    Ok(b) => (Some(b), sigma.map(|s| s.1)),
+                    Err(e) => {
+                        note(&format!(
+                            "warning: --crlb: no bound for the {} law: {e}",
+                            session.kind(i).name()
+                        ));
+                        (None, None)
+                    }
+                }
+            }
+            None => (None, None),
+        };
         if let Some(panel) = output.as_mut() {
             let yhat = match (&model, &f) {
                 (Some(m), Some(f)) => fit::model_output(m, f, record(), keep.clone())
@@ -371,6 +423,8 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             samples: n,
             duration_s: n as f64 * ts,
             outcome,
+            crlb,
+            crlb_sigma_source,
         });
     }
     if let Some(panel) = output.as_mut() {
@@ -392,7 +446,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         return String::new();
     };
     let mut out = format!(
-        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {}, {}, {} gains\n\n",
+        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {}, {}, {} gains\n",
         first.file,
         first.samples,
         first.ts_s,
@@ -421,9 +475,31 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
             drift: r.outcome.drift_last_10pct,
             ts_s: r.ts_s,
             truth: None,
+            bound: r.crlb.as_ref(),
+            sigma_source: r.crlb_sigma_source,
+            ratio: None,
+            robust: r.outcome.robust,
         })
         .collect();
-    out.push_str(&report::table(plan.modes, None, &columns));
+    if let Some((set, _)) = plan.crlb {
+        out.push_str(&format!(
+            "bound:  Cramér–Rao at each final estimate, {}, that model driven from rest by the recorded u\n",
+            beamctl::bound::model_set_description(set, plan.modes)
+        ));
+    }
+    out.push('\n');
+    out.push_str(&report::table(plan.modes, None, None, &columns));
     out.push_str(report::FOOTNOTE);
+    if reports.iter().any(|r| r.outcome.robust.is_some()) {
+        out.push_str(report::FOOTNOTE_ROBUST);
+    }
+    if plan.crlb.is_some() {
+        out.push_str(
+            "CRB (rel.): the relative 1σ no unbiased estimator could beat if the estimate were the \
+truth, at the noise σ shown: given (--noise-sd), OE residual (the robust estimator's \
+output-error residual RMS) or fit residual (RMS of y − ŷ of the model output fit, which holds \
+any bias of the estimate too).\n",
+        );
+    }
     out
 }

@@ -4,7 +4,8 @@
 
 use crate::error::CliError;
 use crate::table::{rel, seconds, sig, Column as TableColumn, Table};
-use beamctl::runner::{Build, ModalSummary};
+use beamctl::bound::{BoundRatio, ExperimentBound};
+use beamctl::runner::{Build, ModalSummary, RobustStatus};
 use beamctl::EstimatorKind;
 use serde::Serialize;
 
@@ -46,15 +47,35 @@ pub struct Column<'a> {
     pub ts_s: f64,
     /// Truth metrics, when known.
     pub truth: Option<TruthColumn>,
+    /// This estimator's own Cramér–Rao bound (replay: at its estimate,
+    /// with its noise estimate).
+    pub bound: Option<&'a ExperimentBound>,
+    /// Where the σ of `bound` came from.
+    pub sigma_source: Option<&'static str>,
+    /// Relative error ÷ the relative bound (simulation with noise).
+    pub ratio: Option<&'a BoundRatio>,
+    /// The robust estimator's extra outputs.
+    pub robust: Option<RobustStatus>,
 }
 
 /// The table: estimate (and with the truth, truth and relative error) per
-/// parameter, then the metrics.
-pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> String {
+/// parameter, then the metrics. With `shared_bound` (the experiment's
+/// Cramér–Rao bound, simulation) a relative-bound column follows the truth
+/// and each estimator gets an error ÷ bound column; an estimator's own
+/// bound (replay) is a column of its group.
+pub fn table(
+    n: usize,
+    truth: Option<&ModalSummary>,
+    shared_bound: Option<&ExperimentBound>,
+    cols: &[Column<'_>],
+) -> String {
     let mut t = Table::new();
     let mut head = vec![TableColumn::text("parameter")];
     if truth.is_some() {
         head.push(TableColumn::num("truth"));
+    }
+    if shared_bound.is_some() {
+        head.push(TableColumn::num("CRB (rel.)"));
     }
     t.group("", head);
     for c in cols {
@@ -62,46 +83,70 @@ pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> Str
         if truth.is_some() {
             g.push(TableColumn::num("rel. error"));
         }
+        if c.ratio.is_some() {
+            g.push(TableColumn::num("÷ CRB"));
+        }
+        if c.bound.is_some() {
+            g.push(TableColumn::num("CRB (rel.)"));
+        }
         t.group(c.name, g);
     }
     type Pick = fn(&ModalSummary) -> &Vec<f64>;
-    let params: [(&str, &str, Pick); 3] = [
-        ("ω", " (rad/s)", |m| &m.omega),
-        ("ζ", "", |m| &m.zeta),
-        ("b̄", "", |m| &m.bbar),
+    type PickBound = fn(&ExperimentBound) -> &Vec<f64>;
+    type PickRatio = fn(&BoundRatio) -> &Vec<f64>;
+    let params: [(&str, &str, Pick, PickBound, PickRatio); 3] = [
+        (
+            "ω",
+            " (rad/s)",
+            |m| &m.omega,
+            |b| &b.omega.rel,
+            |r| &r.omega,
+        ),
+        ("ζ", "", |m| &m.zeta, |b| &b.zeta.rel, |r| &r.zeta),
+        ("b̄", "", |m| &m.bbar, |b| &b.bbar.rel, |r| &r.bbar),
     ];
-    for (sym, unit, pick) in params {
+    let at = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(f64::NAN);
+    for (sym, unit, pick, pick_bound, pick_ratio) in params {
         for i in 0..n {
             let mut row = vec![format!("{sym}{}{unit}", i + 1)];
-            let tv = truth.map(|tr| pick(tr).get(i).copied().unwrap_or(f64::NAN));
+            let tv = truth.map(|tr| at(pick(tr), i));
             if let Some(tv) = tv {
                 row.push(sig(tv, 7));
             }
+            if let Some(b) = shared_bound {
+                row.push(rel(at(pick_bound(b), i)));
+            }
             for c in cols {
-                let ev = pick(c.estimate).get(i).copied().unwrap_or(f64::NAN);
+                let ev = at(pick(c.estimate), i);
                 row.push(sig(ev, 7));
                 if let Some(tv) = tv {
                     row.push(rel(((ev - tv) / tv).abs()));
+                }
+                if let Some(r) = c.ratio {
+                    row.push(ratio(at(pick_ratio(r), i)));
+                }
+                if let Some(b) = c.bound {
+                    row.push(rel(at(pick_bound(b), i)));
                 }
             }
             t.row(row);
         }
     }
     t.rule();
-    let with_truth = truth.is_some();
+    let lead = usize::from(truth.is_some()) + usize::from(shared_bound.is_some());
     let metric = |t: &mut Table, label: &str, f: &dyn Fn(&Column<'_>) -> String| {
         let mut row = vec![label.to_string()];
-        if with_truth {
-            row.push(String::new());
-        }
+        row.extend(std::iter::repeat_n(String::new(), lead));
         for c in cols {
             row.push(f(c));
-            if with_truth {
-                row.push(String::new());
-            }
+            let extra = usize::from(truth.is_some())
+                + usize::from(c.ratio.is_some())
+                + usize::from(c.bound.is_some());
+            row.extend(std::iter::repeat_n(String::new(), extra));
         }
         t.row(row);
     };
+    let with_truth = truth.is_some();
     if with_truth {
         let tr = |c: &Column<'_>| {
             c.truth.unwrap_or(TruthColumn {
@@ -132,10 +177,56 @@ pub fn table(n: usize, truth: Option<&ModalSummary>, cols: &[Column<'_>]) -> Str
         c.excitation_min_eig
             .map_or("n/a".to_string(), |v| sig(v, 4))
     });
+    if cols.iter().any(|c| c.robust.is_some()) {
+        metric(&mut t, "robust phase", &|c| {
+            c.robust.map_or("n/a".to_string(), |r| {
+                format!("{} ({} updates)", r.phase, r.model_updates)
+            })
+        });
+        metric(&mut t, "noise RMS (a posteriori)", &|c| {
+            c.robust
+                .and_then(|r| r.noise_rms)
+                .map_or("n/a".to_string(), |v| sig(v, 4))
+        });
+    }
+    if cols.iter().any(|c| c.bound.is_some()) {
+        metric(
+            &mut t,
+            "σ for the CRB",
+            &|c| match (c.bound, c.sigma_source) {
+                (Some(b), Some(src)) => format!("{} ({})", sig(b.sigma, 4), sigma_label(src)),
+                (Some(b), None) => sig(b.sigma, 4),
+                _ => "n/a".to_string(),
+            },
+        );
+    }
     metric(&mut t, "samples", &|c| c.samples.to_string());
     metric(&mut t, "rejected samples", &|c| c.rejected.to_string());
     metric(&mut t, "skipped updates", &|c| c.skipped.to_string());
     t.render()
+}
+
+/// The table's short name of a σ source (`given`, `robust_residual`,
+/// `model_output_residual`).
+fn sigma_label(source: &str) -> &str {
+    match source {
+        "robust_residual" => "OE residual",
+        "model_output_residual" => "fit residual",
+        other => other,
+    }
+}
+
+/// An error ÷ bound ratio: "1.03", "41.7", "2.1e3"; "n/a" if not finite.
+pub fn ratio(v: f64) -> String {
+    if !v.is_finite() {
+        "n/a".to_string()
+    } else if v < 100.0 {
+        format!("{v:.2}")
+    } else if v < 1e4 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.1e}")
+    }
 }
 
 /// "94 → 129": the λ of every build.
@@ -160,7 +251,18 @@ model driven by the recorded u (initial state fitted).\nmoved over last 10%: lar
 (max − min)/|final| of ω̂, ζ̂ over the last 10% of the record.\nλ: the filter pole of each \
 build of the tuning rule (start-up window, then re-centred on the estimate; docs/SETTINGS.md); \
 last built at = when the last estimator was built, and how the rule ended.\nλmin(P): smallest eigenvalue of the scaled information \
-matrix P (Lemma 1); the baselines keep no P.\n";
+matrix P (Lemma 1; the robust estimator's is that of its active law); the baselines keep no P.\n";
+
+/// Footnote of the robust estimator's rows.
+pub const FOOTNOTE_ROBUST: &str = "robust phase: startup (the proposed law, recording 2 s), \
+refining (output error, re-linearized by replaying the record), steady (record full); noise \
+RMS: RMS of its output-error residual y − ŷ, the measurement noise's σ once the model is right.\n";
+
+/// Footnote of the bound.
+pub const FOOTNOTE_CRB: &str = "CRB: Cramér–Rao bound, the relative 1σ no unbiased \
+estimator of the stated model set can beat on this experiment (beamctl crlb); ÷ CRB: \
+relative error ÷ that bound (one realisation: values of order 1 are at the bound, and \
+1–3 occurs by chance; --seeds gives RMS ÷ CRB).\n";
 
 /// Pretty JSON: one object for one run, an array for several.
 pub fn to_json<T: Serialize>(runs: &[T]) -> Result<String, CliError> {

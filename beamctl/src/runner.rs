@@ -7,9 +7,11 @@
 //! recovered at the telemetry rate ([`RunConfig::eval_every`]) and compared
 //! with the truth here, and only here.
 
+use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::fit::{self, Model};
 use crate::scenario::{PlantSpec, Truth};
 use crate::session::{drift_every, Eval, Session};
+use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::model::{ModalParams, TransferFunction};
@@ -20,7 +22,7 @@ use serde::Serialize;
 
 pub use crate::gains::{build_estimator, EstimatorKind, Gains};
 pub use crate::session::Outcome;
-pub use crate::tuned::Build;
+pub use crate::tuned::{Build, RobustStatus};
 
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -57,8 +59,14 @@ pub struct RunConfig {
     pub u_amplitude: f64,
     /// Square-wave frequency.
     pub u_freq_hz: f64,
-    /// White noise on y, as an SNR in dB relative to the noise-free y's RMS.
+    /// White noise on y, as an SNR in dB relative to the RMS of the
+    /// noise-free y over the whole run (ignored if `noise_sd` is given).
     pub snr_db: Option<f64>,
+    /// White noise on y, as a standard deviation (units of y).
+    pub noise_sd: Option<f64>,
+    /// With noise: also compute the Cramér–Rao bound of the experiment
+    /// for this model set and report each estimator's error ÷ bound.
+    pub crlb: Option<ModelSet>,
     /// Noise seed.
     pub seed: u64,
     /// Evaluate modal parameters every this many samples (10 → 1 kHz).
@@ -83,6 +91,8 @@ impl Default for RunConfig {
             u_amplitude: 0.1,
             u_freq_hz: 7.0,
             snr_db: None,
+            noise_sd: None,
+            crlb: None,
             seed: 1,
             eval_every: 10,
         }
@@ -176,17 +186,19 @@ impl ModalSummary {
     }
 }
 
-/// Relative errors of ω and ζ.
+/// Relative errors of ω, ζ and b̄.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RelError {
     /// |ω̂ − ω|/ω per mode.
     pub omega: Vec<f64>,
     /// |ζ̂ − ζ|/ζ per mode.
     pub zeta: Vec<f64>,
+    /// |b̂̄ − b̄|/|b̄| per mode.
+    pub bbar: Vec<f64>,
 }
 
 impl RelError {
-    /// The largest of all.
+    /// The largest ω/ζ error.
     pub fn max(&self) -> f64 {
         self.omega
             .iter()
@@ -244,6 +256,16 @@ pub struct RunReport {
     /// Movement over the last 10% of the run (see
     /// [`Outcome::drift_last_10pct`]).
     pub drift_last_10pct: Option<f64>,
+    /// σ of the white noise added to y (None: noise-free).
+    pub noise_sd: Option<f64>,
+    /// The Cramér–Rao bound of the run's experiment (with noise and
+    /// [`RunConfig::crlb`]).
+    pub crlb: Option<ExperimentBound>,
+    /// `rel_error` ÷ the relative bound, per parameter.
+    pub error_over_crlb: Option<BoundRatio>,
+    /// The robust estimator's phase, a-posteriori noise RMS and model
+    /// updates (None for the paper's laws).
+    pub robust: Option<RobustStatus>,
 }
 
 /// One telemetry-rate sample handed to an observer.
@@ -322,6 +344,7 @@ pub fn rel_error(est: Option<&ModalParams<f64>>, truth: &ModalParams<f64>) -> Re
     let mut e = RelError {
         omega: vec![f64::NAN; n],
         zeta: vec![f64::NAN; n],
+        bbar: vec![f64::NAN; n],
     };
     if let Some(m) = est {
         if m.modes == n {
@@ -329,6 +352,7 @@ pub fn rel_error(est: Option<&ModalParams<f64>>, truth: &ModalParams<f64>) -> Re
                 e.omega[i] =
                     ((m.omega_rad_s[i] - truth.omega_rad_s[i]) / truth.omega_rad_s[i]).abs();
                 e.zeta[i] = ((m.zeta[i] - truth.zeta[i]) / truth.zeta[i]).abs();
+                e.bbar[i] = ((m.bbar[i] - truth.bbar[i]) / truth.bbar[i]).abs();
             }
         }
     }
@@ -352,6 +376,7 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
             y_scale: b.y_scale,
         },
         hold: cfg.hold,
+        ..FilterConfig::default()
     })
 }
 
@@ -400,30 +425,76 @@ impl Settling {
     }
 }
 
-/// The simulated rig of a run: plant, square wave and (with an SNR) noise
-/// whose σ is the noise-free y's RMS over the first 2 s / 10^(SNR/20).
-pub fn rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+/// The noise-free rig of a run: plant and square wave.
+fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let plant = cfg
         .plant
         .plant(cfg.ts_s)
         .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-    let square = SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, 1.0 / cfg.ts_s)
-        .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))?;
-    let mut rig = Rig::new(plant, square);
-    if let Some(snr) = cfg.snr_db {
-        let mut probe = rig.noise_free();
-        let n = samples(cfg).min((2.0 / cfg.ts_s) as u64).max(1);
-        let mut acc = 0.0;
-        for _ in 0..n {
-            let y = probe.tick().y;
-            acc += y * y;
-        }
-        let rms = (acc / n as f64).sqrt();
-        let noise = GaussianNoise::new(noise_sd_for_snr(rms, snr), cfg.seed)
-            .map_err(|_| RunError::Setup("invalid SNR".into()))?;
-        rig = rig.with_noise(noise);
+    let square = excitation(cfg)?;
+    Ok(Rig::new(plant, square))
+}
+
+/// The run's excitation, u = amplitude·square(frequency), from its start.
+pub fn excitation(cfg: &RunConfig) -> Result<SquareWave<f64>, RunError> {
+    SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, 1.0 / cfg.ts_s)
+        .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))
+}
+
+/// σ of the run's measurement noise: `noise_sd` if given, else (with an
+/// SNR) the RMS of the noise-free y over the whole run / 10^(SNR/20) — the
+/// definition of the Cramér–Rao bound's SNR (`beamest::crlb`); None without
+/// noise.
+pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
+    if let Some(sd) = cfg.noise_sd {
+        return Ok(Some(sd));
     }
-    Ok(rig)
+    let Some(snr) = cfg.snr_db else {
+        return Ok(None);
+    };
+    let mut probe = clean_rig(cfg)?;
+    let n = samples(cfg).max(1);
+    let mut acc = 0.0;
+    for _ in 0..n {
+        let y = probe.tick().y;
+        acc += y * y;
+    }
+    Ok(Some(noise_sd_for_snr((acc / n as f64).sqrt(), snr)))
+}
+
+/// The simulated rig of a run: plant, square wave and (with an SNR or a
+/// σ) white noise on y of σ = [`noise_sd`].
+pub fn rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+    let rig = clean_rig(cfg)?;
+    Ok(match noise_sd(cfg)? {
+        Some(sd) => {
+            let noise = GaussianNoise::new(sd, cfg.seed)
+                .map_err(|_| RunError::Setup(format!("invalid noise level (σ = {sd})")))?;
+            rig.with_noise(noise)
+        }
+        None => rig,
+    })
+}
+
+/// The Cramér–Rao bound of a run's experiment (its plant, excitation,
+/// duration and noise σ) for `set`; None without noise.
+pub fn run_bound(cfg: &RunConfig, set: ModelSet) -> Result<Option<ExperimentBound>, RunError> {
+    let Some(sd) = noise_sd(cfg)? else {
+        return Ok(None);
+    };
+    let truth = cfg.plant.truth();
+    let mut u = excitation(cfg)?;
+    let n = samples(cfg);
+    experiment_bound(
+        &truth.tf,
+        &truth.modal.output_weight[..truth.modal.modes],
+        cfg.ts_s,
+        (0..n).map(|_| u.next_sample()),
+        NoiseLevel::Sd(sd),
+        set,
+    )
+    .map(Some)
+    .map_err(|e| RunError::Setup(format!("Cramér–Rao bound: {e}")))
 }
 
 /// Samples a run processes.
@@ -500,6 +571,11 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         }
     }
     let end_s = total.saturating_sub(1) as f64 * cfg.ts_s;
+    let sd = noise_sd(cfg)?;
+    let bound = match cfg.crlb {
+        Some(set) => run_bound(cfg, set)?,
+        None => None,
+    };
     let mut reports = Vec::with_capacity(kinds.len());
     for (i, score) in scores.into_iter().enumerate() {
         let fit = match session.model(i, cfg.ts_s) {
@@ -512,14 +588,19 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             let n = m.modes;
             m.omega_rad_s[..n].copy_from_slice(&o.estimate.omega);
             m.zeta[..n].copy_from_slice(&o.estimate.zeta);
+            m.bbar[..n].copy_from_slice(&o.estimate.bbar);
             m
         });
+        let rel_error = rel_error(modal.as_ref(), &truth.modal);
+        let error_over_crlb = bound
+            .as_ref()
+            .map(|b| b.ratio(&rel_error.omega, &rel_error.zeta, &rel_error.bbar));
         reports.push(RunReport {
             estimator: kinds[i],
             precision: cfg.precision,
             duration_s: total as f64 * cfg.ts_s,
             samples: total,
-            rel_error: rel_error(modal.as_ref(), &truth.modal),
+            rel_error,
             truth: ModalSummary::new(Some(&truth.modal), &truth.tf),
             time_to_1pct_s: score.s1.since,
             time_to_0p1pct_s: score.s01.since,
@@ -535,6 +616,10 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             builds: o.builds,
             fit_percent: o.fit_percent,
             drift_last_10pct: o.drift_last_10pct,
+            noise_sd: sd,
+            crlb: bound.clone(),
+            error_over_crlb,
+            robust: o.robust,
         });
     }
     Ok(reports)

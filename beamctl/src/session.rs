@@ -7,7 +7,7 @@
 use crate::fit::{Fit, Model};
 use crate::gains::{EstimatorKind, Gains};
 use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
-use crate::tuned::{Build, Totals, Tuned};
+use crate::tuned::{Build, RobustStatus, Totals, Tuned};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, TransferFunction};
 use beamest::tuning::TuningConfig;
@@ -56,6 +56,9 @@ pub struct Outcome {
     /// largest (max − min)/|final| of ω̂_i, ζ̂_i over the evaluations in it
     /// (None if recovery failed in it or it holds fewer than two).
     pub drift_last_10pct: Option<f64>,
+    /// The robust estimator's phase, a-posteriori noise RMS and model
+    /// updates (None for the paper's laws).
+    pub robust: Option<RobustStatus>,
 }
 
 /// ω̂, ζ̂ over time, kept to measure the drift at the end.
@@ -234,6 +237,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             builds: run.builds().to_vec(),
             fit_percent: fit.map(|f| f.percent),
             drift_last_10pct: self.history[i].drift(end_s),
+            robust: run.robust_status(),
         }
     }
 }

@@ -32,6 +32,7 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
         EstimatorChoice::Adaptive => vec![EstimatorKind::Adaptive],
         EstimatorChoice::Gradient => vec![EstimatorKind::Gradient],
         EstimatorChoice::Ls => vec![EstimatorKind::LeastSquares],
+        EstimatorChoice::Robust => vec![EstimatorKind::Robust],
         EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
     };
     let precision = match args.precision {

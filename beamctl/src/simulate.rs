@@ -7,11 +7,10 @@
 //!   every message names the flag it is about. clap parses the types; the
 //!   value rules (ω > 0, ζ > 0, list lengths, …) are checked here, where the
 //!   mode count is known.
-//! * A list among `--omega/--zeta/--bbar/--weights` that is not given is
-//!   taken from the default plant for N modes
-//!   ([`PlantSpec::default_for_modes`]); with none given the default plant is
-//!   used as is (for N = 2 the paper's plant with eq. 46's numerator, which
-//!   is not exactly a modal model with rounded b̄).
+//! * The plant flags are resolved by `plant.rs` (shared with `crlb`).
+//! * With noise the experiment's Cramér–Rao bound is computed once
+//!   ([`beamctl::runner::run_bound`]) and each estimator's error is divided
+//!   by it; `--seeds` is `multiseed.rs`.
 //! * The runner's observer is called at 1 kHz; it feeds the CSV writer, the
 //!   plot recorder and the progress bar without allocating per call (apart
 //!   from the CSV cell strings).
@@ -25,8 +24,8 @@ use crate::settings::{self, EstimatorPlan};
 use crate::SimulateArgs;
 use beamctl::fit::{self, Model};
 use beamctl::runner::{rig, run_many, samples};
-use beamctl::{Observer, PlantSpec, RunConfig, RunReport, Trace};
-use beamest::model::{ModalParams, TransferFunction, MAX_ORDER};
+use beamctl::{Observer, RunConfig, RunReport, Trace};
+use beamest::model::{TransferFunction, MAX_ORDER};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
 
@@ -45,6 +44,8 @@ pub struct Plan {
     pub modes: usize,
     /// Human description of the plant.
     pub plant_label: String,
+    /// `--seeds`: run every one of these seeds.
+    pub seeds: Option<Vec<u64>>,
 }
 
 impl Plan {
@@ -58,41 +59,78 @@ impl Plan {
 /// 100 Hz instead of 1 kHz unless a CSV is requested.
 const LONG_RUN_S: f64 = 60.0;
 
+/// Check `--duration` (s) against the sample period `ts`.
+pub fn check_duration(duration: f64, ts: f64) -> Result<(), CliError> {
+    finite("--duration", duration)?;
+    if duration <= 0.0 {
+        return Err(CliError::usage(
+            "--duration",
+            format!("must be > 0 s (got {duration})"),
+        ));
+    }
+    if duration < ts {
+        return Err(CliError::usage(
+            "--duration",
+            format!("must be at least one sample period, {ts} s (got {duration})"),
+        ));
+    }
+    if duration > MAX_DURATION_S {
+        return Err(CliError::usage(
+            "--duration",
+            format!("must be at most {MAX_DURATION_S} s (got {duration})"),
+        ));
+    }
+    Ok(())
+}
+
+/// Check a noise level: `--snr-db` finite, `--noise-sd` finite and > 0.
+pub fn check_noise(snr_db: Option<f64>, noise_sd: Option<f64>) -> Result<(), CliError> {
+    if let Some(snr) = snr_db {
+        finite("--snr-db", snr)?;
+    }
+    if let Some(sd) = noise_sd {
+        if !(sd.is_finite() && sd > 0.0) {
+            return Err(CliError::usage(
+                "--noise-sd",
+                format!("the noise standard deviation must be a finite number > 0 (got {sd})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Validate the flags.
 pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
     let base_default = RunConfig::default();
     let ts = base_default.ts_s;
 
-    finite("--duration", args.duration)?;
-    if args.duration <= 0.0 {
-        return Err(CliError::usage(
-            "--duration",
-            format!("must be > 0 s (got {})", args.duration),
-        ));
+    check_duration(args.duration, ts)?;
+    check_noise(args.snr_db, args.noise_sd)?;
+    let noisy = args.snr_db.is_some() || args.noise_sd.is_some();
+    if !noisy {
+        if args.seeds.is_some() {
+            return Err(CliError::usage(
+                "--seeds",
+                "needs measurement noise (--snr-db or --noise-sd): without it every seed is the same run",
+            ));
+        }
+        if args.model_set.is_some() {
+            return Err(CliError::usage(
+                "--model-set",
+                "the Cramér–Rao bound needs measurement noise (--snr-db or --noise-sd); `beamctl crlb` computes it before a run",
+            ));
+        }
     }
-    if args.duration < ts {
-        return Err(CliError::usage(
-            "--duration",
-            format!(
-                "must be at least one sample period, {ts} s (got {})",
-                args.duration
-            ),
-        ));
-    }
-    if args.duration > MAX_DURATION_S {
-        return Err(CliError::usage(
-            "--duration",
-            format!("must be at most {MAX_DURATION_S} s (got {})", args.duration),
-        ));
-    }
-    if let Some(snr) = args.snr_db {
-        finite("--snr-db", snr)?;
+    if let Some(seeds) = &args.seeds {
+        if seeds.0.is_empty() {
+            return Err(CliError::usage("--seeds", "no seed given"));
+        }
     }
     if let Some(p) = &args.plot {
         plot::check_extension(p)?;
     }
 
-    let (plant, modes, plant_label) = resolve_plant(args, ts)?;
+    let (plant, modes, plant_label) = crate::plant::resolve(&args.plant, ts)?;
     let est = settings::plan(&args.est, modes)?;
     let base = RunConfig {
         plant,
@@ -101,6 +139,8 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         duration_s: args.duration,
         lambda: est.lambda,
         snr_db: args.snr_db,
+        noise_sd: args.noise_sd,
+        crlb: noisy.then(|| args.model_set.unwrap_or(crate::ModelSetChoice::Tf).set()),
         seed: args.seed,
         // Modal recovery costs ~4–7 µs: at 1 kHz it would dominate an hour
         // of simulation, so long runs without --csv evaluate at 100 Hz
@@ -117,6 +157,7 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         base,
         modes,
         plant_label,
+        seeds: args.seeds.as_ref().map(|s| s.0.clone()),
     })
 }
 
@@ -131,162 +172,16 @@ fn finite(flag: &str, v: f64) -> Result<(), CliError> {
     }
 }
 
-/// Pick the plant and its mode count from `--modes` and the lists.
-fn resolve_plant(args: &SimulateArgs, ts_s: f64) -> Result<(PlantSpec, usize, String), CliError> {
-    let lists: [(&str, &Option<Vec<f64>>); 4] = [
-        ("--omega", &args.omega),
-        ("--zeta", &args.zeta),
-        ("--bbar", &args.bbar),
-        ("--weights", &args.weights),
-    ];
-    // Element checks first: they do not depend on N.
-    for (flag, list) in &lists {
-        for &v in list.iter().flatten() {
-            if !v.is_finite() {
-                return Err(CliError::usage(
-                    flag,
-                    format!("values must be finite numbers (got {v})"),
-                ));
-            }
-        }
-    }
-    let nyquist = std::f64::consts::PI / ts_s;
-    if let Some(w) = &args.omega {
-        if let Some(&bad) = w.iter().find(|&&v| v <= 0.0) {
-            return Err(CliError::usage(
-                "--omega",
-                format!("natural frequencies must be > 0 rad/s (got {bad})"),
-            ));
-        }
-        if let Some(&bad) = w.iter().find(|&&v| v >= nyquist) {
-            return Err(CliError::usage(
-                "--omega",
-                format!(
-                    "natural frequencies must be below the Nyquist frequency π/Ts = {nyquist:.1} rad/s (got {bad})"
-                ),
-            ));
-        }
-        if w.windows(2).any(|p| p[1] <= p[0]) {
-            return Err(CliError::usage(
-                "--omega",
-                format!(
-                    "natural frequencies must be strictly ascending (got {})",
-                    join(w)
-                ),
-            ));
-        }
-    }
-    if let Some(z) = &args.zeta {
-        if let Some(&bad) = z.iter().find(|&&v| v <= 0.0) {
-            return Err(CliError::usage(
-                "--zeta",
-                format!("damping ratios must be > 0 (got {bad})"),
-            ));
-        }
-    }
-    for (flag, list, what) in [
-        ("--bbar", &args.bbar, "modal input gains"),
-        ("--weights", &args.weights, "output weights"),
-    ] {
-        if list.iter().flatten().any(|&v| v == 0.0) {
-            return Err(CliError::usage(
-                flag,
-                format!("{what} must be non-zero (a zero makes its mode unidentifiable)"),
-            ));
-        }
-    }
-
-    // The mode count: --modes, else the first list given, else 2.
-    let first = lists
-        .iter()
-        .find_map(|(flag, l)| l.as_ref().map(|l| (*flag, l.len())));
-    let (modes, source) = match (args.modes, first) {
-        (Some(m), _) => (usize::from(m), format!("--modes {m}")),
-        (None, Some((flag, len))) => {
-            if len > beamest::model::MAX_MODES {
-                return Err(CliError::usage(
-                    flag,
-                    format!(
-                        "at most {} modes are supported (got {len} values)",
-                        beamest::model::MAX_MODES
-                    ),
-                ));
-            }
-            (len, format!("{len} from {flag}"))
-        }
-        (None, None) => (2, "default 2".to_string()),
-    };
-    for (flag, list) in &lists {
-        if let Some(l) = list {
-            if l.len() != modes {
-                return Err(CliError::usage(
-                    flag,
-                    format!(
-                        "expected {modes} value{} (one per mode; N = {source}), got {}",
-                        if modes == 1 { "" } else { "s" },
-                        l.len()
-                    ),
-                ));
-            }
-        }
-    }
-
-    let default = PlantSpec::default_for_modes(modes)
-        .ok_or_else(|| CliError::usage("--modes", format!("{modes} modes (supported: 1, 2, 3)")))?;
-    if first.is_none() {
-        let label = match modes {
-            2 => "the paper's plant (Table III ω, ζ; eq. 46 numerator)".to_string(),
-            1 => "the paper plant's first mode".to_string(),
-            _ => "the paper's two modes plus a third (687.4 rad/s, ζ = 0.05)".to_string(),
-        };
-        return Ok((default, modes, label));
-    }
-    let d = default.truth().modal;
-    let pick = |list: &Option<Vec<f64>>, dflt: &[f64]| -> Vec<f64> {
-        list.clone().unwrap_or_else(|| dflt[..modes].to_vec())
-    };
-    let omega = pick(&args.omega, &d.omega_rad_s);
-    let zeta = pick(&args.zeta, &d.zeta);
-    let bbar = pick(&args.bbar, &d.bbar);
-    let weights = pick(&args.weights, &d.output_weight);
-    if args.omega.is_none() && omega.windows(2).any(|p| p[1] <= p[0]) {
-        // Cannot happen with the shipped defaults; kept as a guard.
-        return Err(CliError::usage(
-            "--omega",
-            "default frequencies are not ascending",
-        ));
-    }
-    let m = ModalParams::new(&omega, &zeta, &bbar, Some(&weights))
-        .ok_or_else(|| CliError::usage("--modes", "inconsistent modal parameters"))?;
-    let given: Vec<&str> = lists
-        .iter()
-        .filter(|(_, l)| l.is_some())
-        .map(|(f, _)| *f)
-        .collect();
-    Ok((
-        PlantSpec::Modal(m),
-        modes,
-        format!("modal model (eq. 23) from {}", given.join(", ")),
-    ))
-}
-
-fn join(v: &[f64]) -> String {
-    v.iter()
-        .map(|x| x.to_string())
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// One run's report with the settings that produced it (the JSON object).
 #[derive(Debug, Serialize)]
-struct JsonRun<'a> {
+pub struct JsonRun<'a> {
     #[serde(flatten)]
-    report: &'a RunReport,
-    modes: usize,
-    gains: &'static str,
-    ts_s: f64,
-    snr_db: Option<f64>,
-    seed: u64,
+    pub report: &'a RunReport,
+    pub modes: usize,
+    pub gains: &'static str,
+    pub ts_s: f64,
+    pub snr_db: Option<f64>,
+    pub seed: u64,
 }
 
 /// Feeds the CSV writer, the plot recorders and the progress bar.
@@ -326,6 +221,9 @@ impl Observer for SimObserver<'_> {
 /// Run `beamctl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
+    if let Some(seeds) = &plan.seeds {
+        return crate::multiseed::run(&plan, seeds, args.json);
+    }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
     let mut csv = match &args.csv {
@@ -488,10 +386,39 @@ pub fn write_stdout(text: &str) -> Result<(), CliError> {
 }
 
 fn noise_label(cfg: &RunConfig) -> String {
-    match cfg.snr_db {
-        Some(snr) => format!(", SNR {snr} dB (seed {})", cfg.seed),
-        None => String::new(),
+    match (cfg.snr_db, cfg.noise_sd) {
+        (_, Some(sd)) => format!(", noise σ = {sd} (seed {})", cfg.seed),
+        (Some(snr), None) => format!(", SNR {snr} dB (seed {})", cfg.seed),
+        (None, None) => String::new(),
     }
+}
+
+/// The noise part of the heading: "none", or the level and σ (and the
+/// seed, unless several run).
+pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> String {
+    let sigma = sigma.map_or(String::new(), |s| {
+        format!("σ = {}", crate::table::sig(s, 4))
+    });
+    let seed = seed.map_or(String::new(), |s| format!(", seed {s}"));
+    match (cfg.snr_db, cfg.noise_sd) {
+        (_, Some(_)) => format!("white, {sigma}{seed}"),
+        (Some(snr), None) => format!("white, SNR {snr} dB ({sigma}){seed}"),
+        (None, None) => "none".to_string(),
+    }
+}
+
+/// The line naming the bound's model set, σ and SNR.
+pub fn bound_line(b: &beamctl::bound::ExperimentBound, modes: usize) -> String {
+    let set = match b.model_set {
+        "modal" => beamest::crlb::ModelSet::Modal,
+        _ => beamest::crlb::ModelSet::TransferFunction,
+    };
+    format!(
+        "bound:  Cramér–Rao, {}; σ = {}, SNR {:.1} dB over the run\n",
+        beamctl::bound::model_set_description(set, modes),
+        crate::table::sig(b.sigma, 4),
+        b.snr_db
+    )
 }
 
 /// The JSON document: one object, or an array for several estimators.
@@ -523,24 +450,16 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         plan.plant_label,
         if n == 1 { "" } else { "s" }
     ));
-    out.push_str(&format!(
-        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n\n",
-        cfg.duration_s,
-        cfg.ts_s * 1e3,
+    out.push_str(&run_line(
+        plan,
         first.samples,
-        cfg.u_amplitude,
-        cfg.u_freq_hz,
-        plan.est.lambda_label,
-        match cfg.precision {
-            beamctl::Precision::F64 => "f64",
-            beamctl::Precision::F32 => "f32",
-        },
-        cfg.gains.name(),
-        match cfg.snr_db {
-            Some(s) => format!("white, SNR {s} dB, seed {}", cfg.seed),
-            None => "none".to_string(),
-        }
+        first.noise_sd,
+        Some(cfg.seed),
     ));
+    if let Some(b) = &first.crlb {
+        out.push_str(&bound_line(b, n));
+    }
+    out.push('\n');
     let columns: Vec<report::Column<'_>> = reports
         .iter()
         .map(|r| report::Column {
@@ -560,18 +479,53 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
                 time_to_0p1pct_s: r.time_to_0p1pct_s,
                 max_error_after_1s: r.max_error_after_1s,
             }),
+            bound: None,
+            sigma_source: None,
+            ratio: r.error_over_crlb.as_ref(),
+            robust: r.robust,
         })
         .collect();
-    out.push_str(&report::table(n, Some(&first.truth), &columns));
+    out.push_str(&report::table(
+        n,
+        Some(&first.truth),
+        first.crlb.as_ref(),
+        &columns,
+    ));
     out.push_str(report::FOOTNOTE_TRUTH);
     out.push_str(report::FOOTNOTE);
+    if reports.iter().any(|r| r.robust.is_some()) {
+        out.push_str(report::FOOTNOTE_ROBUST);
+    }
+    if first.crlb.is_some() {
+        out.push_str(report::FOOTNOTE_CRB);
+    }
     out
+}
+
+/// The "run:" heading line.
+pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>) -> String {
+    let cfg = &plan.base;
+    format!(
+        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n",
+        cfg.duration_s,
+        cfg.ts_s * 1e3,
+        samples,
+        cfg.u_amplitude,
+        cfg.u_freq_hz,
+        plan.est.lambda_label,
+        match cfg.precision {
+            beamctl::Precision::F64 => "f64",
+            beamctl::Precision::F32 => "f32",
+        },
+        cfg.gains.name(),
+        noise_text(cfg, sigma, seed)
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::EstimatorKind;
+    use beamctl::{EstimatorKind, PlantSpec};
     use clap::Parser;
 
     fn args(extra: &[&str]) -> SimulateArgs {

@@ -7,9 +7,32 @@
 //!
 //! The rebuilds happen between two samples; on the firmware the same
 //! happens in the low-priority task (see the core module's docs).
+//!
+//! # The robust estimator's policy
+//! The robust estimator ([`beamest::estimator::robust`]) records its first
+//! 2 s and replays them through its current model: it is exact only if the
+//! record starts where the beam does (at rest, or with a state it can fit),
+//! and most of the information on the first mode is in the seconds right
+//! after the excitation starts (the Cramér–Rao bound on ω1 grows 1.7× if
+//! the first 2 s are lost; `beamest::crlb`). Building it 0.2 s late and
+//! rebuilding it at every re-centring, as the paper's laws are, would throw
+//! that away. So the driver keeps every sample from the first one while
+//! they fit in the estimator's record ([`DEFAULT_RECORD`], 2 s at 10 kHz),
+//! and every build of the robust estimator — the first one after the
+//! start-up window, and each re-centring — replays them all before it takes
+//! the next sample: it sees the record from sample 0, as if λ and the
+//! scales had been known from the start, and needs no settling hold (its
+//! own start test decides whether the beam was at rest). Nothing is
+//! carried over: the replay rebuilds the estimate. Once more samples have
+//! arrived than its record holds, a rebuild could no longer see the start,
+//! so the rule stops re-centring it (`tuning: "record_full"`); its
+//! output-error estimate does not depend on λ (λ sets only the start-up
+//! law and the coordinates), so nothing is lost. docs/SETTINGS.md has the
+//! measurements.
 
-use crate::gains::{build_estimator, EstimatorKind, Gains};
+use crate::gains::{build_estimator, build_robust, EstimatorKind, Gains, HostRobust};
 use crate::runner::RunError;
+use beamest::estimator::robust::{Phase as RobustPhase, DEFAULT_RECORD};
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::filter_bank::FilterConfig;
 use beamest::tuning::{carry_over, AutoTune, Phase, Settled, TuningConfig};
@@ -19,7 +42,7 @@ use serde::Serialize;
 /// One (re)build of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Build {
-    /// Index of the first sample the new estimator receives.
+    /// Index of the first live sample the new estimator receives.
     pub sample: u64,
     /// Its filter pole λ (rad/s).
     pub lambda_rad_s: f64,
@@ -27,6 +50,9 @@ pub struct Build {
     pub u_scale: f64,
     /// Its signal scale Y0 (output units).
     pub y_scale: f64,
+    /// Samples it was fed from the record before that (the robust
+    /// estimator: every sample from the first; 0 for the paper's laws).
+    pub replayed_samples: u64,
 }
 
 /// Sample counters over every estimator the rule built, plus the start-up
@@ -39,8 +65,51 @@ pub struct Totals {
     pub rejected: u64,
     /// Law updates that failed (Θ held).
     pub skipped: u64,
-    /// Law updates applied (over every build).
+    /// Law updates applied (over every build; for a robust estimator fed
+    /// the record from its first sample, that estimator's own).
     pub updates: u64,
+}
+
+/// What the robust estimator reports beyond Θ̂.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RobustStatus {
+    /// `startup` (the paper's law on the Λ filters, recording), `refining`
+    /// (output error, re-linearized by replaying the record) or `steady`
+    /// (record full, linearization point fixed).
+    pub phase: &'static str,
+    /// RMS of the output-error residual y − ŷ (units of y): the a-posteriori
+    /// estimate of the measurement noise's σ once the model has converged;
+    /// `None` during start-up.
+    pub noise_rms: Option<f64>,
+    /// Model updates (record replays) applied.
+    pub model_updates: u32,
+    /// Whether its start test found the beam moving at its first sample
+    /// (the replays then fit an initial state); `None` before the test.
+    pub started_moving: Option<bool>,
+}
+
+/// The estimator a [`Tuned`] drives.
+enum Current<T: Real, const D: usize, const NP: usize, const NS: usize> {
+    /// One of the paper's laws (an `Identifier`).
+    Law(Box<dyn Estimator<T, NP>>),
+    /// The robust estimator (kept concrete for its extra outputs).
+    Robust(Box<HostRobust<T, D, NP, NS>>),
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> Current<T, D, NP, NS> {
+    fn get(&self) -> &dyn Estimator<T, NP> {
+        match self {
+            Self::Law(e) => e.as_ref(),
+            Self::Robust(e) => e.as_ref(),
+        }
+    }
+
+    fn get_mut(&mut self) -> &mut dyn Estimator<T, NP> {
+        match self {
+            Self::Law(e) => e.as_mut(),
+            Self::Robust(e) => e.as_mut(),
+        }
+    }
 }
 
 /// An estimator of one law and precision under the tuning rule.
@@ -48,13 +117,23 @@ pub struct Tuned<T: Real, const D: usize, const NP: usize, const NS: usize> {
     kind: EstimatorKind,
     gains: Gains,
     tune: AutoTune,
-    est: Option<Box<dyn Estimator<T, NP>>>,
+    est: Option<Current<T, D, NP, NS>>,
     builds: Vec<Build>,
     samples: u64,
     updates: u64,
     /// Rejected/skipped of the estimators already replaced.
     retired_rejected: u64,
     retired_skipped: u64,
+    /// Robust estimator only: every sample from the first, while they fit
+    /// in its record (see the module docs).
+    history: Vec<(T, T)>,
+    /// `history` holds every sample given so far.
+    history_complete: bool,
+    /// The current estimator has seen every sample from the first (a robust
+    /// estimator built on the replayed record).
+    covers_record: bool,
+    /// Re-centring stopped because the robust estimator's record is full.
+    record_stop: bool,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, NS> {
@@ -72,6 +151,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
             updates: 0,
             retired_rejected: 0,
             retired_skipped: 0,
+            history: Vec::new(),
+            history_complete: kind == EstimatorKind::Robust,
+            covers_record: false,
+            record_stop: false,
         };
         if let Some(filter) = t.tune.immediate() {
             t.install(&filter, None, false)?;
@@ -79,31 +162,76 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         Ok(t)
     }
 
-    /// Build an estimator for `filter` (θ(0) = `theta0`, scaled) and make
-    /// it current; the next sample goes to it.
+    /// Build an estimator for `filter` and make it current; the next sample
+    /// goes to it. The paper's laws start from θ(0) = `theta0` (scaled) and
+    /// are held for settling if `settle`; the robust estimator is fed the
+    /// record from its first sample if it is complete (else it is held for
+    /// settling like the others).
     fn install(
         &mut self,
         filter: &FilterConfig,
         theta0: Option<[f64; NP]>,
         settle: bool,
     ) -> Result<(), RunError> {
-        let mut est =
-            build_estimator::<T, D, NP, NS>(self.kind, self.gains, filter, theta0.as_ref())?;
-        if settle {
-            est.hold_for_settling();
-        }
+        let mut replayed = 0u64;
+        let est = match self.kind {
+            EstimatorKind::Robust => {
+                let mut est = build_robust::<T, D, NP, NS>(self.gains, filter)?;
+                if self.history_complete {
+                    let mut updates = 0;
+                    for &(u, y) in &self.history {
+                        if est.step(u, y) == StepStatus::Updated {
+                            updates += 1;
+                        }
+                    }
+                    replayed = self.history.len() as u64;
+                    self.updates = updates;
+                } else if settle {
+                    est.hold_for_settling();
+                }
+                Current::Robust(est)
+            }
+            kind => {
+                let mut est =
+                    build_estimator::<T, D, NP, NS>(kind, self.gains, filter, theta0.as_ref())?;
+                if settle {
+                    est.hold_for_settling();
+                }
+                Current::Law(est)
+            }
+        };
+        let covers = self.history_complete;
         if let Some(old) = self.est.replace(est) {
-            let h = old.health();
-            self.retired_rejected += u64::from(h.rejected);
-            self.retired_skipped += u64::from(h.skipped);
+            if !covers {
+                let h = old.get().health();
+                self.retired_rejected += u64::from(h.rejected);
+                self.retired_skipped += u64::from(h.skipped);
+            }
         }
+        self.covers_record = covers;
         self.builds.push(Build {
             sample: self.samples,
             lambda_rad_s: filter.lambda_rad_s,
             u_scale: filter.scales.u_scale,
             y_scale: filter.scales.y_scale,
+            replayed_samples: replayed,
         });
         Ok(())
+    }
+
+    /// Keep a sample for the robust estimator's rebuilds while its record
+    /// can hold every sample from the first.
+    #[inline]
+    fn remember(&mut self, u: T, y: T) {
+        if !self.history_complete {
+            return;
+        }
+        if self.history.len() < DEFAULT_RECORD {
+            self.history.push((u, y));
+        } else {
+            self.history_complete = false;
+            self.history = Vec::new();
+        }
     }
 
     /// Feed one sample (physical units). `None` during the start-up window
@@ -112,20 +240,32 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
     #[inline]
     pub fn step(&mut self, u: T, y: T) -> Option<StepStatus> {
         self.samples += 1;
+        self.remember(u, y);
         let Some(est) = self.est.as_mut() else {
             if let Some(filter) = self.tune.startup_sample(u, y) {
                 // A failure here (invalid gains for this λ) leaves no
-                // estimator: the run reports no estimate.
+                // estimator: the run reports no estimate. The robust
+                // estimator replays the window (this sample included).
                 let _ = self.install(&filter, None, true);
             }
             return None;
         };
-        let status = est.step(u, y);
+        let status = est.get_mut().step(u, y);
         if status == StepStatus::Updated {
             self.updates += 1;
         }
+        if self.record_stop {
+            return Some(status);
+        }
+        if self.kind == EstimatorKind::Robust && !self.history_complete {
+            // A rebuild could no longer replay the record from its start.
+            self.record_stop = self.tune.phase() == Phase::Reviewing;
+            if self.record_stop {
+                return Some(status);
+            }
+        }
         if self.tune.sample() {
-            let tf = est.transfer_function();
+            let tf = est.get().transfer_function();
             if let Some(filter) = self.tune.review(&tf) {
                 let theta0 = carry_over::<T, NP>(&tf, &filter);
                 let _ = self.install(&filter, theta0, true);
@@ -136,7 +276,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
 
     /// The current estimator (`None` during the start-up window).
     pub fn estimator(&self) -> Option<&dyn Estimator<T, NP>> {
-        self.est.as_deref()
+        self.est.as_ref().map(Current::get)
     }
 
     /// The current estimator once its law (or an earlier build's, carried
@@ -144,10 +284,28 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
     /// which is no estimate.
     pub fn estimate(&self) -> Option<&dyn Estimator<T, NP>> {
         if self.updates > 0 {
-            self.est.as_deref()
+            self.estimator()
         } else {
             None
         }
+    }
+
+    /// The robust estimator's extra outputs (`None` for the paper's laws
+    /// and before it is built).
+    pub fn robust_status(&self) -> Option<RobustStatus> {
+        let Some(Current::Robust(r)) = &self.est else {
+            return None;
+        };
+        Some(RobustStatus {
+            phase: match r.phase() {
+                RobustPhase::Startup => "startup",
+                RobustPhase::Refining => "refining",
+                RobustPhase::Steady => "steady",
+            },
+            noise_rms: r.noise_rms().map(|v| v.to_f64()),
+            model_updates: r.updates(),
+            started_moving: r.initial_state_significance().map(|(_, moving)| moving),
+        })
     }
 
     /// Every build so far (first = the one after start-up).
@@ -169,22 +327,35 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
     pub fn totals(&self) -> Totals {
         let (rejected, skipped) = match &self.est {
             Some(e) => {
-                let h = e.health();
+                let h = e.get().health();
                 (u64::from(h.rejected), u64::from(h.skipped))
             }
             None => (0, 0),
         };
+        // An estimator fed the record from its first sample has counted
+        // the start-up window itself.
+        let window = if self.covers_record {
+            0
+        } else {
+            u64::from(self.tune.stats().rejected())
+        };
         Totals {
             samples: self.samples,
-            rejected: self.retired_rejected + rejected + u64::from(self.tune.stats().rejected()),
+            rejected: self.retired_rejected + rejected + window,
             skipped: self.retired_skipped + skipped,
             updates: self.updates,
         }
     }
 
-    /// A short description of where the rule ended.
+    /// A short description of where the rule ended (see [`phase_label`];
+    /// also `"record_full"` when re-centring of a robust estimator stopped
+    /// because its record was full).
     pub fn phase_label(&self) -> &'static str {
-        phase_label(self.tune.phase())
+        if self.record_stop {
+            "record_full"
+        } else {
+            phase_label(self.tune.phase())
+        }
     }
 }
 

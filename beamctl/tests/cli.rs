@@ -59,7 +59,7 @@ fn simulate_json_is_one_report_with_small_errors() {
 }
 
 #[test]
-fn simulate_all_json_is_an_array_of_three() {
+fn simulate_all_json_is_an_array_of_four() {
     let o = beamctl(&[
         "simulate",
         "--estimator",
@@ -70,18 +70,20 @@ fn simulate_all_json_is_an_array_of_three() {
     ]);
     let v = json(&o);
     let runs = v.as_array().expect("array");
-    assert_eq!(runs.len(), 3);
+    assert_eq!(runs.len(), 4);
     let names: Vec<&str> = runs
         .iter()
         .filter_map(|r| r["estimator"].as_str())
         .collect();
-    assert_eq!(names, ["adaptive", "gradient", "ls"]);
+    assert_eq!(names, ["adaptive", "gradient", "ls", "robust"]);
     for r in runs {
         check_report_shape(r, 2);
         assert_eq!(r["samples"], 15_000);
     }
-    // Baselines keep no P.
+    // Baselines keep no P; only the robust estimator has its extra outputs.
     assert!(runs[1]["excitation_min_eig"].is_null());
+    assert!(runs[0]["robust"].is_null());
+    assert!(runs[3]["robust"]["phase"].is_string());
 }
 
 #[test]
@@ -232,7 +234,8 @@ fn csv_with_all_has_prefixed_columns() {
         header,
         "t_s,u,y,adaptive_theta_0,adaptive_theta_1,adaptive_theta_2,adaptive_omega_1,adaptive_zeta_1,adaptive_lambda_rad_s,\
 gradient_theta_0,gradient_theta_1,gradient_theta_2,gradient_omega_1,gradient_zeta_1,gradient_lambda_rad_s,\
-ls_theta_0,ls_theta_1,ls_theta_2,ls_omega_1,ls_zeta_1,ls_lambda_rad_s"
+ls_theta_0,ls_theta_1,ls_theta_2,ls_omega_1,ls_zeta_1,ls_lambda_rad_s,\
+robust_theta_0,robust_theta_1,robust_theta_2,robust_omega_1,robust_zeta_1,robust_lambda_rad_s"
     );
     assert_eq!(text.lines().count() - 1, 10_000);
 }

@@ -64,7 +64,7 @@ fn paper_gains_adaptive_beats_both_baselines_on_every_parameter() {
         gains: Gains::Paper,
         ..RunConfig::default()
     };
-    let reports: Vec<RunReport> = EstimatorKind::ALL
+    let reports: Vec<RunReport> = EstimatorKind::PAPER_LAWS
         .iter()
         .map(|&kind| {
             simulate(&RunConfig {

@@ -21,7 +21,7 @@ use crate::excitation::{
     ChirpSpec, Excitation, ExcitationError, ExcitationKind, MultisineSpec, Phases, Shape, Sweep,
     Waveform,
 };
-use crate::filter_bank::{FilterConfig, FilterConfigError, SignalScales};
+use crate::filter_bank::{FilterConfig, FilterConfigError};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::protocol::{self, EstimatorSettings, RejectReason};
@@ -127,8 +127,10 @@ pub trait Device {
     fn recycle_estimator(&mut self, old: Self::Estimator);
 }
 
-/// The core's estimator settings for the protocol's: the filter bank at
-/// `ts_s`, `lambda_rad_s` and `scales`, and the adaptive law with
+/// The core's estimator settings for the protocol's: the board's filter
+/// bank `base` (its sample period, signal scales, output hold and
+/// converter timing: properties of the device, not of the command) at
+/// `lambda_rad_s`, and the adaptive law with
 /// Γ = gain, l = forgetting_p, γ = forgetting_h, R(0) = H(0)⁻¹ =
 /// I/initial_gain (eqs. 33–41), θ(0) = 0 and the default θ-step interval
 /// ([`AdaptiveConfig::default`]). Nothing of the running estimator is
@@ -137,14 +139,11 @@ pub trait Device {
 pub fn estimator_configs<const NP: usize>(
     settings: &EstimatorSettings,
     lambda_rad_s: f64,
-    ts_s: f64,
-    scales: SignalScales,
+    base: &FilterConfig,
 ) -> (FilterConfig, AdaptiveConfig<NP>) {
     let filter = FilterConfig {
-        ts_s,
         lambda_rad_s,
-        scales,
-        ..FilterConfig::default()
+        ..*base
     };
     let law = AdaptiveConfig {
         gain: f64::from(settings.gain),
@@ -317,6 +316,7 @@ impl<T: Real> ExcitationPlan<T> {
 mod tests {
     use super::*;
     use crate::excitation::SafeWindow;
+    use crate::filter_bank::SignalScales;
 
     const FS: f64 = 10_000.0;
 
@@ -472,7 +472,12 @@ mod tests {
             u_scale: 0.1,
             y_scale: 1e-3,
         };
-        let (f, l) = estimator_configs::<7>(&s, 150.0, 1e-4, scales);
+        let base = FilterConfig {
+            ts_s: 1e-4,
+            scales,
+            ..FilterConfig::default()
+        };
+        let (f, l) = estimator_configs::<7>(&s, 150.0, &base);
         assert_eq!(f.lambda_rad_s, 150.0);
         assert_eq!(f.scales, scales);
         assert_eq!(l.gain, 2e4);
@@ -481,7 +486,7 @@ mod tests {
         assert_eq!(l.r0_diag, [1e-8; 7]);
         assert_eq!(l.theta0, [0.0; 7]);
         // The protocol's defaults are the core's defaults.
-        let (_, d) = estimator_configs::<7>(&EstimatorSettings::default(), 100.0, 1e-4, scales);
+        let (_, d) = estimator_configs::<7>(&EstimatorSettings::default(), 100.0, &base);
         let core = AdaptiveConfig::<7>::default();
         assert_eq!(d.gain, core.gain);
         assert!((d.forgetting_p / core.forgetting_p - 1.0).abs() < 1e-7);

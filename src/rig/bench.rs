@@ -10,9 +10,10 @@
 //! | bridge | quarter bridge, GF 2.1 (WFLA-6-11 class), 5 V, no amplifier, exact linearisation | the paper's gauge |
 //! | y | eq. 17 deflection, L = 0.36 m (Table I), L₁ = 0.34 m, h = 1 mm | the paper's output |
 //! | ADC | ADS131M02, bridge at PGA 128 (±9.4 mV), monitor at PGA 1, 24-bit words, CRC both ways | the rig's ADC (driver default but the gain) |
+//! | converter timing | each conversion the sinc³ average of the last three periods; the DAC updated 15 µs after DRDY ([`converter_timing`]) | the chip's sinc3 filter (SBAS853A §8.3.7) and the board's SPI timing (docs/RIG.md, "Timing") |
 //! | monitor | 100 V → 1 V (0.01 V/V) | inside the ±1.2 V input |
 //! | excitation | 0.1 V·square(7 Hz) on the piezo, window ±10 V | the paper's input |
-//! | estimator | λ = 100 rad/s, U0 = the commanded amplitude, Y0 = RMS of y over the first 0.1 s | settings from what the user knows and from the data |
+//! | estimator | λ = 100 rad/s, U0 = the commanded amplitude, Y0 = RMS of y over the first 0.1 s, output timing: sinc3 kernel, delay 1.5 + 0.15 samples ([`output_timing`]) | settings from what the user knows (data sheet, board timing) and from the data |
 //!
 //! The beam's peak |y| under the square wave, ≈ 10.4 mm of deflection, is
 //! ≈ 267,000 codes of the bridge channel (1 code = 3.9e-8 m of y; 3% of
@@ -22,12 +23,19 @@
 //!
 //! Only the plant reads the paper's truth (it *is* the simulated beam); the
 //! estimator's settings come from [`filter_config`] with the measured Y0.
+//! The converter timing is simulated ([`converter_timing`]) and compensated
+//! ([`output_timing`]) from the same two facts a user has for the board:
+//! the sinc3's group delay and the DAC's latency. Without the compensation
+//! the timing biases ζ by +0.5 % (docs/RIG.md, "The ADS131M02's filter
+//! delay"; `host-tests/tests/firmware_pipeline.rs` checks both ways).
 
+use super::converter::{ConverterModels, ConverterRig, RigError};
 use super::plant::{ModalPlant, PlantError};
+use super::timing::ConverterTiming;
 use crate::drivers::ad5761r;
 use crate::drivers::ads131m02::{self, PgaGain};
 use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
-use crate::filter_bank::{FilterConfig, SignalScales};
+use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use crate::pipeline::{
@@ -62,10 +70,38 @@ pub const TELEMETRY_EVERY: u32 = 100;
 pub const STUCK_AFTER: u16 = 25;
 /// Output weights C̄ (eq. 24) of the two modes, for b̄ (eq. 32).
 pub const OUTPUT_WEIGHT: [f64; 2] = [-2.0, 2.0];
+/// The DAC's new value takes effect this long after DRDY (s): the board
+/// writes it after reading the ADC frame, ≈ 15 µs at its SPI clocks
+/// (docs/RIG.md, "Timing": 12 bytes at 10 MHz, then 3 at 12.5 MHz).
+pub const DAC_LATENCY_S: f64 = 15e-6;
 
 /// The paper's simulation plant at rest.
 pub fn plant() -> Result<ModalPlant<f64>, PlantError> {
     ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS_S)
+}
+
+/// The board's converter timing, simulated: the ADS131M02's sinc³ and the
+/// DAC [`DAC_LATENCY_S`] after DRDY.
+pub fn converter_timing() -> ConverterTiming {
+    ConverterTiming {
+        sinc3: true,
+        dac_latency_s: DAC_LATENCY_S,
+    }
+}
+
+/// The estimator's model of that timing, from the data sheet (a sinc3 at
+/// the data rate: group delay 1.5 samples) and the board's DAC latency:
+/// the sinc³ kernel on u, delay 1.5 + 0.15 samples.
+pub fn output_timing() -> OutputTiming {
+    OutputTiming::sinc3_adc(DAC_LATENCY_S, TS_S)
+}
+
+/// The simulated bench behind `models`: the paper's plant at rest, the
+/// front end of [`conversion`], the amplifier, the board's
+/// [`converter_timing`].
+pub fn converter_rig(models: &ConverterModels) -> Result<ConverterRig<'_>, RigError> {
+    let plant = plant().map_err(|_| RigError::Timing)?;
+    ConverterRig::new(models, plant, &conversion(), AMPLIFIER_GAIN)?.with_timing(converter_timing())
 }
 
 /// The ADS131M02 settings: bridge at PGA 128, monitor at PGA 1, the rest
@@ -139,7 +175,8 @@ pub fn excitation<T: Real>() -> Result<Excitation<T>, ExcitationError> {
 }
 
 /// The estimator's filter settings for output scale `y0` (measured):
-/// λ = [`LAMBDA_RAD_S`], U0 = [`EXCITATION_V`], the default output hold.
+/// λ = [`LAMBDA_RAD_S`], U0 = [`EXCITATION_V`], the default output hold,
+/// the converters' [`output_timing`].
 pub fn filter_config(y0: f64) -> FilterConfig {
     FilterConfig {
         ts_s: TS_S,
@@ -148,6 +185,7 @@ pub fn filter_config(y0: f64) -> FilterConfig {
             u_scale: EXCITATION_V,
             y_scale: y0,
         },
+        timing: output_timing(),
         ..FilterConfig::default()
     }
 }
@@ -212,6 +250,13 @@ mod tests {
         assert!(plant().is_ok());
         assert!(excitation::<f32>().is_ok());
         assert!(filter_config(1e-3).validate(4, 7).is_ok());
+        assert!((output_timing().delay_samples - 1.65).abs() < 1e-12);
+        assert!(converter_timing().is_valid(TS_S));
+        let models = ConverterModels::new();
+        assert_eq!(
+            converter_rig(&models).unwrap().plant().timing(),
+            converter_timing()
+        );
         let c = conversion();
         assert_eq!((c.bridge_adc.pga_gain, c.monitor_adc.pga_gain), (128, 1));
         assert!(c.compile::<f32>().is_ok());
@@ -240,12 +285,9 @@ mod tests {
         );
         assert_eq!(pipeline_config().raw_decimation, s.telemetry.raw_decimation);
         // The protocol's estimator defaults are the core's.
-        let (_, law) = crate::link::estimator_configs::<7>(
-            &s.estimator,
-            LAMBDA_RAD_S,
-            TS_S,
-            filter_config(1.0).scales,
-        );
+        let (filter, law) =
+            crate::link::estimator_configs::<7>(&s.estimator, LAMBDA_RAD_S, &filter_config(1.0));
+        assert_eq!(filter, filter_config(1.0));
         let core = crate::estimator::AdaptiveConfig::<7>::default();
         assert_eq!(law.gain, core.gain);
         assert_eq!(law.theta_update_every, core.theta_update_every);

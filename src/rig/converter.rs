@@ -12,21 +12,28 @@
 //!
 //! # One tick ([`ConverterRig::tick`], at each sample instant t_k)
 //! 1. u = the DAC model's held output × the amplifier gain: the voltage on
-//!    the piezo over the period [t_{k−1}, t_k) that just ended;
-//! 2. the plant advances over that period with u held (exact, `f64`) and
-//!    y(t_k) is sampled, plus measurement noise if configured;
+//!    the piezo over the period [t_{k−1}, t_k) that just ended (with a DAC
+//!    latency δ, [`ConverterTiming`]: from t_{k−1} + δ on, the previous
+//!    value before);
+//! 2. the plant advances over that period (exact, `f64`,
+//!    [`TimedPlant`]) and the ADC's view of it is formed: y(t_k), or with
+//!    [`ConverterTiming::sinc3`] the ADS131M02's sinc³ average of y over
+//!    the last three periods; plus measurement noise if configured;
 //! 3. the ADC model's inputs are set through the analog front end (the
 //!    pipeline's [`ConversionConfig`] run backwards, [`AnalogFrontEnd`]):
-//!    channel 0 the bridge volts for y(t_k), channel 1 the monitor volts
-//!    for u (the monitor sampled at t_k measured the voltage held before
-//!    it);
+//!    channel 0 the bridge volts for that y, channel 1 the monitor volts
+//!    for the drive (point sample: the voltage held just before t_k;
+//!    sinc3: its sinc³ average);
 //! 4. `convert()`: one DRDY period, the model quantises both inputs.
 //!
 //! The pipeline's tick then reads that conversion through the ADS131M02
 //! driver and writes u_k through the AD5761R driver, so the pair it hands
 //! the estimator is (u_k held over [t_k, t_{k+1}), y(t_k)) — the pairing of
 //! `Rig::tick` and of the host runner (test
-//! `host-tests/tests/firmware_pipeline.rs`, sample for sample).
+//! `host-tests/tests/firmware_pipeline.rs`, sample for sample) when the
+//! timing is [`ConverterTiming::IDEAL`] (the default of
+//! [`ConverterRig::new`]); `rig::bench::converter_rig` sets the board's
+//! timing, which the estimator then models (`FilterConfig::timing`).
 //!
 //! Faults are injected in the models ([`ConverterModels::adc`]: bad CRC,
 //! stuck data, saturation, dropped conversions, bus errors, brown-out).
@@ -43,6 +50,7 @@ use core::fmt;
 use super::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use super::noise::GaussianNoise;
 use super::plant::ModalPlant;
+use super::timing::{ConverterTiming, TimedPlant};
 use crate::drivers::ads131m02::VREF_VOLTS;
 use crate::pipeline::{AnalogFrontEnd, ConversionConfig, ConversionError};
 
@@ -84,6 +92,8 @@ pub enum RigError {
     AmplifierGain,
     /// A model was borrowed (a driver transaction in progress).
     Busy,
+    /// The converter timing is invalid (DAC latency outside 0 ≤ δ < Ts).
+    Timing,
 }
 
 impl fmt::Display for RigError {
@@ -95,6 +105,9 @@ impl fmt::Display for RigError {
             }
             Self::AmplifierGain => f.write_str("amplifier gain zero or not finite"),
             Self::Busy => f.write_str("a converter model is in use (transaction in progress)"),
+            Self::Timing => {
+                f.write_str("converter timing: the DAC latency must be finite, >= 0 and < Ts")
+            }
         }
     }
 }
@@ -112,17 +125,22 @@ impl core::error::Error for RigError {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RigTick {
-    /// Actuator (piezo) volts held over the period that just ended.
+    /// Actuator (piezo) volts the DAC held at the end of the period that
+    /// just ended (from δ after its start on, [`ConverterTiming`]).
     pub u_v: f64,
-    /// Output y(t_k) as the bridge sees it, noise included (strain or m).
+    /// Output as the ADC converts it at this tick, noise included (strain
+    /// or m): y(t_k), or its sinc³ average with [`ConverterTiming::sinc3`].
     pub y: f64,
+    /// Actuator volts as the monitor channel converts them (the held value,
+    /// or its sinc³ average).
+    pub monitor_v: f64,
 }
 
 /// Plant + analog front end + converter models; see the module docs.
 #[derive(Debug, Clone)]
 pub struct ConverterRig<'a> {
     models: &'a ConverterModels,
-    plant: ModalPlant<f64>,
+    plant: TimedPlant,
     front_end: AnalogFrontEnd,
     amplifier_gain: f64,
     noise: Option<GaussianNoise<f64>>,
@@ -150,6 +168,8 @@ impl<'a> ConverterRig<'a> {
         if !(amplifier_gain != 0.0 && amplifier_gain.is_finite()) {
             return Err(RigError::AmplifierGain);
         }
+        let plant =
+            TimedPlant::new(&plant, ConverterTiming::IDEAL).map_err(|_| RigError::Timing)?;
         Ok(Self {
             models,
             plant,
@@ -169,6 +189,16 @@ impl<'a> ConverterRig<'a> {
         }
     }
 
+    /// The same rig with the converters' `timing` (the ADC's sinc³, the
+    /// DAC's latency; [`ConverterTiming::IDEAL`] unless set).
+    pub fn with_timing(self, timing: ConverterTiming) -> Result<Self, RigError> {
+        let plant = self
+            .plant
+            .with_timing(timing)
+            .map_err(|_| RigError::Timing)?;
+        Ok(Self { plant, ..self })
+    }
+
     /// One sample instant (see the module docs). Never panics.
     #[inline]
     pub fn tick(&mut self) -> Result<RigTick, RigError> {
@@ -185,21 +215,22 @@ impl<'a> ConverterRig<'a> {
             .output_volts();
         let u_v = held_v * self.amplifier_gain;
         self.plant.advance(u_v);
-        let mut y = self.plant.output();
+        let mut y = self.plant.measured();
         if let Some(n) = self.noise.as_mut() {
             y += n.sample();
         }
+        let monitor_v = self.plant.measured_drive();
         adc.set_inputs([
             self.front_end.bridge_volts(y),
-            self.front_end.monitor_volts(u_v),
+            self.front_end.monitor_volts(monitor_v),
         ]);
         adc.convert();
         self.ticks = self.ticks.wrapping_add(1);
-        Ok(RigTick { u_v, y })
+        Ok(RigTick { u_v, y, monitor_v })
     }
 
-    /// The beam.
-    pub fn plant(&self) -> &ModalPlant<f64> {
+    /// The beam (with the converters' timing).
+    pub fn plant(&self) -> &TimedPlant {
         &self.plant
     }
 

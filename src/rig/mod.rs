@@ -20,8 +20,12 @@
 //!   with the analog front end (amplifier, bridge, monitor), one DRDY
 //!   period per tick — the rig the QEMU image and the firmware host tests
 //!   run behind the real drivers;
+//! * [`timing`] — [`TimedPlant`]: the beam as the converters see it, the
+//!   ADS131M02's sinc³ averaging and the DAC's update latency simulated
+//!   exactly ([`ConverterTiming`]);
 //! * [`bench`](mod@bench) — the settings of that simulated bench (the paper's beam,
-//!   the converters' configuration, the front end, the excitation).
+//!   the converters' configuration and timing, the front end, the
+//!   excitation).
 //!
 //! The rig runs in the emulated board's sample interrupt, so the whole
 //! module keeps the sample path's panic-free lints.
@@ -39,6 +43,7 @@ pub mod noise;
 pub mod plant;
 pub mod scenario;
 pub mod sim;
+pub mod timing;
 
 pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
@@ -48,3 +53,4 @@ pub use scenario::{
     SensorFault, Window,
 };
 pub use sim::{Rig, Sample};
+pub use timing::{ConverterTiming, TimedPlant};

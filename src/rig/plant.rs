@@ -58,17 +58,15 @@ struct DiscreteMode<T> {
     x: [T; 2],
 }
 
-/// One mode's continuous description (kept so the plant can be re-tuned
-/// with its state continuous, [`ModalPlant::retune`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct ModeSpec {
-    omega: f64,
-    zeta: f64,
-    /// Input gain g (b̄ in the modal form, 1 in the numerator form).
-    gain: f64,
-    /// Output weights on η and η'.
-    pos: f64,
-    vel: f64,
+/// One mode's continuous description: η'' + 2ζωη' + ω²η = g·u, its
+/// output contribution `pos`·η + `vel`·η'.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct ModeSpec {
+    pub omega: f64,
+    pub zeta: f64,
+    pub gain: f64,
+    pub pos: f64,
+    pub vel: f64,
 }
 
 /// An `n`-mode beam simulated exactly under a held input.
@@ -76,6 +74,8 @@ struct ModeSpec {
 pub struct ModalPlant<T> {
     modes: usize,
     m: [DiscreteMode<T>; MAX_MODES],
+    /// The continuous modes and the sample period (for
+    /// [`super::timing::TimedPlant`], which discretizes them its own way).
     spec: [ModeSpec; MAX_MODES],
     ts_s: f64,
 }
@@ -182,14 +182,7 @@ impl<T: Real> ModalPlant<T> {
             x: [T::ZERO; 2],
         };
         let mut m = [zero; MAX_MODES];
-        let unused = ModeSpec {
-            omega: 0.0,
-            zeta: 0.0,
-            gain: 0.0,
-            pos: 0.0,
-            vel: 0.0,
-        };
-        let mut spec = [unused; MAX_MODES];
+        let mut spec = [ModeSpec::default(); MAX_MODES];
         let params = omega.iter().zip(zeta).zip(gain).zip(pos).zip(vel);
         for ((mode, sp), ((((&w, &z), &g), &c), &v)) in
             m.iter_mut().zip(spec.iter_mut()).zip(params).take(n)
@@ -314,6 +307,21 @@ impl<T: Real> ModalPlant<T> {
     /// Number of modes.
     pub fn modes(&self) -> usize {
         self.modes
+    }
+
+    /// Sample period (s).
+    pub fn ts_s(&self) -> f64 {
+        self.ts_s
+    }
+
+    /// The continuous modes (the first [`Self::modes`] entries).
+    pub(crate) fn specs(&self) -> &[ModeSpec] {
+        self.spec.get(..self.modes).unwrap_or(&[])
+    }
+
+    /// Each mode's state [η, η'] (the first [`Self::modes`] entries).
+    pub(crate) fn states(&self) -> impl Iterator<Item = [T; 2]> + '_ {
+        self.m.iter().take(self.modes).map(|md| md.x)
     }
 
     /// Output y at the current sample instant.

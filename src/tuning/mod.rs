@@ -78,7 +78,7 @@ pub mod startup;
 pub use startup::StartupStats;
 
 use crate::estimator::quarantine_samples_for;
-use crate::filter_bank::{FilterConfig, OutputHold, Scaling, SignalScales};
+use crate::filter_bank::{FilterConfig, OutputHold, OutputTiming, Scaling, SignalScales};
 use crate::modal::modes_from_denominator;
 use crate::model::{TransferFunction, MAX_MODES};
 use crate::scalar::Real;
@@ -122,6 +122,9 @@ pub struct TuningConfig {
     pub ts_s: f64,
     /// y interpolation of the filter bank.
     pub hold: OutputHold,
+    /// The converters' timing the filter bank compensates
+    /// ([`FilterConfig::timing`]; ideal by default).
+    pub timing: OutputTiming,
     /// First λ.
     pub lambda: LambdaSource,
     /// U0, Y0 if the user knows them; `None` = RMS over the start-up window.
@@ -153,6 +156,7 @@ impl TuningConfig {
         Self {
             ts_s,
             hold: OutputHold::default(),
+            timing: OutputTiming::IDEAL,
             lambda,
             scales: None,
             startup_s: DEFAULT_STARTUP_S,
@@ -363,6 +367,7 @@ impl AutoTune {
             lambda_rad_s: lambda,
             scales,
             hold: self.cfg.hold,
+            timing: self.cfg.timing,
         };
         self.phase = match self.cfg.lambda {
             LambdaSource::Fixed(_) => Phase::Settled(Settled::Fixed),

@@ -92,7 +92,8 @@ impl<'a> Device for SimDevice<'a> {
         settings: &EstimatorSettings,
         lambda_rad_s: f64,
     ) -> Result<Adaptive2<f32>, RejectReason> {
-        let (f, l) = estimator_configs::<7>(settings, lambda_rad_s, bench::TS_S, self.scales);
+        let base = bench::filter_config(self.scales.y_scale);
+        let (f, l) = estimator_configs::<7>(settings, lambda_rad_s, &base);
         self.built += 1;
         Adaptive2::new(&f, &l).map_err(reject_config)
     }
@@ -171,13 +172,9 @@ pub fn with_bench<R>(
         &mut NoDelay,
     )
     .unwrap();
-    let rig = ConverterRig::new(
-        &models,
-        bench::plant().unwrap(),
-        &bench::conversion(),
-        bench::AMPLIFIER_GAIN,
-    )
-    .unwrap();
+    // The board's converter timing (sinc³, DAC latency), which the
+    // estimator's filter bank compensates (`bench::filter_config`).
+    let rig = bench::converter_rig(&models).unwrap();
     let mut settings = bench::link_settings();
     let mut gen = bench::excitation::<f32>().unwrap();
     if let Some(x) = excitation {

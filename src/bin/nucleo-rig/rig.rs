@@ -8,7 +8,7 @@
 use beamest::drivers::{ad5761r, ads131m02};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, ConfigError};
 use beamest::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
-use beamest::filter_bank::{FilterConfig, SignalScales};
+use beamest::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use beamest::pipeline::{
     AdcScale, BridgeConfig, ConversionConfig, DacLatch, InputSource, Linearisation, OutputQuantity,
     PipelineConfig, ADS131M02_VREF_V,
@@ -18,6 +18,12 @@ use beamest::pipeline::{
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
 /// Sample period (s).
 pub const TS_S: f64 = 1.0 / SAMPLE_RATE_HZ;
+
+/// When the DAC's new value reaches the actuator after DRDY (s): the
+/// pipeline writes it right after the ADC frame (12 bytes at 10 MHz), the
+/// AD5761R updates at SYNC's rising edge after its 3 bytes at 12.5 MHz:
+/// ≈ 14–15 µs (docs/RIG.md, "Timing"; scope it and set it here).
+pub const DAC_LATENCY_S: f64 = 15e-6;
 
 /// Estimator filter pole λ (rad/s): the paper's choice (Wang,
 /// Costa-Castelló, Na et al., *Modelling and Adaptive Parameter Estimation
@@ -155,8 +161,17 @@ pub fn nominal_y_scale() -> f64 {
     0.1 * 4.0 * fs_ratio / GAUGE_FACTOR
 }
 
+/// The converters' timing as the estimator models it: the ADS131M02's
+/// sinc3 (OSR 256; group delay 1.5 samples, SBAS853A §8.3.7) and the DAC
+/// [`DAC_LATENCY_S`] after DRDY — 1.65 samples in all. Without it ζ comes
+/// out ≈ 0.5 % high (docs/RIG.md, "The ADS131M02's filter delay").
+pub fn output_timing() -> OutputTiming {
+    OutputTiming::sinc3_adc(DAC_LATENCY_S, TS_S)
+}
+
 /// The paper's adaptive law (eqs. 33–41) with the default gains, U0 = the
-/// excitation amplitude and Y0 = `y_scale`.
+/// excitation amplitude, Y0 = `y_scale` and the converters'
+/// [`output_timing`].
 pub fn estimator(y_scale: f64) -> Result<Adaptive2<f64>, ConfigError> {
     let filter = FilterConfig {
         ts_s: TS_S,
@@ -165,6 +180,7 @@ pub fn estimator(y_scale: f64) -> Result<Adaptive2<f64>, ConfigError> {
             u_scale: EXCITATION_AMPLITUDE_V,
             y_scale,
         },
+        timing: output_timing(),
         ..FilterConfig::default()
     };
     Adaptive2::<f64>::new(&filter, &AdaptiveConfig::default())

@@ -89,8 +89,8 @@ impl Device for QemuDevice {
         let Some(slot) = self.spare.take() else {
             return Err(RejectReason::EstimatorUnavailable);
         };
-        let (filter, law) =
-            estimator_configs::<NP>(settings, lambda_rad_s, bench::TS_S, self.scales);
+        let base = bench::filter_config(self.scales.y_scale);
+        let (filter, law) = estimator_configs::<NP>(settings, lambda_rad_s, &base);
         match Adaptive2::<f32>::new(&filter, &law) {
             Ok(est) => {
                 *slot = est;

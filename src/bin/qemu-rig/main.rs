@@ -50,7 +50,7 @@ use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::link::DeviceLink;
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
-use beamest::rig::{bench, ConverterModels, ConverterRig};
+use beamest::rig::{bench, ConverterModels};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
@@ -313,11 +313,7 @@ fn build_sample_task(
             board::exit(false);
         }
     }
-    let Ok(plant) = bench::plant() else {
-        fail("plant construction")
-    };
-    let Ok(rig) = ConverterRig::new(models, plant, &bench::conversion(), bench::AMPLIFIER_GAIN)
-    else {
+    let Ok(rig) = bench::converter_rig(models) else {
         fail("rig settings")
     };
     // Two estimator slots: the stand-in the frozen pipeline holds, and the

@@ -144,7 +144,7 @@ use crate::estimator::screen::{InputScreen, Screened};
 use crate::estimator::{
     all_positive, positive, ConfigError, Estimator, Health, LawError, StepStatus, UpdateLaw,
 };
-use crate::filter_bank::{FilterBank, FilterConfig, Scaling};
+use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
 use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
@@ -306,9 +306,17 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// the law's configuration.
     ///
     /// # Errors
-    /// [`ConfigError`] for invalid settings.
+    /// [`ConfigError`] for invalid settings, and
+    /// `ConfigError::Filter(FilterConfigError::Timing)` for an output timing
+    /// other than [`crate::filter_bank::OutputTiming::IDEAL`] (not modelled
+    /// by the output-error simulation).
     pub fn new(filter: &FilterConfig, cfg: &RobustConfig<NP>) -> Result<Self, ConfigError> {
         let bank = FilterBank::new(filter)?;
+        // The output-error model simulates a held input only (no output
+        // timing kernel on its u): refuse rather than silently bias.
+        if !filter.timing.is_ideal() {
+            return Err(ConfigError::Filter(FilterConfigError::Timing));
+        }
         let startup = AdaptiveLaw::new(&cfg.startup, filter.ts_s)?;
         positive(cfg.gain)?;
         positive(cfg.forgetting)?;

@@ -166,4 +166,13 @@ fn rejects_invalid_settings() {
         ..filter()
     };
     assert!(Small::<f32>::new(&f, &RobustConfig::default()).is_err());
+    // An output timing the output-error model does not simulate.
+    let f = FilterConfig {
+        timing: crate::filter_bank::OutputTiming::sinc3_adc(15e-6, 1e-4),
+        ..filter()
+    };
+    assert_eq!(
+        Small::<f32>::new(&f, &RobustConfig::default()).err(),
+        Some(ConfigError::Filter(FilterConfigError::Timing))
+    );
 }

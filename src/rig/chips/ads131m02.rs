@@ -24,10 +24,14 @@
 //!   Outputting the data in a frame clears them.
 //!
 //! # What it does not model
-//! The digital filter (sinc³ settling after a reset, a channel enable or a
-//! gain change; group delay), phase calibration, offset/gain calibration
-//! registers (stored, not applied), global chop, current detection, the
-//! register-map CRC, noise and offset, the DRDY pin itself, the SPI timeout
+//! The digital filter itself: it converts the voltages it is given. The
+//! filter's averaging of a moving input (sinc³ over the last three
+//! periods: group delay and droop) is simulated by the rig on the analog
+//! side ([`crate::rig::timing`], on in `rig::bench`), which hands this
+//! model the filtered voltages. Not modelled at all: the filter's settling
+//! after a reset, a channel enable or a gain change, phase calibration,
+//! offset/gain calibration registers (stored, not applied), global chop,
+//! current detection, the register-map CRC, noise and offset, the DRDY pin itself, the SPI timeout
 //! and SYNC/RESET pin timing, turbo mode. The framing helpers (word packing,
 //! CRC) are the driver's own [`FrameFormat`] methods, which the driver tests
 //! check byte for byte against the data sheet; the behaviour above is
