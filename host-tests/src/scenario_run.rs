@@ -179,10 +179,23 @@ pub fn run<T: Real, E: Estimator<T, 7> + ?Sized>(
     eval_every: u64,
     filter: &mut dyn FnMut(u64, Sample<f64>) -> Sample<f64>,
 ) -> RunTrace {
+    run_with(est, rig, samples, eval_every, &mut |_: &mut E, k, s| {
+        filter(k, s)
+    })
+}
+
+/// [`run`] with a hook that sees the estimator before each sample is fed.
+pub fn run_with<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    rig: &mut PaperRig,
+    samples: u64,
+    eval_every: u64,
+    hook: &mut dyn FnMut(&mut E, u64, Sample<f64>) -> Sample<f64>,
+) -> RunTrace {
     let mut tr = RunTrace::default();
     for k in 0..samples {
         let raw = rig.tick();
-        let s = filter(k, raw);
+        let s = hook(est, k, raw);
         let st = est.step(T::from_f64(s.u), T::from_f64(s.y));
         tr.steps[match st {
             StepStatus::Updated => 0,
@@ -219,7 +232,113 @@ pub fn run<T: Real, E: Estimator<T, 7> + ?Sized>(
     tr
 }
 
+/// [`run`] through a [`GuardedFeed`]: each raw sample is screened, and
+/// the guard's hold requests after a gap
+/// ([`beamest::guard::SensorGuard::take_hold`]) are passed to the
+/// estimator before the sample they come with.
+pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    rig: &mut PaperRig,
+    samples: u64,
+    eval_every: u64,
+    feed: &mut GuardedFeed,
+) -> RunTrace {
+    run_with(est, rig, samples, eval_every, &mut |e: &mut E, k, s| {
+        let out = feed.feed(k, s);
+        let hold = feed.guard.take_hold();
+        if hold > 0 {
+            e.hold(hold);
+        }
+        out
+    })
+}
+
 /// No input filter.
 pub fn direct(_k: u64, s: Sample<f64>) -> Sample<f64> {
     s
+}
+
+/// A [`SensorGuard`](beamest::guard::SensorGuard) between the rig and the
+/// estimator, as the pipeline has it: each raw sample is screened, and the
+/// pair leaving the guard's delay line (NaN for a faulty one, and while the
+/// line fills) is what the estimator gets. Records the first sample index
+/// at or after `watch_from` at which the guard raised anything.
+#[derive(Debug, Clone)]
+pub struct GuardedFeed {
+    /// The guard.
+    pub guard: beamest::guard::SensorGuard<f64>,
+    /// Watch for flags from this sample index on.
+    pub watch_from: u64,
+    /// First flagged sample index ≥ `watch_from` and what was seen there.
+    pub first_flag: Option<(u64, beamest::guard::Screening)>,
+}
+
+impl GuardedFeed {
+    /// A guard with `cfg`, watching from sample `watch_from`.
+    pub fn new(cfg: &beamest::guard::GuardConfig, watch_from: u64) -> Self {
+        Self {
+            guard: beamest::guard::SensorGuard::new(cfg).expect("valid guard settings"),
+            watch_from,
+            first_flag: None,
+        }
+    }
+
+    /// Screen raw sample `k`; the sample for the estimator.
+    pub fn feed(&mut self, k: u64, s: Sample<f64>) -> Sample<f64> {
+        let out = self.guard.push(s.u, s.y);
+        let seen = self.guard.last_screening();
+        if k >= self.watch_from
+            && self.first_flag.is_none()
+            && (seen.fault.is_some() || seen.level.is_some())
+        {
+            self.first_flag = Some((k, seen));
+        }
+        match out {
+            Some(g) => {
+                let (u, y) = g.for_estimator();
+                Sample { u, y }
+            }
+            None => Sample {
+                u: f64::NAN,
+                y: f64::NAN,
+            },
+        }
+    }
+}
+
+/// Largest relative error of the first `n` ω and ζ of a model against
+/// `truth` (ω1..ωn then ζ1..ζn); `weights` are the model's output weights.
+pub fn modal_errors<T: Real>(
+    tf: &TransferFunction<T>,
+    weights: &[f64],
+    truth_omega: &[f64],
+    truth_zeta: &[f64],
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let w: Vec<T> = weights.iter().map(|&v| T::from_f64(v)).collect();
+    let m = modal_from_tf(tf, &w).ok()?;
+    let ew = truth_omega
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (m.omega_rad_s[i].to_f64() - t).abs() / t)
+        .collect();
+    let ez = truth_zeta
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (m.zeta[i].to_f64() - t).abs() / t)
+        .collect();
+    Some((ew, ez))
+}
+
+/// The physical beam's modes 3.. (`truth_modes` − 2 of them, 1 or 2) as
+/// extra modes of the paper's plant: ω, ζ, c from the Euler–Bernoulli
+/// model of the paper's beam ([`beamest::rig::beam_modes`]), b̄ scaled by
+/// the paper's b̄1 over the beam model's b̄1 (so that the extra modes stand
+/// to mode 1 as they do on the modelled beam).
+pub fn paper_extra_modes(truth_modes: usize) -> ModalParams<f64> {
+    let beam = beamest::beam::BeamParams::paper();
+    let paper =
+        modal_from_tf(&beamest::model::paper_plant_tf(), &WEIGHTS).expect("the paper's modes");
+    let own = beam.mode_model(1).expect("mode 1");
+    beamest::rig::beam_modes(&beam, 3, truth_modes - 2, paper.bbar[0] / own.bbar)
+        .expect("the beam's modes")
 }

@@ -449,8 +449,11 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.law.information()
     }
 
+    /// Also restarts the change test's learning
+    /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
         self.screen.hold(samples);
+        self.supervisor.restart_change();
     }
 
     fn settling_samples(&self) -> u32 {

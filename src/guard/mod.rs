@@ -8,7 +8,7 @@
 //! | fault | seen as | decided |
 //! |---|---|---|
 //! | [`SampleFault::NonFinite`] | u or y NaN or ±∞ | at once |
-//! | [`SampleFault::Saturated`] | y at or beyond a rail of the configured range (the converter's full scale in units of y), approached continuously | at once |
+//! | [`SampleFault::Saturated`] | y at or beyond a rail of the configured range (the converter's full scale in units of y), approached continuously, or an episode at the rails that moves from one rail to the other | at once (the samples of an episode before its first switch count as open) |
 //! | [`SampleFault::Open`] | y *jumps* to a rail from more than half of full scale away and stays there | at once |
 //! | [`SampleFault::Stuck`] | y repeats exactly `stuck_after` more times (2.5 ms at the default 25) | after the run; the run's earlier samples are caught in the delay line |
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
@@ -46,6 +46,16 @@
 //!   double zero at DC removes a constant and a ramp exactly.
 //!
 //! Measured bias with and without: docs/ROBUSTNESS.md.
+//!
+//! # Gaps
+//! Faulty samples never reach the high-pass: its states hold the slow
+//! level across the gap. After it, the filter's memory mixes both sides
+//! of the gap, and the filtered pair is not a plant input/output pair
+//! until that memory has passed: the guard then asks the caller to hold
+//! the estimator ([`SensorGuard::take_hold`], for
+//! [`GAP_SETTLE_TIME_CONSTANTS`]/ω_c), which keeps the estimate it had
+//! before the fault. Without the high-pass no hold is needed (the
+//! estimator's own quarantine covers its filter bank).
 //!
 //! # Order
 //! Classification at entry; a delay line of `stuck_after + 1` samples
@@ -91,6 +101,16 @@ pub const OPEN_JUMP_FRACTION: f64 = 0.5;
 pub const DRIFT_FRACTION: f64 = 0.05;
 /// Time constant of the slow level (two stages) and of y's RMS (s).
 pub const LEVEL_S: f64 = 0.25;
+/// After a gap (faulty samples that never reached the high-pass) the
+/// estimator is asked to hold for this many high-pass time constants 1/ω_c
+/// ([`SensorGuard::take_hold`]): the filter's memory then mixes the signal
+/// before and after the gap, which no plant input/output pair explains; the
+/// mismatch starts at the filter's low-frequency share of y (ω_c/ω of it,
+/// ~7% for the paper's 7 Hz drive at the default corner) and decays as
+/// (1 + ω_c·t)·e^{−ω_c·t}: to 1e-4 of that after 12/ω_c (4 s at 3 rad/s).
+/// Measured: resuming after 7/ω_c left a 0.2% error on the paper's plant
+/// for a second; after 12/ω_c none is seen (docs/ROBUSTNESS.md).
+pub const GAP_SETTLE_TIME_CONSTANTS: f64 = 12.0;
 
 /// Why a sample was not passed on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -272,6 +292,16 @@ pub struct SensorGuard<T> {
     offset_steps: bool,
     delay: DelayLine<T>,
     hp: Option<HighPass<T>>,
+    /// Samples to hold the estimator for after a gap (see
+    /// [`GAP_SETTLE_TIME_CONSTANTS`]).
+    gap_hold: u32,
+    /// A faulty sample left the delay line since the last good one.
+    in_gap: bool,
+    /// Hold requested and not yet taken ([`SensorGuard::take_hold`]).
+    hold_pending: u32,
+    /// The current fault episode at a rail has switched rails (an
+    /// overload, not an open gauge).
+    rail_switched: bool,
     index: u64,
     counts: GuardCounts,
     last: Screening,
@@ -328,6 +358,9 @@ impl<T: Real> SensorGuard<T> {
         let alpha = |tau: f64| T::from_f64(-libm::expm1(-ts / tau));
         let span = cfg.range.map_or(0.0, |[lo, hi]| hi - lo);
         let samples = |s: f64| libm::ceil(s / ts).min(u32::MAX as f64) as u32;
+        let gap_hold = cfg
+            .highpass_rad_s
+            .map_or(0, |w| samples(GAP_SETTLE_TIME_CONSTANTS / w));
         Ok(Self {
             range,
             open_jump: T::from_f64(OPEN_JUMP_FRACTION * 0.5 * span),
@@ -343,6 +376,10 @@ impl<T: Real> SensorGuard<T> {
                 T::ZERO,
             ),
             hp,
+            gap_hold,
+            in_gap: false,
+            hold_pending: 0,
+            rail_switched: false,
             index: 0,
             counts: GuardCounts::default(),
             last: Screening::default(),
@@ -408,6 +445,12 @@ impl<T: Real> SensorGuard<T> {
             self.counts.bump(SampleFault::Stuck, flipped);
         }
         let (u, y, fault, index) = out?;
+        if fault.is_some() {
+            self.in_gap = true;
+        } else if self.in_gap {
+            self.in_gap = false;
+            self.hold_pending = self.gap_hold;
+        }
         let (u, y) = match (fault, self.hp.as_mut()) {
             (None, Some(hp)) => hp.push(u, y),
             _ => (u, y),
@@ -420,7 +463,12 @@ impl<T: Real> SensorGuard<T> {
 
     /// Classify at entry: (fault, level event, a stuck run completes now).
     #[inline]
-    fn classify(&mut self, u: T, y: T, valid: bool) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
+    fn classify(
+        &mut self,
+        u: T,
+        y: T,
+        valid: bool,
+    ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
         if !valid {
             self.interrupt();
             return (Some(SampleFault::Upstream), None, false);
@@ -435,8 +483,17 @@ impl<T: Real> SensorGuard<T> {
                 let jumped = self
                     .last_good_y
                     .is_some_and(|g| (rail - g).abs() > self.open_jump);
-                let open = self.open_rail == Some(rail) || jumped;
+                if self.open_rail.is_some_and(|r| r != rail) {
+                    // An open gauge holds one rail: a reading that moves
+                    // from one rail to the other is an overload.
+                    self.rail_switched = true;
+                }
+                let open = !self.rail_switched && (self.open_rail == Some(rail) || jumped);
                 self.interrupt();
+                if self.rail_switched {
+                    self.open_rail = Some(rail);
+                    return (Some(SampleFault::Saturated), None, false);
+                }
                 if open {
                     self.open_rail = Some(rail);
                     return (Some(SampleFault::Open), None, false);
@@ -445,7 +502,9 @@ impl<T: Real> SensorGuard<T> {
             }
         }
         self.open_rail = None;
-        if y == self.last_y {
+        self.rail_switched = false;
+        let repeat = y == self.last_y;
+        if repeat {
             self.repeats = self.repeats.saturating_add(1);
         } else {
             self.repeats = 0;
@@ -457,7 +516,7 @@ impl<T: Real> SensorGuard<T> {
             return (Some(SampleFault::Stuck), None, started);
         }
         self.last_good_y = Some(y);
-        let level = self.offset_step(y);
+        let level = self.offset_step(y, repeat);
         (None, level, false)
     }
 
@@ -467,14 +526,20 @@ impl<T: Real> SensorGuard<T> {
         self.hist_len = 0;
     }
 
-    /// Offset-step test on an accepted y (see the module docs).
+    /// Offset-step test on an accepted y (see the module docs). A y that
+    /// repeats the previous one exactly is not tested (a sensor that
+    /// freezes bends its second difference like a step; it is the stuck
+    /// test's to judge).
     #[inline]
-    fn offset_step(&mut self, y: T) -> Option<LevelEvent> {
+    fn offset_step(&mut self, y: T, repeat: bool) -> Option<LevelEvent> {
         let yc = y - self.offset;
         let [y1, y2] = self.hist;
         self.hist = [yc, y1];
         if self.hist_len < 2 {
             self.hist_len += 1;
+            return None;
+        }
+        if repeat {
             return None;
         }
         let d2 = yc - (y1 + y1 - y2);
@@ -541,6 +606,15 @@ impl<T: Real> SensorGuard<T> {
         self.last
     }
 
+    /// Samples the estimator fed by this guard should hold for now
+    /// ([`crate::estimator::Estimator::hold`]), once: nonzero at the first
+    /// good sample after a gap when the high-pass is on (see
+    /// [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise. Call after each push.
+    #[inline]
+    pub fn take_hold(&mut self) -> u32 {
+        core::mem::take(&mut self.hold_pending)
+    }
+
     /// The counters.
     pub fn counts(&self) -> GuardCounts {
         self.counts
@@ -576,6 +650,9 @@ impl<T: Real> SensorGuard<T> {
             Some(w) => Some(HighPass::new(w, ts_s).ok_or(GuardError::Highpass)?),
             None => None,
         };
+        self.gap_hold = highpass_rad_s.map_or(0, |w| {
+            libm::ceil(GAP_SETTLE_TIME_CONSTANTS / (w * ts_s)).min(u32::MAX as f64) as u32
+        });
         self.offset_steps = offset_steps;
         Ok(())
     }
@@ -589,6 +666,9 @@ impl<T: Real> SensorGuard<T> {
         self.repeats = 0;
         self.hist_len = 0;
         self.open_rail = None;
+        self.rail_switched = false;
+        self.in_gap = false;
+        self.hold_pending = 0;
     }
 }
 

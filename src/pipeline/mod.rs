@@ -129,8 +129,8 @@ pub use telemetry::{
 
 use crate::estimator::Estimator;
 use crate::excitation::{Excitation, ExcitationKind};
-use crate::guard::{GuardConfig, GuardError, SampleFault, SensorGuard};
 pub use crate::guard::MAX_DELAY;
+use crate::guard::{GuardConfig, GuardError, SampleFault, SensorGuard};
 use crate::scalar::Real;
 use crate::supervise::ExcitationReason;
 
@@ -328,6 +328,12 @@ where
         if seen.level.is_some() {
             self.flags.set(StatusFlags::SENSOR_LEVEL, true);
         }
+        // After a gap with the high-pass on, hold while its memory settles
+        // (the estimate before the fault is kept).
+        let hold = self.guard.take_hold();
+        if hold > 0 {
+            self.estimator.hold(hold);
+        }
         let Some(g) = out else {
             return self.idle(index, commanded_v);
         };
@@ -491,7 +497,10 @@ where
                 StatusFlags::INPUT_GONE,
                 sup.reason == ExcitationReason::InputGone,
             );
-            flags.set(StatusFlags::CHANGE_DETECTED, sup.changes != self.changes_seen);
+            flags.set(
+                StatusFlags::CHANGE_DETECTED,
+                sup.changes != self.changes_seen,
+            );
             self.changes_seen = sup.changes;
             flags.set(StatusFlags::SUPERVISED, true);
         }

@@ -30,9 +30,7 @@ pub mod change;
 pub mod excitation;
 
 pub use change::{ChangeDetector, TrackingConfig, DEFAULT_CHANGE_THRESHOLD, DISCOUNT};
-pub use excitation::{
-    lemma1_excited, ExcitationReason, InputMonitor, EXCITATION_REL_THRESHOLD,
-};
+pub use excitation::{lemma1_excited, ExcitationReason, InputMonitor, EXCITATION_REL_THRESHOLD};
 
 use crate::scalar::Real;
 
@@ -216,6 +214,14 @@ impl<T: Real> Supervisor<T> {
             change_peak: self.change.peak(),
             last_change_sample: self.last_change,
         }
+    }
+
+    /// Learn the residual's level afresh before the change test is armed
+    /// again (after a hold: the samples around it were disturbed — a sensor
+    /// gap, a resume — and the residual may take a while to return to its
+    /// level; that is not a change of the plant).
+    pub fn restart_change(&mut self) {
+        self.change.restart();
     }
 
     /// The change detector (read).

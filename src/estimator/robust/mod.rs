@@ -730,8 +730,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         Some(excitation_min_eig(&self.information()))
     }
 
+    /// Also restarts the change test's learning
+    /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
         self.screen.hold(samples);
+        self.supervisor.restart_change();
     }
 
     fn settling_samples(&self) -> u32 {

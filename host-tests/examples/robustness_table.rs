@@ -1,0 +1,363 @@
+//! The robustness figures of issue 9 (docs/ROBUSTNESS.md, BENCHMARKS.md
+//! "Robustness (issue 9)"): tracking after a plant step, excitation off,
+//! sensor faults, modes beyond the model.
+//!
+//! ```text
+//! cargo run --release -p host-tests --example robustness_table [tracking|off|faults|modes|all]
+//! ```
+//!
+//! Settings are truth-free (`host_tests::scenario_run`): λ = 100 rad/s,
+//! U0, Y0 = RMS of the measured u, y over the first 0.2 s; the supervisor
+//! at its defaults.
+
+use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Robust2, RobustConfig};
+use beamest::guard::{GuardConfig, LevelEvent};
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
+use beamest::rig::{ExcitationOff, FaultKind, PlantStep, Scenario, SensorFault, Window};
+use beamest::supervise::SupervisorConfig;
+use beamest::Real;
+use host_tests::scenario_run::*;
+
+fn opt(t: Option<f64>) -> String {
+    t.map_or("never".into(), |t| format!("{t:.3}"))
+}
+
+/// A step of mode 1 at 10 s.
+pub fn step_scenario(omega_factor: f64, zeta_factor: f64) -> Scenario {
+    Scenario {
+        step: Some(PlantStep {
+            at: 100_000,
+            omega_rad_s: [PAPER_OMEGA[0] * omega_factor, PAPER_OMEGA[1], 0.0],
+            zeta: [PAPER_ZETA[0] * zeta_factor, PAPER_ZETA[1], 0.0],
+            bbar: None,
+        }),
+        ..Scenario::default()
+    }
+}
+
+fn tracking_row<T: Real>(name: &str, sc: Scenario) {
+    let mut rig = paper_rig(sc, None, 1, None);
+    let f = startup_filter(&rig);
+    let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    let tr = run(&mut est, &mut rig, 160_000, 10, &mut direct);
+    let t0 = 10.0;
+    let s = tr.sup.last().copied().flatten().expect("supervised");
+    println!(
+        "| {name} | {} | {:.1e} | {} | {} | {} | {} | {:.1e} | {} |",
+        T::NAME,
+        tr.max_err(5.0, t0),
+        s.last_change_sample.map_or("none".into(), |k| format!(
+            "{:.1}",
+            (k as f64 - 1e5) * TS_S * 1e3
+        )),
+        opt(tr.settled_after(t0, 1e9, 1e-2).map(|t| t - t0)),
+        opt(tr.settled_after(t0, 1e9, 1e-3).map(|t| t - t0)),
+        opt(tr.settled_after(t0, 1e9, 1e-4).map(|t| t - t0)),
+        tr.max_err(t0 + 3.0, 1e9),
+        s.changes,
+    );
+}
+
+fn tracking() {
+    println!("## Tracking a plant step at t = 10 s (noise-free, 2-mode adaptive law, default supervisor)\n");
+    println!("| step | type | max err 5–10 s | detected after (ms) | within 1% after (s) | within 0.1% after (s) | within 1e-4 after (s) | max err 13–16 s | changes |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (name, sc) in [
+        ("ω1 +10%", step_scenario(1.1, 1.0)),
+        ("ζ1 +50%", step_scenario(1.0, 1.5)),
+    ] {
+        tracking_row::<f64>(name, sc);
+        tracking_row::<f32>(name, sc);
+    }
+    println!();
+}
+
+/// Excitation off over [10 s, 70 s).
+pub fn off_scenario(level: f64) -> Scenario {
+    Scenario {
+        excitation_off: Some(ExcitationOff {
+            window: Window::new(100_000, Some(700_000)),
+            level,
+        }),
+        ..Scenario::default()
+    }
+}
+
+fn off_row<T: Real, E: Estimator<T, 7> + ?Sized>(name: &str, est: &mut E, snr: Option<f64>) {
+    let mut rig = paper_rig(off_scenario(0.0), snr, 1, None);
+    let tr = run(est, &mut rig, 750_000, 100, &mut direct);
+    let i0 = tr.t.iter().position(|&t| t >= 9.99).expect("10 s");
+    let before = tr.est[i0];
+    let dev =
+        tr.t.iter()
+            .zip(&tr.est)
+            .filter(|(t, _)| **t >= 10.0 && **t < 70.0)
+            .map(|(_, e)| max_rel_error(e, &before))
+            .fold(0.0, f64::max);
+    println!(
+        "| {name} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {} | {} | {:.1e} |",
+        T::NAME,
+        snr.map_or("∞".into(), |s| format!("{s}")),
+        tr.max_err(5.0, 10.0),
+        tr.max_err(10.0, 70.0),
+        dev,
+        opt(tr.settled_after(70.0, 1e9, 1e-2).map(|t| t - 70.0)),
+        opt(tr.settled_after(70.0, 1e9, 1e-3).map(|t| t - 70.0)),
+        tr.max_err(71.0, 75.0),
+    );
+}
+
+fn off() {
+    println!("## Excitation off from 10 s to 70 s (u = 0)\n");
+    println!("| estimator | type | SNR (dB) | max err 5–10 s | max err off | max drift from the 10 s estimate | within 1% after resume (s) | within 0.1% after resume (s) | max err 71–75 s |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let unsup = AdaptiveConfig {
+        supervision: SupervisorConfig::OFF,
+        ..AdaptiveConfig::default()
+    };
+    for snr in [None, Some(40.0)] {
+        let f = startup_filter(&paper_rig(off_scenario(0.0), snr, 1, None));
+        let mut e = Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid");
+        off_row("adaptive, supervised", &mut e, snr);
+        let mut e = Adaptive2::<f32>::new(&f, &AdaptiveConfig::default()).expect("valid");
+        off_row("adaptive, supervised", &mut e, snr);
+        let mut e = Adaptive2::<f64>::new(&f, &unsup).expect("valid");
+        off_row("adaptive, unsupervised", &mut e, snr);
+        let mut e = Box::new(Robust2::<f64>::new(&f, &RobustConfig::default()).expect("valid"));
+        off_row("robust", &mut *e, snr);
+    }
+    println!();
+}
+
+/// The fault windows: from 5 s for 0.5 s.
+pub const FAULT_AT: u64 = 50_000;
+/// See [`FAULT_AT`].
+pub const FAULT_UNTIL: u64 = 55_000;
+
+/// The converter's full scale in these runs, in units of Y0 (the rig's
+/// bridge signal uses ~3% of the ADS131M02's range; 10× Y0 is tighter).
+pub const FULL_SCALE_Y0: f64 = 10.0;
+
+/// The six faults for a run whose y has RMS `y0`.
+pub fn faults(y0: f64) -> [(&'static str, FaultKind); 6] {
+    [
+        ("nan", FaultKind::Nan),
+        (
+            "saturate",
+            FaultKind::Saturate {
+                full_scale: FULL_SCALE_Y0 * y0,
+            },
+        ),
+        ("stuck", FaultKind::Stuck),
+        (
+            "open",
+            FaultKind::Open {
+                reading: FULL_SCALE_Y0 * y0,
+            },
+        ),
+        ("offset", FaultKind::Offset { step: 0.5 * y0 }),
+        (
+            "drift",
+            FaultKind::Drift {
+                per_s: DRIFT_Y0_PER_S * y0,
+            },
+        ),
+    ]
+}
+
+/// The drift's rate in units of Y0 per second.
+pub const DRIFT_Y0_PER_S: f64 = 0.02;
+
+/// The fault's window: [5 s, 5.5 s), a drift [5 s, 15 s).
+pub fn fault_window(kind: FaultKind) -> (u64, u64) {
+    match kind {
+        FaultKind::Drift { .. } => (FAULT_AT, FAULT_AT + 100_000),
+        _ => (FAULT_AT, FAULT_UNTIL),
+    }
+}
+
+fn fault_row<T: Real>(name: &str, kind: FaultKind, y0: f64) {
+    let (from, until) = fault_window(kind);
+    let sc = Scenario {
+        fault: Some(SensorFault {
+            kind,
+            window: Window::new(from, Some(until)),
+        }),
+        ..Scenario::default()
+    };
+    let mut rig = paper_rig(sc, None, 1, None);
+    let f = startup_filter(&paper_rig(Scenario::default(), None, 1, None));
+    let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    let fs = FULL_SCALE_Y0 * y0;
+    let mut feed = GuardedFeed::new(
+        &GuardConfig {
+            range: Some([-fs, fs]),
+            ..GuardConfig::new(TS_S)
+        },
+        FAULT_AT,
+    );
+    let tr = run_guarded(&mut est, &mut rig, until + 60_000, 10, &mut feed);
+    let (t_on, t_off) = (from as f64 * TS_S, until as f64 * TS_S);
+    let flag = feed.first_flag.map(|(k, s)| {
+        let what = match (s.fault, s.level) {
+            (Some(f), _) => format!("{f:?}"),
+            (None, Some(LevelEvent::Offset)) => "Offset".into(),
+            (None, Some(LevelEvent::Drift)) => "Drift".into(),
+            _ => "-".into(),
+        };
+        (((k - FAULT_AT) as f64 * TS_S * 1e3), what)
+    });
+    let c = feed.guard.counts();
+    println!(
+        "| {name} | {} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {} | {} | {:.1e} | {}/{}/{}/{}/{}/{} |",
+        T::NAME,
+        flag.as_ref().map_or("never".into(), |f| format!("{:.1}", f.0)),
+        flag.as_ref().map_or("-".into(), |f| f.1.clone()),
+        tr.max_err(3.0, t_on),
+        tr.max_err(t_on, t_off),
+        tr.max_err(t_off, t_off + 0.1),
+        opt(tr.settled_after(t_off, 1e9, 1e-2).map(|t| t - t_off)),
+        opt(tr.settled_after(t_off, 1e9, 1e-3).map(|t| t - t_off)),
+        tr.max_err(t_off + 1.0, t_off + 6.0),
+        c.non_finite,
+        c.saturated,
+        c.stuck,
+        c.open,
+        c.offset,
+        c.drift,
+    );
+}
+
+fn fault_table() {
+    let y0 = startup_filter(&paper_rig(Scenario::default(), None, 1, None))
+        .scales
+        .y_scale;
+    println!("## Sensor faults from 5.0 s to 5.5 s, a drift to 15 s (noise-free, SensorGuard at its defaults with a range of ±{FULL_SCALE_Y0}·Y0, 2-mode adaptive law)\n");
+    println!(
+        "Y0 = {y0:.4e}; offset step 0.5·Y0, drift {DRIFT_Y0_PER_S}·Y0/s (back to 0 at the end).\n"
+    );
+    println!("| fault | type | flagged after (ms) | as | max err 3–5 s | max err during | max err 0–0.1 s after | within 1% after clear (s) | within 0.1% after clear (s) | max err 1–6 s after clear | counts nan/sat/stuck/open/offset/drift |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for (name, kind) in faults(y0) {
+        fault_row::<f64>(name, kind, y0);
+        fault_row::<f32>(name, kind, y0);
+    }
+    println!();
+}
+
+fn modes_row<T: Real>(truth_modes: usize) {
+    let extra = paper_extra_modes(truth_modes);
+    let rig = paper_rig(Scenario::default(), None, 1, Some(&extra));
+    let f = startup_filter(&rig);
+    let mut rig2 = rig.clone();
+    let mut e2 = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    for _ in 0..200_000 {
+        let s = rig2.tick();
+        e2.step(T::from_f64(s.u), T::from_f64(s.y));
+    }
+    let (w2, z2) = modal_errors(&e2.transfer_function(), &WEIGHTS, &PAPER_OMEGA, &PAPER_ZETA)
+        .expect("recoverable");
+    let mut rig3 = rig.clone();
+    let mut e3 = Box::new(Adaptive3::<T>::new(&f, &AdaptiveConfig::default()).expect("valid"));
+    for _ in 0..200_000 {
+        let s = rig3.tick();
+        e3.step(T::from_f64(s.u), T::from_f64(s.y));
+    }
+    let w3 = modal_errors(
+        &e3.transfer_function(),
+        &[WEIGHTS[0], WEIGHTS[1], extra.output_weight[0]],
+        &[PAPER_OMEGA[0], PAPER_OMEGA[1], extra.omega_rad_s[0]],
+        &[PAPER_ZETA[0], PAPER_ZETA[1], extra.zeta[0]],
+    );
+    let fmt = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.1e}"))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    println!(
+        "| {truth_modes} | {} | {} | {} | {} | {} |",
+        T::NAME,
+        fmt(&w2),
+        fmt(&z2),
+        w3.as_ref().map_or("not recovered".into(), |w| fmt(&w.0)),
+        w3.as_ref().map_or("not recovered".into(), |w| fmt(&w.1)),
+    );
+}
+
+fn modes() {
+    println!("## Modes beyond the model (noise-free, 20 s; truth = the paper's 2 modes + the beam's modes 3.., b̄ scaled by the paper's b̄1 / the beam's b̄1)\n");
+    let extra = paper_extra_modes(4);
+    println!(
+        "Extra modes: ω = {:.1}, {:.1} rad/s, ζ = {:.3}, {:.3}, b̄ = {:.3e}, {:.3e}\n",
+        extra.omega_rad_s[0],
+        extra.omega_rad_s[1],
+        extra.zeta[0],
+        extra.zeta[1],
+        extra.bbar[0],
+        extra.bbar[1]
+    );
+    println!("| truth modes | type | 2-mode law: ω1 / ω2 rel. error | ζ1 / ζ2 | 3-mode law: ω1 / ω2 / ω3 | ζ1 / ζ2 / ζ3 |");
+    println!("|---|---|---|---|---|---|");
+    for n in [3, 4] {
+        modes_row::<f64>(n);
+        modes_row::<f32>(n);
+    }
+    println!();
+}
+
+fn main() {
+    let what = std::env::args().nth(1).unwrap_or_else(|| "all".into());
+    if let Some(i) = what.strip_prefix("debug") {
+        debug_fault(i.parse().unwrap_or(0));
+        return;
+    }
+    let all = what == "all";
+    if all || what == "tracking" {
+        tracking();
+    }
+    if all || what == "faults" {
+        fault_table();
+    }
+    if all || what == "modes" {
+        modes();
+    }
+    if all || what == "off" {
+        off();
+    }
+}
+
+#[allow(dead_code)]
+fn debug_fault(idx: usize) {
+    let y0 = startup_filter(&paper_rig(Scenario::default(), None, 1, None))
+        .scales
+        .y_scale;
+    let (_, kind) = faults(y0)[idx];
+    let sc = Scenario {
+        fault: Some(SensorFault {
+            kind,
+            window: Window::new(FAULT_AT, Some(FAULT_UNTIL)),
+        }),
+        ..Scenario::default()
+    };
+    let mut rig = paper_rig(sc, None, 1, None);
+    let f = startup_filter(&paper_rig(Scenario::default(), None, 1, None));
+    let mut est = Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    let fs = FULL_SCALE_Y0 * y0;
+    let mut feed = GuardedFeed::new(
+        &GuardConfig {
+            range: Some([-fs, fs]),
+            highpass_rad_s: std::env::var("NOHP").ok().map_or(Some(3.0), |_| None),
+            ..GuardConfig::new(TS_S)
+        },
+        FAULT_AT,
+    );
+    let tr = run_guarded(&mut est, &mut rig, 90_000, 10, &mut feed);
+    for i in (0..tr.t.len()).filter(|&i| tr.t[i] > 4.9 && i % 25 == 0) {
+        let s = tr.sup[i].unwrap();
+        println!(
+            "{:.4} err {:.2e} ch {} {} g {:.1} est {:?}",
+            tr.t[i], tr.err[i], s.changes, s.reason, s.change_statistic, tr.est[i]
+        );
+    }
+}
