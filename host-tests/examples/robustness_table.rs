@@ -11,28 +11,15 @@
 //! at its defaults.
 
 use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Robust2, RobustConfig};
-use beamest::guard::{GuardConfig, LevelEvent};
+use beamest::guard::LevelEvent;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::rig::{ExcitationOff, FaultKind, PlantStep, Scenario, SensorFault, Window};
+use beamest::rig::{FaultKind, Scenario};
 use beamest::supervise::SupervisorConfig;
 use beamest::Real;
 use host_tests::scenario_run::*;
 
 fn opt(t: Option<f64>) -> String {
     t.map_or("never".into(), |t| format!("{t:.3}"))
-}
-
-/// A step of mode 1 at 10 s.
-pub fn step_scenario(omega_factor: f64, zeta_factor: f64) -> Scenario {
-    Scenario {
-        step: Some(PlantStep {
-            at: 100_000,
-            omega_rad_s: [PAPER_OMEGA[0] * omega_factor, PAPER_OMEGA[1], 0.0],
-            zeta: [PAPER_ZETA[0] * zeta_factor, PAPER_ZETA[1], 0.0],
-            bbar: None,
-        }),
-        ..Scenario::default()
-    }
 }
 
 fn tracking_row<T: Real>(name: &str, sc: Scenario) {
@@ -70,17 +57,6 @@ fn tracking() {
         tracking_row::<f32>(name, sc);
     }
     println!();
-}
-
-/// Excitation off over [10 s, 70 s).
-pub fn off_scenario(level: f64) -> Scenario {
-    Scenario {
-        excitation_off: Some(ExcitationOff {
-            window: Window::new(100_000, Some(700_000)),
-            level,
-        }),
-        ..Scenario::default()
-    }
 }
 
 fn off_row<T: Real, E: Estimator<T, 7> + ?Sized>(name: &str, est: &mut E, snr: Option<f64>) {
@@ -129,73 +105,12 @@ fn off() {
     println!();
 }
 
-/// The fault windows: from 5 s for 0.5 s.
-pub const FAULT_AT: u64 = 50_000;
-/// See [`FAULT_AT`].
-pub const FAULT_UNTIL: u64 = 55_000;
-
-/// The converter's full scale in these runs, in units of Y0 (the rig's
-/// bridge signal uses ~3% of the ADS131M02's range; 10× Y0 is tighter).
-pub const FULL_SCALE_Y0: f64 = 10.0;
-
-/// The six faults for a run whose y has RMS `y0`.
-pub fn faults(y0: f64) -> [(&'static str, FaultKind); 6] {
-    [
-        ("nan", FaultKind::Nan),
-        (
-            "saturate",
-            FaultKind::Saturate {
-                full_scale: FULL_SCALE_Y0 * y0,
-            },
-        ),
-        ("stuck", FaultKind::Stuck),
-        (
-            "open",
-            FaultKind::Open {
-                reading: FULL_SCALE_Y0 * y0,
-            },
-        ),
-        ("offset", FaultKind::Offset { step: 0.5 * y0 }),
-        (
-            "drift",
-            FaultKind::Drift {
-                per_s: DRIFT_Y0_PER_S * y0,
-            },
-        ),
-    ]
-}
-
-/// The drift's rate in units of Y0 per second.
-pub const DRIFT_Y0_PER_S: f64 = 0.02;
-
-/// The fault's window: [5 s, 5.5 s), a drift [5 s, 15 s).
-pub fn fault_window(kind: FaultKind) -> (u64, u64) {
-    match kind {
-        FaultKind::Drift { .. } => (FAULT_AT, FAULT_AT + 100_000),
-        _ => (FAULT_AT, FAULT_UNTIL),
-    }
-}
-
 fn fault_row<T: Real>(name: &str, kind: FaultKind, y0: f64) {
     let (from, until) = fault_window(kind);
-    let sc = Scenario {
-        fault: Some(SensorFault {
-            kind,
-            window: Window::new(from, Some(until)),
-        }),
-        ..Scenario::default()
-    };
-    let mut rig = paper_rig(sc, None, 1, None);
+    let mut rig = paper_rig(fault_scenario(kind), None, 1, None);
     let f = startup_filter(&paper_rig(Scenario::default(), None, 1, None));
     let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
-    let fs = FULL_SCALE_Y0 * y0;
-    let mut feed = GuardedFeed::new(
-        &GuardConfig {
-            range: Some([-fs, fs]),
-            ..GuardConfig::new(TS_S)
-        },
-        FAULT_AT,
-    );
+    let mut feed = fault_guard(y0);
     let tr = run_guarded(&mut est, &mut rig, until + 60_000, 10, &mut feed);
     let (t_on, t_off) = (from as f64 * TS_S, until as f64 * TS_S);
     let flag = feed.first_flag.map(|(k, s)| {
@@ -308,10 +223,6 @@ fn modes() {
 
 fn main() {
     let what = std::env::args().nth(1).unwrap_or_else(|| "all".into());
-    if let Some(i) = what.strip_prefix("debug") {
-        debug_fault(i.parse().unwrap_or(0));
-        return;
-    }
     let all = what == "all";
     if all || what == "tracking" {
         tracking();
@@ -321,43 +232,68 @@ fn main() {
     }
     if all || what == "modes" {
         modes();
+        modes_sweep();
     }
     if all || what == "off" {
         off();
     }
 }
 
-#[allow(dead_code)]
-fn debug_fault(idx: usize) {
-    let y0 = startup_filter(&paper_rig(Scenario::default(), None, 1, None))
-        .scales
-        .y_scale;
-    let (_, kind) = faults(y0)[idx];
-    let sc = Scenario {
-        fault: Some(SensorFault {
-            kind,
-            window: Window::new(FAULT_AT, Some(FAULT_UNTIL)),
-        }),
-        ..Scenario::default()
-    };
-    let mut rig = paper_rig(sc, None, 1, None);
-    let f = startup_filter(&paper_rig(Scenario::default(), None, 1, None));
-    let mut est = Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid");
-    let fs = FULL_SCALE_Y0 * y0;
-    let mut feed = GuardedFeed::new(
-        &GuardConfig {
-            range: Some([-fs, fs]),
-            highpass_rad_s: std::env::var("NOHP").ok().map_or(Some(3.0), |_| None),
-            ..GuardConfig::new(TS_S)
-        },
-        FAULT_AT,
-    );
-    let tr = run_guarded(&mut est, &mut rig, 90_000, 10, &mut feed);
-    for i in (0..tr.t.len()).filter(|&i| tr.t[i] > 4.9 && i % 25 == 0) {
-        let s = tr.sup[i].unwrap();
-        println!(
-            "{:.4} err {:.2e} ch {} {} g {:.1} est {:?}",
-            tr.t[i], tr.err[i], s.changes, s.reason, s.change_statistic, tr.est[i]
-        );
+/// Two identical first-order low-pass stages at `corner_rad_s` on u and y.
+struct LowPass2 {
+    alpha: f64,
+    s: [f64; 4],
+}
+
+impl LowPass2 {
+    fn new(corner_rad_s: f64) -> Self {
+        Self {
+            alpha: -(-corner_rad_s * TS_S).exp_m1(),
+            s: [0.0; 4],
+        }
     }
+
+    fn push(&mut self, u: f64, y: f64) -> (f64, f64) {
+        let a = self.alpha;
+        self.s[0] += a * (u - self.s[0]);
+        self.s[1] += a * (self.s[0] - self.s[1]);
+        self.s[2] += a * (y - self.s[2]);
+        self.s[3] += a * (self.s[2] - self.s[3]);
+        (self.s[1], self.s[3])
+    }
+}
+
+fn modes_sweep() {
+    println!("## 2-mode law on a 3- and 4-mode beam: λ and a low-pass prefilter (noise-free, 20 s, f64)\n");
+    println!("| truth modes | λ (rad/s) | prefilter | ω1 | ω2 | ζ1 | ζ2 |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [3usize, 4] {
+        let extra = paper_extra_modes(n);
+        for lam in [20.0, 40.0, 70.0, 100.0] {
+            for lp in [None, Some(150.0), Some(300.0)] {
+                let mut rig = paper_rig(Scenario::default(), None, 1, Some(&extra));
+                let mut f = startup_filter(&rig);
+                f.lambda_rad_s = lam;
+                let mut e2 = Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid");
+                let mut pf = lp.map(LowPass2::new);
+                for _ in 0..200_000 {
+                    let s = rig.tick();
+                    let (u, y) = match pf.as_mut() {
+                        Some(p) => p.push(s.u, s.y),
+                        None => (s.u, s.y),
+                    };
+                    e2.step(u, y);
+                }
+                let r = modal_errors(&e2.transfer_function(), &WEIGHTS, &PAPER_OMEGA, &PAPER_ZETA);
+                let cells = r.map_or("not recovered | | |".into(), |(w, z)| {
+                    format!("{:.1e} | {:.1e} | {:.1e} | {:.1e}", w[0], w[1], z[0], z[1])
+                });
+                println!(
+                    "| {n} | {lam} | {} | {cells} |",
+                    lp.map_or("none".into(), |w| format!("2 × 1st order at {w} rad/s"))
+                );
+            }
+        }
+    }
+    println!();
 }

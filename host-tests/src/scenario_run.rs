@@ -12,8 +12,12 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, TransferFunction, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+use beamest::model::{PAPER_OMEGA as OMEGA0, PAPER_ZETA as ZETA0};
 use beamest::plant::ModalPlant;
-use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, Scenario, ScenarioRig};
+use beamest::rig::{
+    noise_sd_for_snr, ExcitationOff, FaultKind, GaussianNoise, PlantStep, Rig, Sample, Scenario,
+    ScenarioRig, SensorFault, Window,
+};
 use beamest::supervise::Supervision;
 use beamest::Real;
 
@@ -184,13 +188,17 @@ pub fn run<T: Real, E: Estimator<T, 7> + ?Sized>(
     })
 }
 
+/// A per-sample hook: sees the estimator and sample `k` before it is
+/// fed, and returns what the estimator gets.
+pub type SampleHook<'a, E> = dyn FnMut(&mut E, u64, Sample<f64>) -> Sample<f64> + 'a;
+
 /// [`run`] with a hook that sees the estimator before each sample is fed.
 pub fn run_with<T: Real, E: Estimator<T, 7> + ?Sized>(
     est: &mut E,
     rig: &mut PaperRig,
     samples: u64,
     eval_every: u64,
-    hook: &mut dyn FnMut(&mut E, u64, Sample<f64>) -> Sample<f64>,
+    hook: &mut SampleHook<'_, E>,
 ) -> RunTrace {
     let mut tr = RunTrace::default();
     for k in 0..samples {
@@ -341,4 +349,101 @@ pub fn paper_extra_modes(truth_modes: usize) -> ModalParams<f64> {
     let own = beam.mode_model(1).expect("mode 1");
     beamest::rig::beam_modes(&beam, 3, truth_modes - 2, paper.bbar[0] / own.bbar)
         .expect("the beam's modes")
+}
+
+/// A step of mode 1 at 10 s.
+pub fn step_scenario(omega_factor: f64, zeta_factor: f64) -> Scenario {
+    Scenario {
+        step: Some(PlantStep {
+            at: 100_000,
+            omega_rad_s: [OMEGA0[0] * omega_factor, OMEGA0[1], 0.0],
+            zeta: [ZETA0[0] * zeta_factor, ZETA0[1], 0.0],
+            bbar: None,
+        }),
+        ..Scenario::default()
+    }
+}
+
+/// Excitation off over [10 s, 70 s).
+pub fn off_scenario(level: f64) -> Scenario {
+    Scenario {
+        excitation_off: Some(ExcitationOff {
+            window: Window::new(100_000, Some(700_000)),
+            level,
+        }),
+        ..Scenario::default()
+    }
+}
+
+/// The fault windows: from 5 s for 0.5 s.
+pub const FAULT_AT: u64 = 50_000;
+/// See [`FAULT_AT`].
+pub const FAULT_UNTIL: u64 = 55_000;
+
+/// The converter's full scale in these runs, in units of Y0 (the rig's
+/// bridge signal uses ~3% of the ADS131M02's range; 10× Y0 is tighter).
+pub const FULL_SCALE_Y0: f64 = 10.0;
+
+/// The six faults for a run whose y has RMS `y0`.
+pub fn faults(y0: f64) -> [(&'static str, FaultKind); 6] {
+    [
+        ("nan", FaultKind::Nan),
+        (
+            "saturate",
+            FaultKind::Saturate {
+                full_scale: FULL_SCALE_Y0 * y0,
+            },
+        ),
+        ("stuck", FaultKind::Stuck),
+        (
+            "open",
+            FaultKind::Open {
+                reading: FULL_SCALE_Y0 * y0,
+            },
+        ),
+        ("offset", FaultKind::Offset { step: 0.5 * y0 }),
+        (
+            "drift",
+            FaultKind::Drift {
+                per_s: DRIFT_Y0_PER_S * y0,
+            },
+        ),
+    ]
+}
+
+/// The drift's rate in units of Y0 per second.
+pub const DRIFT_Y0_PER_S: f64 = 0.02;
+
+/// The fault's window: [5 s, 5.5 s), a drift [5 s, 15 s).
+pub fn fault_window(kind: FaultKind) -> (u64, u64) {
+    match kind {
+        FaultKind::Drift { .. } => (FAULT_AT, FAULT_AT + 100_000),
+        _ => (FAULT_AT, FAULT_UNTIL),
+    }
+}
+
+/// A run of the paper's plant with `kind` on y over its
+/// [`fault_window`].
+pub fn fault_scenario(kind: FaultKind) -> Scenario {
+    let (from, until) = fault_window(kind);
+    Scenario {
+        fault: Some(SensorFault {
+            kind,
+            window: Window::new(from, Some(until)),
+        }),
+        ..Scenario::default()
+    }
+}
+
+/// The guard of the fault runs: defaults, the converter's range ±
+/// [`FULL_SCALE_Y0`]·`y0`, watching from the fault's start.
+pub fn fault_guard(y0: f64) -> GuardedFeed {
+    let fs = FULL_SCALE_Y0 * y0;
+    GuardedFeed::new(
+        &beamest::guard::GuardConfig {
+            range: Some([-fs, fs]),
+            ..beamest::guard::GuardConfig::new(TS_S)
+        },
+        FAULT_AT,
+    )
 }

@@ -68,7 +68,7 @@ impl<T: Real> HighPass<T> {
     /// finite and below the Nyquist rate.
     pub fn new(corner_rad_s: f64, ts_s: f64) -> Option<Self> {
         let x = corner_rad_s * ts_s;
-        if !(x > 0.0 && x < core::f64::consts::PI) || !ts_s.is_finite() {
+        if !(x > 0.0 && x < core::f64::consts::PI && ts_s.is_finite()) {
             return None;
         }
         Some(Self {

@@ -328,6 +328,9 @@ pub struct SensorGuard<T> {
     level_ms: T,
     level_ref: Option<T>,
     level_learn: u32,
+    /// [`LEVEL_S`]·8 in samples: the drift test's learning time (at the
+    /// start and after a gap).
+    level_learn_len: u32,
     drift_fraction2: T,
 }
 
@@ -400,6 +403,7 @@ impl<T: Real> SensorGuard<T> {
             level_ms: T::ZERO,
             level_ref: None,
             level_learn: samples(8.0 * LEVEL_S),
+            level_learn_len: samples(8.0 * LEVEL_S),
             drift_fraction2: T::from_f64(DRIFT_FRACTION * DRIFT_FRACTION),
         })
     }
@@ -450,6 +454,9 @@ impl<T: Real> SensorGuard<T> {
         } else if self.in_gap {
             self.in_gap = false;
             self.hold_pending = self.gap_hold;
+            // The level after a gap is learnt afresh (the high-pass's
+            // settling is not a drift).
+            self.level_learn = self.level_learn_len.max(self.gap_hold);
         }
         let (u, y) = match (fault, self.hp.as_mut()) {
             (None, Some(hp)) => hp.push(u, y),

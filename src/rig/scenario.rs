@@ -377,12 +377,18 @@ pub fn beam_modes(
         bbar: [0.0; MAX_MODES],
         output_weight: [0.0; MAX_MODES],
     };
-    for i in 0..count {
+    let slots = p
+        .omega_rad_s
+        .iter_mut()
+        .zip(p.zeta.iter_mut())
+        .zip(p.bbar.iter_mut().zip(p.output_weight.iter_mut()))
+        .take(count);
+    for (i, ((w, z), (b, c))) in slots.enumerate() {
         let m = beam.mode_model(first + i)?;
-        p.omega_rad_s[i] = m.omega_rad_s;
-        p.zeta[i] = m.zeta;
-        p.bbar[i] = m.bbar * gain_scale;
-        p.output_weight[i] = m.output_weight;
+        *w = m.omega_rad_s;
+        *z = m.zeta;
+        *b = m.bbar * gain_scale;
+        *c = m.output_weight;
     }
     Ok(p)
 }
