@@ -312,7 +312,14 @@ pub struct Identifier<T, L, const D: usize, const NP: usize> {
     supervised: bool,
     /// A change was detected: discount the old data when the hold ends.
     pending_discount: bool,
+    /// Samples since the change test last ran.
+    supervise_phase: u32,
 }
+
+/// The supervisor's change test and Lemma 1 bookkeeping run every this
+/// many learning samples ([`crate::supervise`]; its time constants are in
+/// seconds, so only the cost changes: ~1/10 of the per-sample work).
+pub const SUPERVISE_EVERY: u32 = 10;
 
 impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T, L, D, NP> {
     /// Build from a filter configuration and a law configuration (which
@@ -334,9 +341,11 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
                 Supervisor::new(&sup, filter.ts_s).with_lemma1()
             } else {
                 Supervisor::new(&sup, filter.ts_s)
-            },
+            }
+            .with_residual_every(SUPERVISE_EVERY, filter.ts_s),
             supervised: sup != SupervisorConfig::OFF,
             pending_discount: false,
+            supervise_phase: 0,
         })
     }
 
@@ -355,16 +364,24 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
                 self.pending_discount = false;
                 self.law.discount(T::from_f64(crate::supervise::DISCOUNT));
             }
-            let e = self.law.prediction_error(&reg);
-            if self.supervisor.residual(e, self.samples).is_some() {
-                // Hold while the filters carry the old beam's history,
-                // then discount.
-                self.screen.hold(self.screen.quarantine_len());
-                self.pending_discount = true;
-                return StepStatus::Frozen;
+            // The change test and Lemma 1's bookkeeping every
+            // SUPERVISE_EVERY samples (the θ step's cadence by default:
+            // the residual of neighbouring samples at 10 kHz carries
+            // little new information, and Lemma 1 changes only at θ steps).
+            self.supervise_phase += 1;
+            if self.supervise_phase >= SUPERVISE_EVERY {
+                self.supervise_phase = 0;
+                let e = self.law.prediction_error(&reg);
+                if self.supervisor.residual(e, self.samples).is_some() {
+                    // Hold while the filters carry the old beam's history,
+                    // then discount.
+                    self.screen.hold(self.screen.quarantine_len());
+                    self.pending_discount = true;
+                    return StepStatus::Frozen;
+                }
+                let forgetting = self.supervisor.lemma1(self.law.lemma1());
+                self.law.set_forgetting(forgetting);
             }
-            let forgetting = self.supervisor.lemma1(self.law.lemma1());
-            self.law.set_forgetting(forgetting);
         }
         match self.law.update(&reg) {
             Ok(()) => StepStatus::Updated,
@@ -437,6 +454,7 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.screen.reset();
         self.supervisor.reset();
         self.pending_discount = false;
+        self.supervise_phase = 0;
         self.samples = 0;
         self.skipped = 0;
     }

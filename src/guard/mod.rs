@@ -319,6 +319,7 @@ pub struct SensorGuard<T> {
     hist_len: u8,
     jump_ms: T,
     jump_learn: u32,
+    jump_learn_len: u32,
     alpha_jump: T,
     jump_factor2: T,
     // Drift.
@@ -395,6 +396,7 @@ impl<T: Real> SensorGuard<T> {
             hist_len: 0,
             jump_ms: T::ZERO,
             jump_learn: samples(JUMP_REFERENCE_S),
+            jump_learn_len: samples(JUMP_REFERENCE_S),
             alpha_jump: alpha(JUMP_REFERENCE_S),
             jump_factor2: T::from_f64(JUMP_FACTOR * JUMP_FACTOR),
             alpha_level: alpha(LEVEL_S),
@@ -523,7 +525,11 @@ impl<T: Real> SensorGuard<T> {
             return (Some(SampleFault::Stuck), None, started);
         }
         self.last_good_y = Some(y);
-        let level = self.offset_step(y, repeat);
+        let level = if self.offset_steps {
+            self.offset_step(y, repeat)
+        } else {
+            None
+        };
         (None, level, false)
     }
 
@@ -556,7 +562,7 @@ impl<T: Real> SensorGuard<T> {
             self.jump_ms += self.alpha_jump * (e2 - self.jump_ms);
             return None;
         }
-        if self.offset_steps && e2 > self.jump_factor2 * self.jump_ms && self.jump_ms > T::ZERO {
+        if e2 > self.jump_factor2 * self.jump_ms && self.jump_ms > T::ZERO {
             // Remove the step from here on: this sample's y becomes the
             // extrapolation of the previous two.
             self.offset += d2;
@@ -660,6 +666,12 @@ impl<T: Real> SensorGuard<T> {
         self.gap_hold = highpass_rad_s.map_or(0, |w| {
             libm::ceil(GAP_SETTLE_TIME_CONSTANTS / (w * ts_s)).min(u32::MAX as f64) as u32
         });
+        if offset_steps && !self.offset_steps {
+            // Learn the second difference's level afresh.
+            self.hist_len = 0;
+            self.jump_ms = T::ZERO;
+            self.jump_learn = self.jump_learn_len;
+        }
         self.offset_steps = offset_steps;
         Ok(())
     }

@@ -10,7 +10,7 @@
 //!   passed (the directions the input no longer excites keep what they
 //!   know);
 //! * [`change`] — **tracking**: a CUSUM test on the a-priori prediction
-//!   error; a detected change discounts the old data (P, Q, R × 2⁻²⁰, θ̂
+//!   error; a detected change discounts the old data (P, Q, R × 2⁻⁴⁰, θ̂
 //!   kept) so the law follows the new beam within a fraction of a second;
 //!   its threshold is the one knob that trades tracking speed against
 //!   noise;
@@ -139,6 +139,15 @@ impl<T: Real> Supervisor<T> {
     /// [`ExcitationReason::Starting`].
     pub fn with_lemma1(mut self) -> Self {
         self.lemma1_measured = true;
+        self
+    }
+
+    /// The change test sees the residual of every `every`-th sample only
+    /// (its time constants are kept in seconds): for an estimator that
+    /// calls [`Supervisor::residual`] at that cadence to save per-sample
+    /// work. `every` = 0 is taken as 1.
+    pub fn with_residual_every(mut self, every: u32, ts_s: f64) -> Self {
+        self.change = ChangeDetector::new(&self.cfg.tracking, ts_s * f64::from(every.max(1)));
         self
     }
 
