@@ -539,6 +539,27 @@ mod tests {
             );
             assert_eq!(e.flags, bit.with(StatusFlags::PHYSICALLY_VALID), "{bit:?}");
         }
+        // The supervisor's bits: its own EXCITED decision overrides λmin;
+        // input gone also means frozen by the firmware.
+        let sup = PF::SUPERVISED;
+        for (pflags, want) in [
+            (sup, StatusFlags::EXCITED),
+            (sup | PF::NOT_EXCITED, StatusFlags::default()),
+            (
+                sup | PF::NOT_EXCITED | PF::INPUT_GONE,
+                StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
+            ),
+            (sup | PF::CHANGE_DETECTED, StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED)),
+            (sup | PF::SENSOR_LEVEL, StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL)),
+        ] {
+            let e = estimate(
+                &record(2000, pflags, prev),
+                &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0),
+                &ctx(&prev),
+                &mut Convergence::default(),
+            );
+            assert_eq!(e.flags, want.with(StatusFlags::PHYSICALLY_VALID), "{pflags:#x}");
+        }
         // λmin just below the threshold, 1e-7·tr(P), is not excited.
         let e = estimate(
             &rec,
