@@ -20,9 +20,12 @@
 //!
 //! [`Supervisor`] joins the first two for an estimator
 //! ([`crate::estimator::Identifier`], [`crate::estimator::RobustEstimator`]):
-//! the per-sample decisions cost a few flops (the input's mean square, the
-//! residual's CUSUM); the in-loop λmin is one extra triangular solve per θ
-//! step. Its state is read at the telemetry rate through
+//! per sample it costs a few flops (the input's mean square); the
+//! residual's CUSUM runs every [`crate::estimator::SUPERVISE_EVERY`]-th
+//! sample in [`crate::estimator::Identifier`]
+//! ([`Supervisor::with_residual_every`]), and the in-loop λmin is one
+//! inverse-iteration step every [`crate::estimator::adaptive::LEMMA1_EVERY`]
+//! θ steps. Its state is read at the telemetry rate through
 //! [`crate::estimator::Estimator::supervision`] ([`Supervision`]).
 //! docs/ROBUSTNESS.md has the measurements behind every threshold.
 
