@@ -549,8 +549,14 @@ mod tests {
                 sup | PF::NOT_EXCITED | PF::INPUT_GONE,
                 StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
             ),
-            (sup | PF::CHANGE_DETECTED, StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED)),
-            (sup | PF::SENSOR_LEVEL, StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL)),
+            (
+                sup | PF::CHANGE_DETECTED,
+                StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED),
+            ),
+            (
+                sup | PF::SENSOR_LEVEL,
+                StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL),
+            ),
         ] {
             let e = estimate(
                 &record(2000, pflags, prev),
@@ -558,7 +564,11 @@ mod tests {
                 &ctx(&prev),
                 &mut Convergence::default(),
             );
-            assert_eq!(e.flags, want.with(StatusFlags::PHYSICALLY_VALID), "{pflags:#x}");
+            assert_eq!(
+                e.flags,
+                want.with(StatusFlags::PHYSICALLY_VALID),
+                "{pflags:#x}"
+            );
         }
         // λmin just below the threshold, 1e-7·tr(P), is not excited.
         let e = estimate(
