@@ -184,6 +184,27 @@ fn fault_table() {
     fault_row::<f64>("drift, no high-pass", drift, y0, Some((None, true)));
     fault_row::<f64>("nan, no high-pass", FaultKind::Nan, y0, Some((None, true)));
     println!();
+    println!(
+        "### The high-pass corner (f64; the default is {} rad/s)\n",
+        beamest::guard::DEFAULT_HIGHPASS_RAD_S
+    );
+    println!("| fault, corner | type | flagged after (ms) | as | max err 3–5 s | max err during | max err 0–0.1 s after | within 1% after clear (s) | within 0.1% after clear (s) | max err 1–6 s after clear | counts nan/sat/stuck/open/offset/drift |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for corner in [3.0, 6.0, 10.0, 20.0] {
+        fault_row::<f64>(
+            &format!("drift, {corner} rad/s"),
+            drift,
+            y0,
+            Some((Some(corner), true)),
+        );
+        fault_row::<f64>(
+            &format!("nan, {corner} rad/s"),
+            FaultKind::Nan,
+            y0,
+            Some((Some(corner), true)),
+        );
+    }
+    println!();
 }
 
 fn modes_row<T: Real>(truth_modes: usize) {

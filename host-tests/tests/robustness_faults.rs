@@ -6,12 +6,11 @@
 //! * nan, saturate, stuck, open, offset: flagged within 10 ms; estimates
 //!   within 1% from the fault's end on and within 0.1% from ≤ 1 s after
 //!   it.
-//! * drift (0.02·Y0/s): flagged once its level has moved by 5% of y's RMS
-//!   (the rate sets the latency: 5.4 s here, not 10 ms — a slow drift is
-//!   not distinguishable from the signal in 10 ms); the high-pass keeps
-//!   the estimates within 1% during and after it, but not within 0.1%
-//!   (measured 0.7% during, 0.44% 1–6 s after: the gap is reported in
-//!   docs/ROBUSTNESS.md).
+//! * drift (0.02·Y0/s for 10 s): flagged once its level has moved by 5% of
+//!   y's RMS (the rate sets the latency: 5.0 s here, **not** 10 ms — a
+//!   slow drift cannot be told from the signal in 10 ms; reported in
+//!   docs/ROBUSTNESS.md); the high-pass keeps the estimates within 0.1%
+//!   during and after it (measured 5.7e-4 during, 1.7e-4 after).
 //!
 //! Figures: `cargo run --release -p host-tests --example robustness_table faults`.
 
@@ -134,7 +133,7 @@ fn an_offset_step_is_removed_at_once() {
 }
 
 /// What is reached for a drift (see the module docs): flagged as a drift
-/// within 6 s, within 1% during and after, not within 0.1%.
+/// within 6 s (not 10 ms), within 0.1% during and after.
 #[test]
 fn a_drift_is_flagged_and_high_passed() {
     for o in [
@@ -149,7 +148,7 @@ fn a_drift_is_flagged_and_high_passed() {
         let tr = &o.trace;
         let during = tr.max_err(FAULT_AT as f64 * TS_S, o.t_off);
         let after = tr.max_err(o.t_off, 1e9);
-        assert!(during <= 1e-2, "{during:e} during");
-        assert!(after <= 1e-2, "{after:e} after");
+        assert!(during <= 1e-3, "{during:e} during");
+        assert!(after <= 1e-3, "{after:e} after");
     }
 }
