@@ -15,8 +15,9 @@
 //! | [`LevelEvent::Offset`] | a step of y: its second difference beyond [`JUMP_FACTOR`] × its running RMS | at once; the step is subtracted from then on |
 //! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
 //!
-//! A faulty sample is handed on as NaN ([`Guarded::for_estimator`]), which
-//! the estimators reject and follow with their quarantine
+//! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
+//! u kept when finite), which the estimators reject and follow with their
+//! quarantine
 //! ([`crate::estimator`], *Bad input*): nothing of it reaches Θ̂. Level
 //! events are not faults: the sample is good once its offset is removed.
 //!
@@ -261,7 +262,8 @@ pub struct Guarded<T> {
     /// Its index (pushes since the start; the guard's output lags its
     /// input by the delay line).
     pub index: u64,
-    /// u, high-passed (the raw u if faulty).
+    /// u, high-passed (also for a faulty sample with a finite u: u's
+    /// channel runs on).
     pub u: T,
     /// y with its offset steps removed, high-passed (the raw y if faulty).
     pub y: T,
@@ -270,15 +272,18 @@ pub struct Guarded<T> {
 }
 
 impl<T: Real> Guarded<T> {
-    /// The pair to give an estimator: (u, y), or NaN for a faulty sample
-    /// (rejected there and followed by its quarantine).
+    /// The pair to give an estimator: (u, y), or y = NaN for a faulty
+    /// sample (rejected there and followed by its quarantine). u is kept
+    /// when it is finite: the faults are y's, and an estimator that
+    /// simulates the plant from u (the robust estimator's output-error
+    /// model) must see the input the plant saw, or it carries a transient
+    /// as long as the slowest mode after the gap.
     pub fn for_estimator(&self) -> (T, T) {
+        let nan = T::from_f64(f64::NAN);
         match self.fault {
             None => (self.u, self.y),
-            Some(_) => {
-                let nan = T::from_f64(f64::NAN);
-                (nan, nan)
-            }
+            Some(_) if self.u.is_finite() => (self.u, nan),
+            Some(_) => (nan, nan),
         }
     }
 }
@@ -472,6 +477,8 @@ impl<T: Real> SensorGuard<T> {
         }
         let (u, y) = match (fault, self.hp.as_mut()) {
             (None, Some(hp)) => hp.push(u, y),
+            // y is faulty, u is not: u's channel runs on.
+            (Some(_), Some(hp)) if u.is_finite() => (hp.push_u(u), y),
             _ => (u, y),
         };
         if fault.is_none() {
