@@ -93,7 +93,7 @@ pub const DEFAULT_STUCK_AFTER: u16 = 25;
 /// 0.02·Y0/s (`robustness_table`, docs/ROBUSTNESS.md §1): at 3 rad/s the
 /// drift left 0.70% error (0.44% after it), at 6 rad/s 0.14% (0.05%), at
 /// 10 rad/s 0.057% (0.011%), at 20 rad/s 0.028%; the estimate after a gap
-/// was within 3.4e-5, 6.3e-5, 1.1e-4, 2.0e-4. A beam whose first mode
+/// was within 2.6e-5, 4.7e-5, 8.2e-5, 1.5e-4. A beam whose first mode
 /// (or drive) is below ~40 rad/s wants a lower corner.
 pub const DEFAULT_HIGHPASS_RAD_S: f64 = 10.0;
 /// An offset step is a second difference beyond this many times its
@@ -119,7 +119,7 @@ pub const LEVEL_S: f64 = 0.25;
 /// ~20% for the paper's 7 Hz drive at the default corner) and decays as
 /// (1 + ω_c·t)·e^{−ω_c·t}: to 1e-4 of that after 12/ω_c (1.2 s at
 /// 10 rad/s). Measured (at 3 rad/s): resuming after 7/ω_c left a 0.2%
-/// error on the paper's plant for a second; after 12/ω_c 3.4e-5
+/// error on the paper's plant for a second; after 12/ω_c 2.6e-5
 /// (docs/ROBUSTNESS.md).
 pub const GAP_SETTLE_TIME_CONSTANTS: f64 = 12.0;
 
