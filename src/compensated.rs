@@ -304,6 +304,15 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
         }
     }
 
+    /// Every element × `k` (exact when `k` is a power of two and nothing
+    /// underflows).
+    pub fn scale_by(&mut self, k: T) {
+        for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
+            *h *= k;
+            *l *= k;
+        }
+    }
+
     /// True if every word is finite.
     pub fn is_finite(&self) -> bool {
         self.hi.iter().chain(self.lo.iter()).all(|v| v.is_finite())

@@ -20,8 +20,14 @@
 //! * [`drivers`] — the ADS131M02 ADC and AD5761R DAC on embedded-hal 1.0;
 //! * [`excitation`] — square wave (the paper's, Section IV.A), multisine,
 //!   PRBS and chirp for the piezo, inside a safe voltage window;
+//! * [`guard`] — the sensor guard: float-level checks of each sample
+//!   (non-finite, saturated, stuck, open bridge) and the removal of offset
+//!   steps and drift, before any estimator;
 //! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,
 //!   estimator step, telemetry records for the low-priority task;
+//! * [`supervise`] — the estimator's supervisor: excitation monitor
+//!   (Lemma 1 and an "input gone" detector) with anti-windup, and
+//!   detected-change tracking;
 //! * [`tuning`] — truth-free settings: signal scales from a start-up
 //!   window, the filter pole λ from the user's band or the data, re-centred
 //!   on the estimated band;
@@ -97,6 +103,7 @@ pub mod drivers;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;
+pub mod guard;
 pub(crate) mod linalg;
 pub mod link;
 pub mod modal;
@@ -106,6 +113,7 @@ pub mod poly;
 pub mod protocol;
 pub mod rig;
 pub mod scalar;
+pub mod supervise;
 pub mod tuning;
 
 /// The plant simulator's former path; it lives in [`rig::plant`] now.
@@ -138,6 +146,12 @@ fn defmt_formats() {
     is_format::<poly::PolyError>();
     is_format::<poly::Complex<f32>>();
     is_format::<rig::PlantError>();
+    is_format::<supervise::SupervisorConfig>();
+    is_format::<guard::SampleFault>();
+    is_format::<guard::GuardConfig>();
+    is_format::<guard::GuardCounts>();
+    is_format::<supervise::ExcitationReason>();
+    is_format::<supervise::Supervision<f32>>();
     is_format::<rig::NoiseError>();
     is_format::<rig::Sample<f32>>();
     is_format::<excitation::ExcitationError>();

@@ -85,9 +85,26 @@ pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
 /// [`LinalgError::NotPositiveDefinite`] if S has no positive diagonal or
 /// contains non-finite values (or the solution does not come out finite),
 /// or if `NS ≠ N(N+1)/2`.
+#[cfg_attr(not(test), allow(dead_code))]
 pub fn ldlt_solve_packed_floored<T: Real, const N: usize, const NS: usize>(
     s: &mut [T; NS],
     b: &[T; N],
+) -> Result<[T; N], LinalgError> {
+    let mut inv_d = [T::ZERO; N];
+    ldlt_solve_packed_floored_keep(s, b, &mut inv_d)
+}
+
+/// [`ldlt_solve_packed_floored`] that also returns the inverse pivots
+/// 1/d_j in `inv_d`, so that more right-hand sides can be solved with the
+/// same factors ([`ldlt_substitute_packed`]).
+///
+/// # Errors
+/// As [`ldlt_solve_packed_floored`].
+#[inline(always)]
+pub fn ldlt_solve_packed_floored_keep<T: Real, const N: usize, const NS: usize>(
+    s: &mut [T; NS],
+    b: &[T; N],
+    inv_d: &mut [T; N],
 ) -> Result<[T; N], LinalgError> {
     if NS != N * (N + 1) / 2 {
         return Err(LinalgError::NotPositiveDefinite);
@@ -104,7 +121,6 @@ pub fn ldlt_solve_packed_floored<T: Real, const N: usize, const NS: usize>(
     if !(floor > T::ZERO) || !floor.is_finite() {
         return Err(LinalgError::NotPositiveDefinite);
     }
-    let mut inv_d = [T::ZERO; N];
     let mut rest: &mut [T] = s;
     for (j, inv_j) in inv_d.iter_mut().enumerate() {
         let Some((row_j, below)) = core::mem::take(&mut rest).split_at_mut_checked(N - j) else {
@@ -157,7 +173,23 @@ pub fn ldlt_solve_packed_floored<T: Real, const N: usize, const NS: usize>(
         }
         rest = below;
     }
-    // L·z = b (unit lower, column by column), z ← D⁻¹z, Lᵀ·x = z.
+    let x = ldlt_substitute_packed(s, inv_d, b);
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(x)
+    } else {
+        Err(LinalgError::NotPositiveDefinite)
+    }
+}
+
+/// Solve S·x = b with the factors [`ldlt_solve_packed_floored_keep`] left
+/// in `s` and `inv_d`: L·z = b (unit lower, column by column), z ← D⁻¹z,
+/// Lᵀ·x = z. O(N²); the result may be non-finite if the factors are.
+#[inline(always)]
+pub fn ldlt_substitute_packed<T: Real, const N: usize, const NS: usize>(
+    s: &[T; NS],
+    inv_d: &[T; N],
+    b: &[T; N],
+) -> [T; N] {
     let mut x = *b;
     let mut rest: &[T] = s;
     for j in 0..N {
@@ -191,11 +223,7 @@ pub fn ldlt_solve_packed_floored<T: Real, const N: usize, const NS: usize>(
         }
         end = start;
     }
-    if x.iter().all(|v| v.is_finite()) {
-        Ok(x)
-    } else {
-        Err(LinalgError::NotPositiveDefinite)
-    }
+    x
 }
 
 /// Solve S·x = b for symmetric S by a root-free LDLᵀ factorization in which

@@ -31,6 +31,7 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterBank, FilterConfig};
 use beamest::modal::modal_from_tf;
 use beamest::model::TransferFunction;
+use beamest::supervise::SupervisorConfig;
 use beamest::Real;
 use criterion::measurement::WallTime;
 use criterion::Throughput;
@@ -201,6 +202,15 @@ fn step_all_laws<T: Real, const D: usize, const NP: usize, const NS: usize>(
     };
     let est = AdaptiveEstimator::<T, D, NP, NS>::new(f, &adaptive).expect("config");
     bench_step(group, "adaptive", modes, est, &work);
+    // The same law without its supervisor (excitation monitor, in-loop
+    // Lemma 1, change test): the supervisor's per-sample cost is the
+    // difference.
+    let unsupervised = AdaptiveConfig::<NP> {
+        supervision: SupervisorConfig::OFF,
+        ..adaptive
+    };
+    let est = AdaptiveEstimator::<T, D, NP, NS>::new(f, &unsupervised).expect("config");
+    bench_step(group, "adaptive_nosup", modes, est, &work);
     let est = AdaptiveEstimator::<T, D, NP, NS>::new(f, &adaptive_k1).expect("config");
     bench_step(group, "adaptive_k1", modes, est, &work);
     let est = GradientEstimator::<T, D, NP>::new(f, &GradientConfig::default()).expect("config");

@@ -107,7 +107,16 @@ fn run<T: Real>(mode: &str) {
         },
         ..FilterConfig::default()
     };
-    let mut est = Adaptive2::<T>::new(&filter, &AdaptiveConfig::default()).expect("estimator");
+    // `bare_nosup`: the same law without its supervisor (issue 9).
+    let law = if mode == "bare_nosup" {
+        AdaptiveConfig {
+            supervision: beamest::supervise::SupervisorConfig::OFF,
+            ..AdaptiveConfig::default()
+        }
+    } else {
+        AdaptiveConfig::default()
+    };
+    let mut est = Adaptive2::<T>::new(&filter, &law).expect("estimator");
     for &(u, y) in &pairs[..WARMUP] {
         est.step(u, y);
     }
@@ -216,7 +225,7 @@ fn run<T: Real>(mode: &str) {
         .collect();
     match mode {
         "none" => {}
-        "bare" => {
+        "bare" | "bare_nosup" => {
             for &(u, y) in &pairs[WARMUP..] {
                 black_box(est.step(black_box(u), black_box(y)));
             }

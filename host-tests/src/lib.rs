@@ -12,6 +12,7 @@
 pub mod naive;
 pub mod noise_study;
 pub mod scenario;
+pub mod scenario_run;
 pub mod sim_rig;
 
 pub use beamctl::runner;

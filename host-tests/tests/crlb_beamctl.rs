@@ -42,9 +42,10 @@ fn beamctl_bound_and_data_are_the_examples() {
     // sample.
     let y = rec.noisy_y(Some(40.0), 3);
     let mut r = rig(&cfg).unwrap();
-    for (k, (&u, &yk)) in rec.u.iter().zip(&y).take(20_000).enumerate() {
+    assert!(rec.u.len() >= 20_000 && y.len() >= 20_000);
+    for (k, (u, yk)) in rec.u.iter().zip(&y).take(20_000).enumerate() {
         let s = r.tick();
-        assert_eq!((s.u, s.y), (u, yk), "sample {k}");
+        assert_eq!((s.u, s.y), (*u, *yk), "sample {k}");
     }
 }
 

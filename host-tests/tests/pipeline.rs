@@ -404,7 +404,11 @@ fn injected_converter_faults_are_counted_and_kept_out() {
     let out = run_pipeline::<f64>(&s, y0, SECONDS);
     let c = out.counters;
     assert_eq!((c.adc_crc, c.adc_status, c.adc_bus), (10, 3, 1));
-    assert_eq!(c.bridge_saturated, 50);
+    // The injected full-scale codes jump there from mid-range and stay on
+    // one rail: the guard counts them as an open bridge (it cannot tell an
+    // overload that never leaves one rail from an open gauge; both are
+    // rejected, `beamest::guard`).
+    assert_eq!((c.bridge_saturated, c.open), (0, 50));
     // 200 repeats of the code of tick at+29999: the whole run of 201.
     assert_eq!(c.stuck, 201);
     assert_eq!(c.rejected, 14 + 50 + 201);
@@ -436,7 +440,8 @@ fn records_recover_the_modes_in_the_low_priority_task() {
         std::mem::size_of::<TelemetryRecord<f64, 7, 28>>(),
         std::mem::size_of::<beamest::pipeline::RawBlock<f32>>()
     );
-    assert_eq!(std::mem::size_of::<TelemetryRecord<f32, 7, 28>>(), 240);
+    // 248 since issue 9 (the open, offset-step and drift counters).
+    assert_eq!(std::mem::size_of::<TelemetryRecord<f32, 7, 28>>(), 248);
 }
 
 /// Scripted converters for the property test.
@@ -558,4 +563,81 @@ proptest! {
         prop_assert!(p.estimator().health().rejected >= nan_fed);
         prop_assert!(p.estimator().theta().iter().all(|v| v.is_finite()));
     }
+}
+
+/// Issue 9: the supervisor's state reaches the telemetry records. The drive
+/// is set to 0 V from 2 s to 3 s: the records read SUPERVISED and excited
+/// before, NOT_EXCITED and INPUT_GONE while it is off (adaptation frozen:
+/// Θ̂ unchanged), and excited again after; no change is detected.
+#[test]
+fn records_carry_the_supervisors_excitation_state() {
+    use beamest::pipeline::StatusFlags as PF;
+    let y0 = y0();
+    let mut rig = SimRig::new(plant(), conversion(), 1.0);
+    rig.faults = BTreeMap::new();
+    let rig = rig.shared();
+    let adc = SimAdc(rig.clone());
+    let dac = SimDac {
+        rig: rig.clone(),
+        resolution: None,
+        next_tick: false,
+    };
+    let window = SafeWindow {
+        min_v: -10.0,
+        max_v: 10.0,
+    };
+    let exc = Excitation::new(&Shape::Square { frequency_hz: 7.0 }, U0, 0.0, window, FS).unwrap();
+    let cfg = PipelineConfig {
+        conversion: conversion(),
+        input: InputSource::Commanded,
+        amplifier_gain: 1.0,
+        dac_latch: DacLatch::Immediate,
+        prefilter: None,
+        telemetry_every: 100,
+        raw_decimation: 0,
+        stuck_after: 25,
+        lambda_rad_s: LAMBDA,
+    };
+    let mut q: Queue<TelemetryRecord<f64, 7, 28>, 8> = Queue::new();
+    let (prod, mut cons) = q.split();
+    let mut p = Pipeline::new(&cfg, estimator::<f64>(y0), exc, adc, dac, prod, NoSink).unwrap();
+    let mut flags: Vec<(u64, u16, [f64; 7])> = Vec::new();
+    for k in 0..40_000u64 {
+        if k == 20_000 {
+            p.excitation_mut().set_amplitude(0.0).unwrap();
+        }
+        if k == 30_000 {
+            p.excitation_mut().set_amplitude(U0).unwrap();
+        }
+        rig.borrow_mut().latch();
+        p.tick();
+        rig.borrow_mut().advance();
+        while let Some(r) = cons.dequeue() {
+            flags.push((r.sample_index, r.flags.0, r.theta));
+        }
+    }
+    let at = |k: u64| flags.iter().find(|f| f.0 >= k).copied().expect("a record");
+    let has = |f: u16, bit: u16| f & bit == bit;
+    let before = at(19_000);
+    assert!(
+        has(before.1, PF::SUPERVISED) && !has(before.1, PF::NOT_EXCITED),
+        "{:#x}",
+        before.1
+    );
+    for k in [20_600, 25_000, 29_900] {
+        let r = at(k);
+        assert!(
+            has(r.1, PF::NOT_EXCITED | PF::INPUT_GONE),
+            "{k}: {:#x}",
+            r.1
+        );
+        assert_eq!(r.2, at(20_600).2, "Θ̂ moved while the input was gone");
+    }
+    let after = at(31_000);
+    assert!(
+        !has(after.1, PF::NOT_EXCITED) && !has(after.1, PF::INPUT_GONE),
+        "{:#x}",
+        after.1
+    );
+    assert!(flags.iter().all(|f| !has(f.1, PF::CHANGE_DETECTED)));
 }

@@ -136,8 +136,9 @@ fn two_mode_f32_adaptive_state_size_is_pinned() {
     // Issue 3's memory target for Cortex-M4F class MCUs was 1 KiB for the
     // whole estimator (filter bank, law, screening): met at 1,016 B until
     // the filter bank gained the converters' timing on u (five u gain
-    // vectors and a nine-sample u history: +96 B, BENCHMARKS.md "Memory").
-    // Pinned here so that any further growth is a decision.
+    // vectors and a nine-sample u history: +96 B, BENCHMARKS.md "Memory"),
+    // then the issue-9 supervisor (input monitor, change test, Lemma 1
+    // probe: +192 B). Pinned here so that any further growth is a decision.
     let bytes = std::mem::size_of::<beamest::estimator::Adaptive2<f32>>();
-    assert!(bytes <= 1112, "Adaptive2<f32> is {bytes} B");
+    assert!(bytes <= 1304, "Adaptive2<f32> is {bytes} B");
 }

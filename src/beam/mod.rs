@@ -41,7 +41,7 @@ pub mod strain;
 
 pub use error::{BeamError, BeamParam};
 pub use galerkin::GalerkinMatrices;
-pub use modal::{BeamModal, BeamStateSpace};
+pub use modal::{BeamModal, BeamStateSpace, ModeModel};
 pub use params::{rectangular_thickness_m, BeamOutput, BeamParams};
 pub use shape::{frequency_root, ModeShape};
 pub use strain::{deflection_from_strain, strain_from_deflection};

@@ -153,6 +153,68 @@ impl BeamModal {
     }
 }
 
+/// One mode of any order of the beam as a diagonal modal model (eq. 21–24):
+/// the diagonal Galerkin entries of eq. 54–57 for that mode alone (the
+/// matrices are diagonal, test `galerkin_matrices_are_diagonal`), so modes
+/// beyond [`MAX_MODES`] — the 4th, which a 3-mode [`BeamModal`] cannot hold —
+/// come out as [`BeamModal`] would give them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeModel {
+    /// Mode number (1-based).
+    pub mode_number: usize,
+    /// ω_i = √(k_ii/m_ii) (rad/s).
+    pub omega_rad_s: f64,
+    /// ζ_i = c_ii/(2 m_ii ω_i).
+    pub zeta: f64,
+    /// b̄_i = z_i/m_ii (1/(V·s²), per metre of patch width as eq. 8 is
+    /// written; see [`galerkin`](super::galerkin)).
+    pub bbar: f64,
+    /// Output weight c_i.
+    pub output_weight: f64,
+}
+
+impl BeamParams {
+    /// The diagonal modal model of mode `mode_number` (1-based, any order).
+    ///
+    /// # Errors
+    /// [`BeamError`] for invalid beam data or mode number, or a non-finite
+    /// result.
+    pub fn mode_model(&self, mode_number: usize) -> Result<ModeModel, BeamError> {
+        self.validate()?;
+        let shape = ModeShape::new(mode_number, self.length_m)?;
+        let l = self.length_m;
+        let overlap = super::galerkin::integrate(l, |x| shape.value(x) * shape.value(x));
+        let fourth = super::galerkin::integrate(l, |x| shape.derivative(4, x) * shape.value(x));
+        let mass = self.density_kg_m3 * self.area_m2 * overlap;
+        let stiffness = self.youngs_modulus_pa * self.inertia_m4 * fourth;
+        let damping = self.damping_pa_s * self.inertia_m4 * fourth;
+        let z = self.moment_arm_m
+            * self.piezo_d31_m_v
+            * self.piezo_modulus_pa
+            * (shape.derivative(1, self.actuator_start_m)
+                - shape.derivative(1, self.actuator_end_m));
+        if !(is_positive_finite(mass) && is_positive_finite(stiffness)) {
+            return Err(BeamError::NonFinite);
+        }
+        let omega = libm::sqrt(stiffness / mass);
+        let m = ModeModel {
+            mode_number,
+            omega_rad_s: omega,
+            zeta: damping / (2.0 * mass * omega),
+            bbar: z / mass,
+            output_weight: self.output_weight(&shape),
+        };
+        if [m.zeta, m.bbar, m.output_weight]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            Ok(m)
+        } else {
+            Err(BeamError::NonFinite)
+        }
+    }
+}
+
 #[cfg(test)]
 // The tests walk several per-mode arrays in step; an index reads best there.
 #[allow(clippy::needless_range_loop)]
@@ -165,6 +227,30 @@ mod tests {
     use crate::scalar::isclose;
 
     const BETA_L_REF: [f64; 3] = [1.875_104_068_7, 4.694_091_133_0, 7.854_757_438_2];
+
+    #[test]
+    fn single_mode_model_matches_the_modal_model() {
+        let p = BeamParams::paper();
+        let all = p.modal(3).unwrap();
+        for i in 0..3 {
+            let m = p.mode_model(i + 1).unwrap();
+            assert!(isclose(m.omega_rad_s, all.omega_rad_s[i], 1e-14, 0.0));
+            assert!(isclose(m.zeta, all.zeta[i], 1e-14, 0.0));
+            assert!(isclose(m.bbar, all.bbar[i], 1e-14, 0.0));
+            assert_eq!(m.output_weight, all.output_weight[i]);
+        }
+        // Mode 4: ω ∝ (β_iL)², Kelvin–Voigt ζ ∝ ω, W_4(L) = +2.
+        let m4 = p.mode_model(4).unwrap();
+        let ratio = (m4.omega_rad_s / all.omega_rad_s[0]) / (m4.zeta / all.zeta[0]);
+        assert!(isclose(ratio, 1.0, 1e-9, 0.0));
+        assert!(
+            isclose(m4.omega_rad_s, 1346.56, 1e-4, 0.0),
+            "{}",
+            m4.omega_rad_s
+        );
+        assert!(isclose(m4.output_weight, 2.0, 1e-9, 0.0));
+        assert!(p.mode_model(0).is_err());
+    }
 
     #[test]
     fn paper_natural_frequencies() {

@@ -70,8 +70,12 @@
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::compensated::{add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor};
 use crate::filter_bank::{Regressor, Scaling};
-use crate::linalg::{all_finite, ldlt_solve_packed_floored};
+use crate::linalg::{all_finite, ldlt_solve_packed_floored_keep};
 use crate::scalar::Real;
+use crate::supervise::SupervisorConfig;
+
+mod lemma1;
+pub use lemma1::LEMMA1_EVERY;
 
 /// With `T::COMPENSATED`, the trailing words of P̃ and Q̃ are renormalized
 /// every this many samples (they are accumulated lazily, see
@@ -97,6 +101,9 @@ pub struct AdaptiveConfig<const NP: usize> {
     /// Apply the θ step (eq. 41) every this many samples, with step K·Ts.
     /// P, Q and R are always updated every sample. 1 = every sample.
     pub theta_update_every: u32,
+    /// Excitation monitor, anti-windup and detected-change tracking
+    /// ([`crate::supervise`]); on by default, off for the paper's presets.
+    pub supervision: SupervisorConfig,
 }
 
 impl<const NP: usize> Default for AdaptiveConfig<NP> {
@@ -112,6 +119,7 @@ impl<const NP: usize> Default for AdaptiveConfig<NP> {
             r0_diag: [1e-9; NP],
             theta0: [0.0; NP],
             theta_update_every: 10,
+            supervision: SupervisorConfig::default(),
         }
     }
 }
@@ -120,7 +128,8 @@ impl<const NP: usize> AdaptiveConfig<NP> {
     /// The paper's simulation gains (Section IV.A), given in physical units
     /// and mapped exactly to scaled coordinates: Γ = 80, l = 0.01, γ = 0.1,
     /// H(0) = `h0_physical` (for two modes, 1e22·diag(1, 1, 10, 10, 10, 10, 10)).
-    /// R_s(0) = E·H(0)⁻¹·E with E from [`Scaling`].
+    /// R_s(0) = E·H(0)⁻¹·E with E from [`Scaling`]. The paper's law as
+    /// published: no supervision ([`SupervisorConfig::OFF`]).
     pub fn paper(scaling: &Scaling<NP>, h0_physical: &[f64; NP]) -> Self {
         let r0_diag = scaling.gain_to_scaled(h0_physical).map(|h| 1.0 / h);
         Self {
@@ -130,6 +139,7 @@ impl<const NP: usize> AdaptiveConfig<NP> {
             r0_diag,
             theta0: [0.0; NP],
             theta_update_every: 1,
+            supervision: SupervisorConfig::OFF,
         }
     }
 
@@ -207,6 +217,17 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     /// `f32` in the strong directions would otherwise drive a 1e-2 error
     /// along the weak one.
     theta: CompensatedArray<T, NP>,
+    /// P, Q (and R) decay with l (γ); false while the supervisor suspends
+    /// forgetting (Lemma 1 failed after having passed: the directions the
+    /// input no longer excites keep what they know instead of decaying).
+    forgetting: bool,
+    /// Inverse-iteration vector for λmin(P) (Lemma 1 in the loop): one
+    /// more solve with the θ step's factors per θ step.
+    probe: [T; NP],
+    /// λmin(P)/tr(P) from the last θ step (`None`: not known yet).
+    lemma1_ratio: Option<T>,
+    /// θ steps since the last inverse-iteration step.
+    lemma1_phase: u32,
 }
 
 /// Expand a packed upper triangle into a full symmetric matrix, times `k`.
@@ -392,9 +413,18 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         for (r, wi) in rhs.iter_mut().zip(w.iter()) {
             *r = -self.step_gain * *wi;
         }
-        let delta = ldlt_solve_packed_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
+        let mut inv_d = [T::ZERO; NP];
+        let delta = ldlt_solve_packed_floored_keep(&mut s, &rhs, &mut inv_d)
+            .map_err(|_| LawError::Singular)?;
         if !all_finite(&delta) {
             return Err(LawError::NonFinite);
+        }
+        // Lemma 1 every LEMMA1_EVERY θ steps (100 Hz at the defaults: the
+        // information matrix moves on the forgetting time scale, 1/l).
+        self.lemma1_phase += 1;
+        if self.lemma1_phase >= LEMMA1_EVERY {
+            self.lemma1_phase = 0;
+            self.lemma1_iteration(&s, &inv_d);
         }
         let mut next = self.theta;
         for (i, d) in delta.iter().enumerate() {
@@ -405,6 +435,14 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         }
         self.theta = next;
         Ok(())
+    }
+
+    /// Set θ̂_s (e.g. an estimate carried over), keeping P, Q and R.
+    pub(crate) fn set_theta_scaled(&mut self, theta: &[T; NP]) {
+        self.theta = CompensatedArray::default();
+        for (i, t) in theta.iter().enumerate() {
+            self.theta.set(i, *t);
+        }
     }
 
     /// W = Pθ − Q (eq. 35), scaled.
@@ -451,6 +489,10 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             tied: cfg.forgetting_h == cfg.forgetting_p,
             r0_weight: T::ONE,
             theta: CompensatedArray::default(),
+            forgetting: true,
+            probe: [T::ZERO; NP],
+            lemma1_ratio: None,
+            lemma1_phase: 0,
         };
         law.reset();
         Ok(law)
@@ -460,7 +502,13 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
     fn update(&mut self, reg: &Regressor<T, NP>) -> Result<(), LawError> {
         let phi = &reg.phi;
         // P and Q share the decay l, hence one lazy scale; R has its own.
-        let (inv_p, halved) = self.p.tick();
+        // With forgetting suspended nothing decays: the increment carries
+        // the current weight.
+        let (inv_p, halved) = if self.forgetting {
+            self.p.tick()
+        } else {
+            (T::ONE / self.p.scale, false)
+        };
         if halved {
             self.q.halve();
             self.r0_weight *= T::from_f64(0.5);
@@ -481,7 +529,12 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         }
         if !self.tied {
             // R only sets the speed: working-precision increments suffice.
-            let wr = self.ts * self.r.tick().0;
+            let inv_r = if self.forgetting {
+                self.r.tick().0
+            } else {
+                T::ONE / self.r.scale
+            };
+            let wr = self.ts * inv_r;
             let mut idx = 0;
             for i in 0..NP {
                 let ri = wr * phi[i];
@@ -511,6 +564,10 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         self.theta.values()
     }
 
+    fn supervision_config(cfg: &Self::Config) -> SupervisorConfig {
+        cfg.supervision
+    }
+
     fn reset(&mut self) {
         self.p = DecayingSum::new(self.p.decay);
         self.q = CompensatedArray::default();
@@ -527,10 +584,45 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         }
         self.pending = 0;
         self.unnormalized = 0;
+        self.forgetting = true;
+        self.probe = [T::ONE; NP];
+        self.lemma1_ratio = None;
+        self.lemma1_phase = 0;
     }
 
     fn information(&self) -> Option<[[T; NP]; NP]> {
         Some(self.p())
+    }
+
+    /// e = y/Y0 − θ̂ᵀφ with the leading words of θ̂ (a detector's input,
+    /// not the fixed point's).
+    #[inline]
+    fn prediction_error(&self, reg: &Regressor<T, NP>) -> T {
+        let mut e = reg.y;
+        for (t, p) in self.theta.hi.iter().zip(reg.phi.iter()) {
+            e -= *t * *p;
+        }
+        e
+    }
+
+    /// P, Q and R × `factor` (a power of two: exact, so the old data's
+    /// fixed point and R's definiteness are kept).
+    fn discount(&mut self, factor: T) {
+        self.p.sum.scale_by(factor);
+        self.q.scale_by(factor);
+        self.r.sum.scale_by(factor);
+        // Tied: R = P̃ + w·R(0) is formed from P̃ and w; untied: R̃.
+        self.r0_weight *= factor;
+    }
+
+    fn set_forgetting(&mut self, on: bool) {
+        self.forgetting = on;
+    }
+
+    const MEASURES_LEMMA1: bool = true;
+
+    fn lemma1(&self) -> Option<T> {
+        self.lemma1_ratio()
     }
 
     /// Every stored word finite, diagonals of P non-negative and of R
@@ -582,8 +674,13 @@ mod tests {
     #[test]
     fn tied_forgetting_matches_separately_accumulated_r() {
         // γ = l takes the shortcut R = e^{−lt}R(0) + P; a γ one part in
-        // 1e12 away accumulates R separately. Both must agree.
-        let tied = AdaptiveConfig::<7>::default();
+        // 1e12 away accumulates R separately. Both must agree. (Without
+        // the supervisor, whose in-loop Lemma 1 reads each form's own step
+        // matrix.)
+        let tied = AdaptiveConfig::<7> {
+            supervision: SupervisorConfig::OFF,
+            ..AdaptiveConfig::default()
+        };
         let untied = AdaptiveConfig {
             forgetting_h: tied.forgetting_p * (1.0 + 1e-12),
             ..tied

@@ -41,17 +41,20 @@ pub mod gradient;
 pub mod least_squares;
 pub mod robust;
 mod screen;
+mod supervised;
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
 use crate::modal::excitation_min_eig;
 use crate::model::TransferFunction;
 use crate::scalar::Real;
+use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use gradient::{GradientConfig, GradientLaw};
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
 use screen::{InputScreen, Screened};
+pub use supervised::SUPERVISE_EVERY;
 
 /// A sample more than this many signal scales away from zero is rejected.
 pub const INPUT_LIMIT: f64 = 1e6;
@@ -173,6 +176,35 @@ pub trait UpdateLaw<T: Real, const NP: usize>: Sized {
     fn is_healthy(&self) -> bool {
         self.theta_scaled().iter().all(|t| t.is_finite())
     }
+    /// The supervisor settings in `cfg` ([`crate::supervise`]); laws
+    /// without them are not supervised.
+    fn supervision_config(_cfg: &Self::Config) -> SupervisorConfig {
+        SupervisorConfig::OFF
+    }
+    /// The a-priori prediction error y/Y0 − θ̂ᵀφ of a regressor (before
+    /// [`UpdateLaw::update`] takes it): the change detector's input.
+    #[inline]
+    fn prediction_error(&self, reg: &Regressor<T, NP>) -> T {
+        let th = self.theta_scaled();
+        let mut e = reg.y;
+        for (t, p) in th.iter().zip(reg.phi.iter()) {
+            e -= *t * *p;
+        }
+        e
+    }
+    /// Multiply the information gathered so far by `factor` (< 1: a
+    /// detected change; θ̂ is kept). Laws that keep none ignore it.
+    fn discount(&mut self, _factor: T) {}
+    /// Suspend (false) or resume forgetting; laws that do not forget
+    /// ignore it.
+    fn set_forgetting(&mut self, _on: bool) {}
+    /// Whether [`UpdateLaw::lemma1`] measures anything.
+    const MEASURES_LEMMA1: bool = false;
+    /// λmin(P)/tr(P) as the law tracks it in the loop (Lemma 1), if it does
+    /// (`None` also before its first measurement).
+    fn lemma1(&self) -> Option<T> {
+        None
+    }
 }
 
 /// The common interface of every estimator: feed samples, read Θ.
@@ -211,6 +243,12 @@ pub trait Estimator<T: Real, const NP: usize> {
     /// ([`QUARANTINE_TIME_CONSTANTS`] filter time constants). The length to
     /// [`Estimator::hold`] for after a start, a resume or an overrun.
     fn settling_samples(&self) -> u32;
+    /// The supervisor's state ([`crate::supervise`]: excitation and its
+    /// reason, anti-windup, detected changes); `None` for an unsupervised
+    /// estimator. Cheap: call at the telemetry rate.
+    fn supervision(&self) -> Option<Supervision<T>> {
+        None
+    }
     /// Hold the law for the filters' settling time
     /// ([`Estimator::settling_samples`], without counting a rejection): for
     /// an estimator that joins a signal already in motion, whose filters
@@ -252,6 +290,9 @@ impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> fo
     fn settling_samples(&self) -> u32 {
         (**self).settling_samples()
     }
+    fn supervision(&self) -> Option<Supervision<T>> {
+        (**self).supervision()
+    }
 }
 
 /// A filter bank and an update law: a complete estimator.
@@ -267,11 +308,21 @@ pub struct Identifier<T, L, const D: usize, const NP: usize> {
     screen: InputScreen<T>,
     samples: u64,
     skipped: u32,
+    /// 1/U0, for the supervisor's input monitor.
+    inv_u_scale: T,
+    supervisor: Supervisor<T>,
+    supervised: bool,
+    /// A change was detected: discount the old data when the hold ends.
+    pending_discount: bool,
+    /// Samples since the change test last ran.
+    supervise_phase: u32,
 }
 
 impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T, L, D, NP> {
-    /// Build from a filter configuration and a law configuration.
+    /// Build from a filter configuration and a law configuration (which
+    /// carries the supervisor's settings, [`UpdateLaw::supervision_config`]).
     pub fn new(filter: &FilterConfig, law: &L::Config) -> Result<Self, ConfigError> {
+        let sup = L::supervision_config(law);
         let bank = FilterBank::new(filter)?;
         let law = L::new(law, filter.ts_s)?;
         Ok(Self {
@@ -282,6 +333,16 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
             screen: InputScreen::new(filter),
             samples: 0,
             skipped: 0,
+            inv_u_scale: T::from_f64(1.0 / filter.scales.u_scale),
+            supervisor: if L::MEASURES_LEMMA1 {
+                Supervisor::new(&sup, filter.ts_s).with_lemma1()
+            } else {
+                Supervisor::new(&sup, filter.ts_s)
+            }
+            .with_residual_every(SUPERVISE_EVERY, filter.ts_s),
+            supervised: sup != SupervisorConfig::OFF,
+            pending_discount: false,
+            supervise_phase: 0,
         })
     }
 
@@ -308,18 +369,12 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     fn step(&mut self, u: T, y: T) -> StepStatus {
         self.samples = self.samples.wrapping_add(1);
         match self.screen.screen(u, y) {
-            Screened::Good(u, y) => {
-                let reg = self.bank.push(u, y);
-                match self.law.update(&reg) {
-                    Ok(()) => StepStatus::Updated,
-                    Err(_) => {
-                        self.skipped = self.skipped.saturating_add(1);
-                        StepStatus::Skipped
-                    }
-                }
-            }
+            Screened::Good(u, y) => self.learn(u, y),
             Screened::Quarantined(u, y) => {
                 self.bank.push(u, y);
+                if self.supervised {
+                    self.supervisor.admit(u * self.inv_u_scale);
+                }
                 StepStatus::Frozen
             }
             Screened::Rejected(u, y) => {
@@ -351,6 +406,9 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.bank.reset();
         self.law.reset();
         self.screen.reset();
+        self.supervisor.reset();
+        self.pending_discount = false;
+        self.supervise_phase = 0;
         self.samples = 0;
         self.skipped = 0;
     }
@@ -363,12 +421,19 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
         self.law.information()
     }
 
+    /// Also restarts the change test's learning
+    /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
         self.screen.hold(samples);
+        self.supervisor.restart_change();
     }
 
     fn settling_samples(&self) -> u32 {
         self.screen.quarantine_len()
+    }
+
+    fn supervision(&self) -> Option<Supervision<T>> {
+        self.supervised.then(|| self.supervisor.status())
     }
 
     fn health(&self) -> Health {

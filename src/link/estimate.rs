@@ -5,12 +5,15 @@
 //! # Flags (pipeline → protocol, `docs/PROTOCOL.md` §4.1)
 //! | protocol bit | set when |
 //! |---|---|
-//! | EXCITED | λmin(P) of the record > [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1) |
+//! | EXCITED | a supervised estimator's own decision (the record's `SUPERVISED` without `NOT_EXCITED`: input present and Lemma 1 in the loop, [`crate::supervise`]); otherwise λmin(P) of the record ≥ [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1, the same test [`crate::supervise::lemma1_excited`]) |
 //! | FROZEN_BY_COMMAND | the record's `FROZEN` (adaptation frozen by command) |
-//! | FROZEN_AUTO | the record's `QUARANTINE` (the law was held: quarantine after a rejected sample, or a deliberate hold after an overrun, a resume or a new estimator) |
+//! | FROZEN_AUTO | the record's `QUARANTINE` (the law was held: quarantine after a rejected sample, a deliberate hold after an overrun, a resume, a new estimator or a detected change, or the input gone) |
+//! | INPUT_GONE | the record's `INPUT_GONE` (adaptation frozen: the excitation stopped) |
+//! | CHANGE_DETECTED | the record's `CHANGE_DETECTED` (the plant changed; the estimator discounted its past) |
+//! | SENSOR_LEVEL | the record's `SENSOR_LEVEL` (an offset step of y removed, or a drift flagged) |
 //! | CONVERGED | [`Convergence`]: every ω̂, ζ̂ within [`FlagRules::converged_rel_tol`] of its value at the start of a window of [`FlagRules::converged_window_samples`] |
 //! | PHYSICALLY_VALID | modes recovered, as many as the model has, ω > 0, 0 < ζ < 1, ω strictly ascending, all finite |
-//! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions |
+//! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions, an open bridge |
 //! | ADC_SATURATED | since the previous record: a bridge or monitor conversion at full scale |
 //! | DAC_SATURATED | since the previous record: a DAC write limited at a rail or failed, or an excitation sample clamped at the safe window |
 //! | TELEMETRY_DROPPED | since the previous estimate: a record or raw block dropped on a full queue, or a frame dropped on a full TX ring |
@@ -30,9 +33,11 @@ use crate::scalar::Real;
 /// The firmware's rules for the flags that need a threshold.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlagRules {
-    /// EXCITED when λmin(P) (scaled coordinates, Lemma 1) exceeds this
-    /// fraction of tr(P): the threshold moves with P's size, which grows
-    /// with time and with 1/l, and so does the rounding noise on λmin.
+    /// For an estimator without supervision: EXCITED when λmin(P)
+    /// (scaled coordinates, Lemma 1) reaches this fraction of tr(P) (the
+    /// threshold moves with P's size, which grows with time and with 1/l,
+    /// and so does the rounding noise on λmin). Default: the core's
+    /// [`crate::supervise::EXCITATION_REL_THRESHOLD`], the supervisor's.
     pub excitation_rel_threshold: f32,
     /// CONVERGED tolerance: relative change of every ω̂ and ζ̂.
     pub converged_rel_tol: f32,
@@ -58,7 +63,7 @@ impl Default for FlagRules {
     /// not: in `f32` its λmin is below the rounding noise anyway.
     fn default() -> Self {
         Self {
-            excitation_rel_threshold: 1e-7,
+            excitation_rel_threshold: crate::supervise::EXCITATION_REL_THRESHOLD as f32,
             converged_rel_tol: 1e-4,
             converged_window_samples: 5_000,
         }
@@ -110,33 +115,27 @@ impl Convergence {
 }
 
 /// Modes that are physical: as many as the model has, every value finite,
-/// ω > 0, 0 < ζ < 1, ω strictly ascending (distinct modes).
+/// ω > 0, 0 < ζ < 1, ω strictly ascending (distinct modes) — the core's
+/// [`crate::modal::Validity`] test.
 pub fn physically_valid(m: &ModalParams<f32>, model_modes: usize) -> bool {
-    if m.modes != model_modes || m.modes == 0 {
-        return false;
-    }
-    let n = m.modes.min(MAX_MODES);
-    let mut prev = 0.0f32;
-    for i in 0..n {
-        let (Some(&w), Some(&z), Some(&b)) = (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
-        else {
-            return false;
-        };
-        if !(w.is_finite() && z.is_finite() && b.is_finite() && w > prev && z > 0.0 && z < 1.0) {
-            return false;
-        }
-        prev = w;
-    }
-    true
+    crate::modal::Validity::of(m, model_modes).is_valid()
 }
 
 fn sum(values: &[u32]) -> u32 {
     values.iter().fold(0u32, |a, &v| a.saturating_add(v))
 }
 
-/// Sensor faults (ADC errors of every kind, stale and stuck conversions).
+/// Sensor faults (ADC errors of every kind, stale and stuck conversions,
+/// an open bridge).
 fn sensor_faults(c: &Counters) -> u32 {
-    sum(&[c.adc_crc, c.adc_status, c.adc_bus, c.adc_other, c.stuck])
+    sum(&[
+        c.adc_crc,
+        c.adc_status,
+        c.adc_bus,
+        c.adc_other,
+        c.stuck,
+        c.open,
+    ])
 }
 
 /// Saturated conversions, bridge and monitor.
@@ -173,7 +172,7 @@ pub fn device_counters(
         overruns: c.overruns,
         adc_crc_errors: c.adc_crc,
         adc_status_errors: sum(&[c.adc_status, c.adc_bus, c.adc_other]),
-        adc_stuck: c.stuck,
+        adc_stuck: c.stuck.saturating_add(c.open),
         adc_saturations: adc_saturations(c),
         dac_saturations: dac_saturations(c),
         rejected_samples: c.rejected,
@@ -266,9 +265,24 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
         .has_information
         .then(|| information_trace(&record.information))
         .map(|t| t.to_f64() as f32);
+    let lemma1 = matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l >= rules.excitation_rel_threshold * t);
+    let excited = if pf.has(pipeline::StatusFlags::SUPERVISED) {
+        !pf.has(pipeline::StatusFlags::NOT_EXCITED)
+    } else {
+        lemma1
+    };
+    flags.set(StatusFlags::EXCITED, excited);
     flags.set(
-        StatusFlags::EXCITED,
-        matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l > rules.excitation_rel_threshold * t),
+        StatusFlags::INPUT_GONE,
+        pf.has(pipeline::StatusFlags::INPUT_GONE),
+    );
+    flags.set(
+        StatusFlags::CHANGE_DETECTED,
+        pf.has(pipeline::StatusFlags::CHANGE_DETECTED),
+    );
+    flags.set(
+        StatusFlags::SENSOR_LEVEL,
+        pf.has(pipeline::StatusFlags::SENSOR_LEVEL),
     );
     flags.set(
         StatusFlags::FROZEN_BY_COMMAND,
@@ -276,7 +290,7 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     );
     flags.set(
         StatusFlags::FROZEN_AUTO,
-        pf.has(pipeline::StatusFlags::QUARANTINE),
+        pf.has(pipeline::StatusFlags::QUARANTINE) || pf.has(pipeline::StatusFlags::INPUT_GONE),
     );
     let converged =
         convergence.observe(record.sample_index, modal.as_ref().filter(|_| valid), rules);
@@ -297,7 +311,13 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     );
 
     let mut modes = heapless::Vec::new();
-    if let Some(m) = modal.as_ref().filter(|m| m.modes == ctx.model_modes) {
+    // Never a NaN on the wire: non-finite modes are left out.
+    let sendable = |m: &&ModalParams<f32>| {
+        m.modes == ctx.model_modes
+            && !crate::modal::Validity::of(*m, ctx.model_modes)
+                .contains(crate::modal::Validity::NON_FINITE)
+    };
+    if let Some(m) = modal.as_ref().filter(sendable) {
         for i in 0..m.modes.min(MAX_MODES) {
             if let (Some(&w), Some(&z), Some(&b)) =
                 (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
@@ -519,10 +539,41 @@ mod tests {
             );
             assert_eq!(e.flags, bit.with(StatusFlags::PHYSICALLY_VALID), "{bit:?}");
         }
-        // λmin at the threshold, 1e-7·tr(P), is not excited.
+        // The supervisor's bits: its own EXCITED decision overrides λmin;
+        // input gone also means frozen by the firmware.
+        let sup = PF::SUPERVISED;
+        for (pflags, want) in [
+            (sup, StatusFlags::EXCITED),
+            (sup | PF::NOT_EXCITED, StatusFlags::default()),
+            (
+                sup | PF::NOT_EXCITED | PF::INPUT_GONE,
+                StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
+            ),
+            (
+                sup | PF::CHANGE_DETECTED,
+                StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED),
+            ),
+            (
+                sup | PF::SENSOR_LEVEL,
+                StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL),
+            ),
+        ] {
+            let e = estimate(
+                &record(2000, pflags, prev),
+                &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0),
+                &ctx(&prev),
+                &mut Convergence::default(),
+            );
+            assert_eq!(
+                e.flags,
+                want.with(StatusFlags::PHYSICALLY_VALID),
+                "{pflags:#x}"
+            );
+        }
+        // λmin just below the threshold, 1e-7·tr(P), is not excited.
         let e = estimate(
             &rec,
-            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 7e-7),
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 6.9e-7),
             &ctx(&prev),
             &mut conv,
         );
@@ -580,6 +631,9 @@ mod tests {
             rejected: 13,
             dropped_records: 14,
             dropped_raw_blocks: 15,
+            open: 20,
+            offset_steps: 21,
+            drift: 22,
         };
         let d = device_counters(&c, 16, 17, 18, 19);
         assert_eq!(
@@ -588,7 +642,7 @@ mod tests {
                 overruns: 1,
                 adc_crc_errors: 2,
                 adc_status_errors: 12,
-                adc_stuck: 8,
+                adc_stuck: 28,
                 adc_saturations: 13,
                 dac_saturations: 33,
                 rejected_samples: 13,

@@ -10,7 +10,9 @@
 //! * [`gains`]: the numerator → b̄ least-squares solver of eq. 31–32
 //!   ([`gains_from_numerator`], [`GainWeighting`]);
 //! * [`excitation`]: the excitation monitor of Lemma 1, λ_min(P)
-//!   ([`excitation_min_eig`], [`excitation_ratio`]).
+//!   ([`excitation_min_eig`], [`excitation_ratio`]);
+//! * [`validity`]: physical bounds of an estimate ([`Validity`]) and what
+//!   to report when it is not physical ([`ModalHold`]).
 //!
 //! # Method
 //! 1. **Poles (eq. 30).** The roots of A(s) = s^{2n} + a_{2n−1}s^{2n−1} + … + a_0
@@ -36,9 +38,11 @@
 
 pub mod excitation;
 pub mod gains;
+pub mod validity;
 
 pub use excitation::{excitation_min_eig, excitation_ratio};
 pub use gains::{gains_from_numerator, GainWeighting};
+pub use validity::{ModalHold, Reported, Validity};
 
 use crate::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
 use crate::poly::{roots_monic, PolyError};

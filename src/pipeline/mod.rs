@@ -106,7 +106,6 @@ pub mod adapters;
 mod config;
 pub mod convert;
 pub mod converters;
-mod delay;
 pub mod prefilter;
 pub mod startup;
 pub mod telemetry;
@@ -130,9 +129,10 @@ pub use telemetry::{
 
 use crate::estimator::Estimator;
 use crate::excitation::{Excitation, ExcitationKind};
+pub use crate::guard::MAX_DELAY;
+use crate::guard::{GuardConfig, GuardError, SampleFault, SensorGuard};
 use crate::scalar::Real;
-use delay::DelayLine;
-pub use delay::MAX_DELAY;
+use crate::supervise::ExcitationReason;
 
 /// The sample task's state: converters, excitation, estimator, telemetry.
 ///
@@ -158,10 +158,12 @@ pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
     raw_decimation: u16,
     raw_phase: u16,
     raw_block: RawBlock<T>,
-    stuck_after: u16,
-    last_code: i32,
-    repeats: u16,
-    delay: DelayLine<T>,
+    /// Float-level checks (saturation, stuck, open bridge), the delay line
+    /// and the level corrections, after conversion ([`crate::guard`]).
+    guard: SensorGuard<T>,
+    ts_s: f64,
+    /// The estimator's detected changes at the previous record.
+    changes_seen: u32,
     lambda_rad_s: f64,
     next_index: u64,
     frozen: bool,
@@ -218,6 +220,20 @@ where
         if usize::from(config.stuck_after) >= MAX_DELAY {
             return Err(PipelineError::StuckAfter);
         }
+        // The rails in units of y: what a full-scale code converts to.
+        let rails = [
+            conv.y_from_code(ADC_CODE_MIN).to_f64(),
+            conv.y_from_code(ADC_CODE_MAX).to_f64(),
+        ];
+        let ts_s = 1.0 / excitation.waveform().sample_rate_hz();
+        let guard = SensorGuard::new(&GuardConfig {
+            ts_s,
+            range: Some([rails[0].min(rails[1]), rails[0].max(rails[1])]),
+            stuck_after: config.stuck_after,
+            highpass_rad_s: None,
+            offset_steps: false,
+        })
+        .map_err(|_| PipelineError::StuckAfter)?;
         Ok(Self {
             estimator,
             adc,
@@ -238,10 +254,9 @@ where
             raw_decimation: config.raw_decimation,
             raw_phase: 0,
             raw_block: empty_block(0, config.raw_decimation),
-            stuck_after: config.stuck_after,
-            last_code: 0,
-            repeats: 0,
-            delay: DelayLine::new(usize::from(config.stuck_after) + 1, T::ZERO),
+            guard,
+            ts_s,
+            changes_seen: 0,
             lambda_rad_s: config.lambda_rad_s,
             next_index: 0,
             frozen: false,
@@ -286,8 +301,8 @@ where
             DacLatch::NextTick => self.pending.replace(written),
         };
 
-        // 3.–4. Screen and convert.
-        let (y, y_ok, u_mon, mon_ok, stuck_started) = self.screen(reading);
+        // 3.–4. Screen the converter's report and convert.
+        let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
 
         // 5. The pair for step(u held over the coming period, y now).
         let pair = match self.input {
@@ -301,22 +316,28 @@ where
             // Start-up: nothing held yet to pair with.
             return self.idle(index, commanded_v);
         };
-        // The delay line lets a stuck run be rejected from its first sample.
-        let (u, y, ok, fed_index) = if self.stuck_after > 0 {
-            let out = self.delay.push((u, y, ok, index));
-            if stuck_started {
-                let flipped = self
-                    .delay
-                    .invalidate_recent(usize::from(self.stuck_after) + 1);
-                self.counters.stuck = self.counters.stuck.saturating_add(flipped);
-            }
-            match out {
-                Some(e) => e,
-                None => return self.idle(index, commanded_v),
-            }
-        } else {
-            (u, y, ok, index)
+        // The float-level checks (rails, stuck runs through the delay
+        // line, so a run is rejected from its first sample) and the level
+        // corrections, one implementation with the host tools
+        // ([`crate::guard`]).
+        let out = self.guard.push_at(u, y, ok, index);
+        let seen = self.guard.last_screening();
+        if seen.fault.is_some_and(|f| f != SampleFault::Upstream) {
+            self.flags.set(StatusFlags::ADC_FAULT, true);
+        }
+        if seen.level.is_some() {
+            self.flags.set(StatusFlags::SENSOR_LEVEL, true);
+        }
+        // After a gap with the high-pass on, hold while its memory settles
+        // (the estimate before the fault is kept).
+        let hold = self.guard.take_hold();
+        if hold > 0 {
+            self.estimator.hold(hold);
+        }
+        let Some(g) = out else {
+            return self.idle(index, commanded_v);
         };
+        let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
         // 6. Prefilter (fed the last good values across a bad sample).
         let (u_in, y_in) = if ok {
@@ -377,9 +398,11 @@ where
         }
     }
 
-    /// Classify a conversion and convert it: (y, y valid, u_mon, u_mon
-    /// valid, a stuck run was recognised at this sample).
-    fn screen(&mut self, reading: Result<AdcReading, A::Error>) -> (T, bool, T, bool, bool) {
+    /// Classify the converter's report and convert: (y, y valid, u_mon,
+    /// u_mon valid). Converter errors and the driver's stale/stuck flags
+    /// are judged here; the readings themselves (rails, stuck runs) by the
+    /// guard.
+    fn screen(&mut self, reading: Result<AdcReading, A::Error>) -> (T, bool, T, bool) {
         let r = match reading {
             Ok(r) if !r.flags.stale && !r.flags.stuck => r,
             Ok(r) => {
@@ -389,7 +412,7 @@ where
                     &mut self.counters.adc_other
                 });
                 self.flags.set(StatusFlags::ADC_FAULT, true);
-                return (T::ZERO, false, T::ZERO, false, false);
+                return (T::ZERO, false, T::ZERO, false);
             }
             Err(e) => {
                 let c = &mut self.counters;
@@ -400,41 +423,27 @@ where
                     FaultKind::Other => &mut c.adc_other,
                 });
                 self.flags.set(StatusFlags::ADC_FAULT, true);
-                return (T::ZERO, false, T::ZERO, false, false);
+                return (T::ZERO, false, T::ZERO, false);
             }
         };
-        let at_rail = |c: i32| c >= ADC_CODE_MAX || c <= ADC_CODE_MIN;
-        let y = self.conv.y_from_code(r.bridge);
-        let mut y_ok = true;
-        let mut stuck_started = false;
-        if r.flags.bridge_saturated || at_rail(r.bridge) || !y.is_finite() {
+        // A rail code converts to a rail of the guard's range, where the
+        // guard tells an overload from an open gauge; a conversion the
+        // driver flags saturated (its frame says so) is taken as such.
+        if r.flags.bridge_saturated {
             bump(&mut self.counters.bridge_saturated);
-            y_ok = false;
-        } else {
-            if r.bridge == self.last_code {
-                self.repeats = self.repeats.saturating_add(1);
-            } else {
-                self.repeats = 0;
-                self.last_code = r.bridge;
-            }
-            if self.stuck_after > 0 && self.repeats >= self.stuck_after {
-                // The run's earlier samples are flipped in the delay line
-                // (and counted there) when it is first recognised.
-                stuck_started = self.repeats == self.stuck_after;
-                bump(&mut self.counters.stuck);
-                y_ok = false;
-            }
+            self.flags.set(StatusFlags::ADC_FAULT, true);
         }
+        let y = self.conv.y_from_code(r.bridge);
+        let at_rail = |c: i32| c >= ADC_CODE_MAX || c <= ADC_CODE_MIN;
         let u_mon = self.conv.u_from_monitor(r.monitor);
         let mon_ok = !(r.flags.monitor_saturated || at_rail(r.monitor));
         if !mon_ok {
             bump(&mut self.counters.monitor_saturated);
+            if self.input == InputSource::Monitored {
+                self.flags.set(StatusFlags::ADC_FAULT, true);
+            }
         }
-        let relevant_mon_bad = !mon_ok && self.input == InputSource::Monitored;
-        if !y_ok || relevant_mon_bad {
-            self.flags.set(StatusFlags::ADC_FAULT, true);
-        }
-        (y, y_ok, u_mon, mon_ok, stuck_started)
+        (y, !r.flags.bridge_saturated, u_mon, mon_ok)
     }
 
     fn record_raw(&mut self, index: u64, fed: (T, T)) {
@@ -482,6 +491,19 @@ where
             self.excitation.kind() == ExcitationKind::Off,
         );
         flags.set(StatusFlags::STATE_BAD, !self.estimator.health().state_ok);
+        if let Some(sup) = self.estimator.supervision() {
+            flags.set(StatusFlags::NOT_EXCITED, !sup.reason.is_excited());
+            flags.set(
+                StatusFlags::INPUT_GONE,
+                sup.reason == ExcitationReason::InputGone,
+            );
+            flags.set(
+                StatusFlags::CHANGE_DETECTED,
+                sup.changes != self.changes_seen,
+            );
+            self.changes_seen = sup.changes;
+            flags.set(StatusFlags::SUPERVISED, true);
+        }
         let counters = self.counters();
         flags.set(
             StatusFlags::EXCITATION_CLAMPED,
@@ -583,8 +605,8 @@ where
         self.pf_y = PrefilterState::default();
         self.prev_y = None;
         self.last_good = (T::ZERO, T::ZERO);
-        self.repeats = 0;
-        self.delay.clear();
+        self.guard.clear();
+        self.changes_seen = 0;
         self.settle();
     }
 
@@ -592,6 +614,7 @@ where
     /// through, not reset).
     pub fn reset_counters(&mut self) {
         self.counters = Counters::default();
+        self.guard.reset_counts();
     }
 
     /// A telemetry record every `every` samples (≥ 1).
@@ -631,10 +654,40 @@ where
 
     /// The counters now.
     pub fn counters(&self) -> Counters {
+        let g = self.guard.counts();
+        let c = &self.counters;
         Counters {
             excitation_clamped: self.excitation.clamped_samples(),
+            bridge_saturated: c.bridge_saturated.saturating_add(g.saturated),
+            // A non-finite conversion (never expected from finite codes).
+            adc_other: c.adc_other.saturating_add(g.non_finite),
+            stuck: c.stuck.saturating_add(g.stuck),
+            open: g.open,
+            offset_steps: g.offset,
+            drift: g.drift,
             ..self.counters
         }
+    }
+
+    /// The sensor guard's level corrections (off by default): the
+    /// DC-removing high-pass on u and y (corner in rad/s) and the removal
+    /// of offset steps of y ([`crate::guard`]). Applied between samples;
+    /// a new corner restarts the high-pass.
+    ///
+    /// # Errors
+    /// An invalid corner (nothing changed).
+    pub fn set_level_correction(
+        &mut self,
+        highpass_rad_s: Option<f64>,
+        offset_steps: bool,
+    ) -> Result<(), GuardError> {
+        self.guard
+            .set_level_correction(highpass_rad_s, offset_steps, self.ts_s)
+    }
+
+    /// Offset removed from y by the step detector (units of y).
+    pub fn removed_offset(&self) -> T {
+        self.guard.offset()
     }
 
     /// Index the next tick will carry.

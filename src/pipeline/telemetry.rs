@@ -83,6 +83,13 @@ pub struct Counters {
     pub dropped_records: u32,
     /// Raw blocks dropped on a full queue.
     pub dropped_raw_blocks: u32,
+    /// Bridge conversions of an open gauge: a jump to a rail, held
+    /// ([`crate::guard::SampleFault::Open`]).
+    pub open: u32,
+    /// Offset steps of y removed ([`crate::guard::LevelEvent::Offset`]).
+    pub offset_steps: u32,
+    /// Drifts of y flagged ([`crate::guard::LevelEvent::Drift`]).
+    pub drift: u32,
 }
 
 /// Status bits of a [`TelemetryRecord`] (about the samples since the
@@ -114,6 +121,19 @@ impl StatusFlags {
     pub const EXCITATION_OFF: u16 = 1 << 9;
     /// The estimator's integrity check failed (state at the record).
     pub const STATE_BAD: u16 = 1 << 10;
+    /// The estimator is supervised ([`crate::supervise`]): the next three
+    /// bits are meaningful (state at the record).
+    pub const SUPERVISED: u16 = 1 << 11;
+    /// The estimator is not excited: the input is gone or Lemma 1 fails
+    /// (state at the record; the estimator's own decision).
+    pub const NOT_EXCITED: u16 = 1 << 12;
+    /// ... because the input is gone (adaptation frozen).
+    pub const INPUT_GONE: u16 = 1 << 13;
+    /// The estimator detected a change of the plant and discounted its
+    /// past.
+    pub const CHANGE_DETECTED: u16 = 1 << 14;
+    /// An offset step of y was removed or a drift flagged.
+    pub const SENSOR_LEVEL: u16 = 1 << 15;
 
     /// Whether `bit` (one of the constants) is set.
     pub fn has(self, bit: u16) -> bool {

@@ -316,7 +316,10 @@ fn converter_faults_are_counted_and_never_fed_as_valid() {
         (c.adc_crc, c.adc_status, c.adc_bus, c.adc_other),
         (1, 1, 1, 2)
     );
-    assert_eq!(c.bridge_saturated, 3);
+    // The flagged conversion; the first rail code jumps there from
+    // mid-range: an open gauge; the second moves to the other rail, which
+    // an open gauge never does: an overload (`guard`).
+    assert_eq!((c.bridge_saturated, c.open), (2, 1));
     // One flagged stuck by the driver; the four 7s: recognised at the
     // third, the first two flipped in the delay line (3 samples: the last 3
     // ticks are not fed yet).

@@ -40,7 +40,9 @@ impl EstimatorKind {
 }
 
 /// Status flags of an [`Estimate`]: a bit field, sent as a postcard `u16`
-/// (varint). Bits 10–15 are reserved: sent as 0, ignored by receivers.
+/// (varint). Bits 13–15 are reserved: sent as 0, ignored by receivers.
+/// (Bits 10–12 were reserved in the first release of version 1; a
+/// receiver of that release ignores them, docs/PROTOCOL.md §4.1.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[serde(transparent)]
@@ -69,6 +71,16 @@ impl StatusFlags {
     pub const TELEMETRY_DROPPED: Self = Self(1 << 8);
     /// The estimator's internal state check failed (`Health::state_ok`).
     pub const STATE_DEGRADED: Self = Self(1 << 9);
+    /// Adaptation is frozen because the excitation stopped (the input's
+    /// short-window energy fell 20 dB below its level). With EXCITED clear
+    /// and this clear, Lemma 1 fails (or is not measured yet).
+    pub const INPUT_GONE: Self = Self(1 << 10);
+    /// The estimator detected a change of the plant since the last
+    /// estimate and discounted its past (tracking).
+    pub const CHANGE_DETECTED: Self = Self(1 << 11);
+    /// The sensor's level changed since the last estimate: an offset step
+    /// of y was removed, or a drift flagged.
+    pub const SENSOR_LEVEL: Self = Self(1 << 12);
 
     /// True if every bit of `other` is set.
     pub const fn contains(self, other: Self) -> bool {

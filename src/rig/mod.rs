@@ -7,7 +7,11 @@
 //! * [`noise`] — seeded, deterministic Gaussian measurement noise;
 //! * [`sim`] — [`Rig`], which joins them per 10 kHz tick exactly as the
 //!   firmware's sample path sees the beam: the input u held over the coming
-//!   period and the output y sampled now (plus noise).
+//!   period and the output y sampled now (plus noise);
+//! * [`scenario`] — [`ScenarioRig`]: a [`Rig`] going through the events of
+//!   a [`Scenario`] (a plant change with the state continuous, excitation
+//!   off, sensor faults on the measured y) and with modes beyond the
+//!   estimator's model.
 //!
 //! * [`chips`] — behavioural models of the converters (ADS131M02 ADC,
 //!   AD5761R DAC) behind `SpiDevice`, so the real drivers run against the
@@ -37,11 +41,16 @@ pub mod chips;
 pub mod converter;
 pub mod noise;
 pub mod plant;
+pub mod scenario;
 pub mod sim;
 pub mod timing;
 
 pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
 pub use plant::{ModalPlant, PlantError};
+pub use scenario::{
+    beam_modes, ExcitationOff, FaultKind, PlantStep, Scenario, ScenarioError, ScenarioRig,
+    SensorFault, Window,
+};
 pub use sim::{Rig, Sample};
 pub use timing::{ConverterTiming, TimedPlant};

@@ -15,7 +15,7 @@
 //! are the samples y(t_k) — what an ADC sees.
 
 use crate::linalg::{expm, solve_dense, EXPM_MAX};
-use crate::model::{ModalParams, MAX_MODES, MAX_ORDER};
+use crate::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
 use crate::scalar::Real;
 
 /// Invalid plant description.
@@ -187,10 +187,6 @@ impl<T: Real> ModalPlant<T> {
         for ((mode, sp), ((((&w, &z), &g), &c), &v)) in
             m.iter_mut().zip(spec.iter_mut()).zip(params).take(n)
         {
-            let finite = [w, z, g, c, v].iter().all(|v| v.is_finite());
-            if !finite || !(w > 0.0) || z < 0.0 {
-                return Err(PlantError::Value);
-            }
             *sp = ModeSpec {
                 omega: w,
                 zeta: z,
@@ -198,21 +194,7 @@ impl<T: Real> ModalPlant<T> {
                 pos: c,
                 vel: v,
             };
-            let mut aug = [[0.0f64; EXPM_MAX]; EXPM_MAX];
-            aug[0][1] = ts;
-            aug[1][0] = -w * w * ts;
-            aug[1][1] = -2.0 * z * w * ts;
-            aug[1][2] = g * ts;
-            let e = expm(&aug, 3);
-            *mode = DiscreteMode {
-                phi: [
-                    [T::from_f64(e[0][0]), T::from_f64(e[0][1])],
-                    [T::from_f64(e[1][0]), T::from_f64(e[1][1])],
-                ],
-                gamma: [T::from_f64(e[0][2]), T::from_f64(e[1][2])],
-                out: [T::from_f64(c), T::from_f64(v)],
-                x: [T::ZERO; 2],
-            };
+            *mode = discretize(sp, ts)?;
         }
         Ok(Self {
             modes: n,
@@ -222,14 +204,109 @@ impl<T: Real> ModalPlant<T> {
         })
     }
 
+    /// Change the modes' ω and ζ (and, if given, their input gains b̄) with
+    /// the beam's state continuous: each mode's (η, η') is kept and only its
+    /// dynamics change from the next [`ModalPlant::advance`] on — a beam
+    /// whose stiffness or damping changes (e.g. immersed in a liquid). The
+    /// output weights are kept, and so are the input gains unless `bbar` is
+    /// given (for a plant built [`ModalPlant::with_numerator`] the gains are
+    /// 1 and the numerator lives in the output weights: keeping them keeps
+    /// its modal residues' shape). Slices have one entry per mode.
+    ///
+    /// # Errors
+    /// [`PlantError::Dimensions`] if a slice length is not the mode count,
+    /// [`PlantError::Value`] for ω ≤ 0, ζ < 0 or a non-finite number; the
+    /// plant is unchanged then.
+    pub fn retune(
+        &mut self,
+        omega_rad_s: &[f64],
+        zeta: &[f64],
+        bbar: Option<&[f64]>,
+    ) -> Result<(), PlantError> {
+        let n = self.modes;
+        if omega_rad_s.len() != n || zeta.len() != n || bbar.is_some_and(|b| b.len() != n) {
+            return Err(PlantError::Dimensions);
+        }
+        let mut spec = self.spec;
+        let mut m = self.m;
+        for (i, (sp, md)) in spec.iter_mut().zip(m.iter_mut()).enumerate().take(n) {
+            sp.omega = omega_rad_s.get(i).copied().unwrap_or(f64::NAN);
+            sp.zeta = zeta.get(i).copied().unwrap_or(f64::NAN);
+            if let Some(b) = bbar {
+                sp.gain = b.get(i).copied().unwrap_or(f64::NAN);
+            }
+            let x = md.x;
+            *md = discretize(sp, self.ts_s)?;
+            md.x = x;
+        }
+        self.spec = spec;
+        self.m = m;
+        Ok(())
+    }
+
+    /// The continuous transfer function B(s)/A(s) being simulated (eq. 25–26):
+    /// Σ_i g_i·(α_i + β_i·s)/(s² + 2ζ_iω_i·s + ω_i²) — the truth a run is
+    /// scored against (after a [`ModalPlant::retune`], the new plant's).
+    pub fn transfer_function(&self) -> TransferFunction<f64> {
+        let n = self.modes;
+        let mut tf = TransferFunction {
+            modes: n,
+            a: [0.0; MAX_ORDER],
+            b: [0.0; MAX_ORDER],
+        };
+        let q = |sp: &ModeSpec| [1.0, 2.0 * sp.zeta * sp.omega, sp.omega * sp.omega];
+        let mut den = [0.0f64; MAX_ORDER + 1];
+        den[0] = 1.0;
+        let mut len = 1;
+        for sp in self.spec.iter().take(n) {
+            len = crate::model::poly_mul_quadratic(&mut den, len, &q(sp));
+        }
+        let d = 2 * n;
+        for (i, sp) in self.spec.iter().enumerate().take(n) {
+            let mut p = [0.0f64; MAX_ORDER + 1];
+            p[0] = 1.0;
+            let mut plen = 1;
+            for (j, other) in self.spec.iter().enumerate().take(n) {
+                if j != i {
+                    plen = crate::model::poly_mul_quadratic(&mut p, plen, &q(other));
+                }
+            }
+            // g·(β s + α)·p: p has plen = 2n − 1 coefficients, highest first;
+            // b has 2n − 1 entries [b_{2n−2}, …, b_0].
+            for (k, pk) in p.iter().enumerate().take(plen) {
+                // α·p_k → power 2n−2−k (index k); β·p_k → one power higher.
+                if let Some(b) = tf.b.get_mut(k) {
+                    *b += sp.gain * sp.pos * pk;
+                }
+                if k >= 1 {
+                    if let Some(b) = tf.b.get_mut(k - 1) {
+                        *b += sp.gain * sp.vel * pk;
+                    }
+                }
+            }
+        }
+        for (a, dk) in tf.a.iter_mut().zip(den.iter().skip(1)).take(d) {
+            *a = *dk;
+        }
+        tf
+    }
+
+    /// ω (rad/s) and ζ of mode `i` (in the order given at construction).
+    pub fn mode(&self, i: usize) -> Option<(f64, f64)> {
+        self.spec
+            .get(i)
+            .filter(|_| i < self.modes)
+            .map(|s| (s.omega, s.zeta))
+    }
+
+    /// Sample period Ts (s).
+    pub fn ts_s(&self) -> f64 {
+        self.ts_s
+    }
+
     /// Number of modes.
     pub fn modes(&self) -> usize {
         self.modes
-    }
-
-    /// Sample period (s).
-    pub fn ts_s(&self) -> f64 {
-        self.ts_s
     }
 
     /// The continuous modes (the first [`Self::modes`] entries).
@@ -273,6 +350,31 @@ impl<T: Real> ModalPlant<T> {
             md.x = [T::ZERO; 2];
         }
     }
+}
+
+/// Exact discretization of one mode (matrix exponential of
+/// [[A·Ts, B·Ts], [0, 0]]), at rest.
+fn discretize<T: Real>(sp: &ModeSpec, ts: f64) -> Result<DiscreteMode<T>, PlantError> {
+    let (w, z, g, c, v) = (sp.omega, sp.zeta, sp.gain, sp.pos, sp.vel);
+    let finite = [w, z, g, c, v].iter().all(|v| v.is_finite());
+    if !finite || !(w > 0.0) || z < 0.0 {
+        return Err(PlantError::Value);
+    }
+    let mut aug = [[0.0f64; EXPM_MAX]; EXPM_MAX];
+    aug[0][1] = ts;
+    aug[1][0] = -w * w * ts;
+    aug[1][1] = -2.0 * z * w * ts;
+    aug[1][2] = g * ts;
+    let e = expm(&aug, 3);
+    Ok(DiscreteMode {
+        phi: [
+            [T::from_f64(e[0][0]), T::from_f64(e[0][1])],
+            [T::from_f64(e[1][0]), T::from_f64(e[1][1])],
+        ],
+        gamma: [T::from_f64(e[0][2]), T::from_f64(e[1][2])],
+        out: [T::from_f64(c), T::from_f64(v)],
+        x: [T::ZERO; 2],
+    })
 }
 
 #[cfg(test)]

@@ -148,6 +148,7 @@ use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
 use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
+use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 use law::OeLaw;
 use oe::{Filters, OeModel};
 use start::start_test;
@@ -177,6 +178,11 @@ pub struct RobustConfig<const NP: usize> {
     pub start_tolerance: f64,
     /// The state of the beam when the first sample is taken.
     pub initial_state: InitialState,
+    /// Supervision ([`crate::supervise`]): adaptation frozen while the
+    /// input is gone; a change detected on the output error (once the
+    /// record is full) starts a new record on the new beam, the estimate
+    /// carried over meanwhile.
+    pub supervision: SupervisorConfig,
 }
 
 impl<const NP: usize> Default for RobustConfig<NP> {
@@ -190,6 +196,11 @@ impl<const NP: usize> Default for RobustConfig<NP> {
             update_every: 1_000,
             start_tolerance: 1e-2,
             initial_state: InitialState::Auto,
+            supervision: SupervisorConfig {
+                // The output-error law tracks no λmin in the loop.
+                hold_forgetting_unexcited: false,
+                ..SupervisorConfig::default()
+            },
         }
     }
 }
@@ -285,6 +296,7 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     samples: u64,
     skipped: u32,
     updates: u32,
+    supervisor: Supervisor<T>,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
@@ -350,6 +362,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             samples: 0,
             skipped: 0,
             updates: 0,
+            supervisor: Supervisor::new(&cfg.supervision, filter.ts_s),
         })
     }
 
@@ -597,11 +610,43 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             Phase::Refining | Phase::Steady => {
                 let s = self.oe.push(us, ys);
                 if update {
+                    if self.phase == Phase::Steady
+                        && self.supervisor.residual(s.eps, self.samples).is_some()
+                    {
+                        self.restart_record();
+                        return Ok(());
+                    }
                     return self.law.update(&s.psi, s.eps);
                 }
             }
         }
         Ok(())
+    }
+
+    /// A change was detected: record afresh on the new beam (the start-up
+    /// law carries the current estimate meanwhile, so the reported one
+    /// does not jump; the start test finds the beam moving and the replays
+    /// fit its state). Counters are kept.
+    fn restart_record(&mut self) {
+        let theta = self.theta_abs().values();
+        let lam = lambda_coeffs::<D>();
+        // Form 1 relative to Λ, as `theta_abs` reads it back.
+        let start: [T; NP] = core::array::from_fn(|j| {
+            if j < D - 1 {
+                theta[j]
+            } else {
+                T::from_f64(lam[NP - 1 - j]) - theta[j]
+            }
+        });
+        self.bank.reset();
+        self.startup.reset();
+        self.startup.set_theta_scaled(&start);
+        self.rec_len = 0;
+        self.phase = Phase::Startup;
+        self.epoch = self.epoch.wrapping_add(1);
+        self.candidate = None;
+        self.initial = None;
+        self.countdown = self.cfg.update_every;
     }
 }
 
@@ -612,15 +657,19 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     fn step(&mut self, u: T, y: T) -> StepStatus {
         self.samples = self.samples.wrapping_add(1);
         let status = match self.screen.screen(u, y) {
-            Screened::Good(u, y) => match self.push(u, y, !self.frozen) {
-                Ok(()) if self.frozen => StepStatus::Frozen,
-                Ok(()) => StepStatus::Updated,
-                Err(_) => {
-                    self.skipped = self.skipped.saturating_add(1);
-                    StepStatus::Skipped
+            Screened::Good(u, y) => {
+                let adapt = self.supervisor.admit(u * self.inv_u_scale) && !self.frozen;
+                match self.push(u, y, adapt) {
+                    Ok(()) if !adapt => StepStatus::Frozen,
+                    Ok(()) => StepStatus::Updated,
+                    Err(_) => {
+                        self.skipped = self.skipped.saturating_add(1);
+                        StepStatus::Skipped
+                    }
                 }
-            },
+            }
             Screened::Quarantined(u, y) => {
+                self.supervisor.admit(u * self.inv_u_scale);
                 let _ = self.push(u, y, false);
                 StepStatus::Frozen
             }
@@ -674,18 +723,26 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.samples = 0;
         self.skipped = 0;
         self.updates = 0;
+        self.supervisor.reset();
     }
 
     fn excitation_level(&self) -> Option<T> {
         Some(excitation_min_eig(&self.information()))
     }
 
+    /// Also restarts the change test's learning
+    /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
         self.screen.hold(samples);
+        self.supervisor.restart_change();
     }
 
     fn settling_samples(&self) -> u32 {
         self.screen.quarantine_len()
+    }
+
+    fn supervision(&self) -> Option<Supervision<T>> {
+        Some(self.supervisor.status())
     }
 
     fn health(&self) -> Health {

@@ -1,16 +1,18 @@
 //! A short delay line between screening and the estimator, so a fault that
-//! is recognised only after several samples (a stuck sensor: the code must
-//! repeat `stuck_after` times) can still be kept out of the estimator: the
-//! samples already screened are marked invalid before they leave the line.
-//! The estimate lags by the delay (at most [`MAX_DELAY`] samples, 3.1 ms
-//! at 10 kHz); the DAC and the excitation do not.
+//! is recognised only after several samples (a stuck sensor: the reading
+//! must repeat `stuck_after` times) can still be kept out of the estimator:
+//! the samples already screened are marked faulty before they leave the
+//! line. The estimate lags by the delay (at most [`MAX_DELAY`] samples,
+//! 3.1 ms at 10 kHz); the DAC and the excitation do not.
+
+use super::SampleFault;
 
 /// Longest delay (samples); the ring holds one more.
 pub const MAX_DELAY: usize = 31;
 const RING: usize = MAX_DELAY + 1;
 
-/// One screened pair: (u, y, valid, sample index).
-pub(crate) type Entry<T> = (T, T, bool, u64);
+/// One screened pair: (u, y, fault if any, sample index).
+pub(crate) type Entry<T> = (T, T, Option<SampleFault>, u64);
 
 /// The ring.
 #[derive(Debug, Clone, Copy)]
@@ -25,7 +27,7 @@ impl<T: Copy> DelayLine<T> {
     /// A line of `delay` ≤ [`MAX_DELAY`] samples (longer is clamped).
     pub(crate) fn new(delay: usize, zero: T) -> Self {
         Self {
-            buf: [(zero, zero, false, 0); RING],
+            buf: [(zero, zero, None, 0); RING],
             head: 0,
             filled: 0,
             delay: delay.min(MAX_DELAY),
@@ -51,20 +53,25 @@ impl<T: Copy> DelayLine<T> {
         out
     }
 
-    /// Mark the `n` most recent entries (still in the line) invalid;
-    /// returns how many were valid.
-    pub(crate) fn invalidate_recent(&mut self, n: usize) -> u32 {
+    /// Mark the `n` most recent entries (still in the line) that are not
+    /// faulty yet as `fault`; returns how many were marked.
+    pub(crate) fn invalidate_recent(&mut self, n: usize, fault: SampleFault) -> u32 {
         let mut flipped = 0;
         for back in 1..=n.min(self.filled) {
             let i = (self.head + RING - back) % RING;
             if let Some(e) = self.buf.get_mut(i) {
-                if e.2 {
-                    e.2 = false;
+                if e.2.is_none() {
+                    e.2 = Some(fault);
                     flipped += 1;
                 }
             }
         }
         flipped
+    }
+
+    /// The delay (samples).
+    pub(crate) fn delay(&self) -> usize {
+        self.delay
     }
 
     /// Empty the line.
@@ -82,19 +89,25 @@ mod tests {
     fn delays_and_invalidates_what_is_still_inside() {
         let mut d = DelayLine::new(3, 0.0f64);
         let out: Vec<_> = (0..6u64)
-            .map(|k| d.push((k as f64, 0.0, true, k)).map(|e| e.3))
+            .map(|k| d.push((k as f64, 0.0, None, k)).map(|e| e.3))
             .collect();
         assert_eq!(out, [None, None, None, Some(0), Some(1), Some(2)]);
-        // Entries 3, 4, 5 are inside: invalidate the last two.
-        assert_eq!(d.invalidate_recent(2), 2);
-        assert_eq!(d.invalidate_recent(2), 0);
-        let e = d.push((6.0, 0.0, true, 6)).unwrap();
-        assert_eq!((e.3, e.2), (3, true));
-        assert!(!d.push((7.0, 0.0, true, 7)).unwrap().2);
-        assert!(!d.push((8.0, 0.0, true, 8)).unwrap().2);
-        assert!(d.push((9.0, 0.0, true, 9)).unwrap().2);
+        // Entries 3, 4, 5 are inside: mark the last two.
+        assert_eq!(d.invalidate_recent(2, SampleFault::Stuck), 2);
+        assert_eq!(d.invalidate_recent(2, SampleFault::Stuck), 0);
+        let e = d.push((6.0, 0.0, None, 6)).unwrap();
+        assert_eq!((e.3, e.2), (3, None));
+        assert_eq!(
+            d.push((7.0, 0.0, None, 7)).unwrap().2,
+            Some(SampleFault::Stuck)
+        );
+        assert_eq!(
+            d.push((8.0, 0.0, None, 8)).unwrap().2,
+            Some(SampleFault::Stuck)
+        );
+        assert_eq!(d.push((9.0, 0.0, None, 9)).unwrap().2, None);
         d.clear();
-        assert_eq!(d.push((1.0, 0.0, true, 10)), None);
+        assert_eq!(d.push((1.0, 0.0, None, 10)), None);
         assert_eq!(DelayLine::new(99, 0.0f32).delay, MAX_DELAY);
     }
 }
