@@ -128,7 +128,14 @@ fn sum(values: &[u32]) -> u32 {
 /// Sensor faults (ADC errors of every kind, stale and stuck conversions,
 /// an open bridge).
 fn sensor_faults(c: &Counters) -> u32 {
-    sum(&[c.adc_crc, c.adc_status, c.adc_bus, c.adc_other, c.stuck, c.open])
+    sum(&[
+        c.adc_crc,
+        c.adc_status,
+        c.adc_bus,
+        c.adc_other,
+        c.stuck,
+        c.open,
+    ])
 }
 
 /// Saturated conversions, bridge and monitor.

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::excitation::{Excitation, SafeWindow, Shape};
-use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts};
+use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts, RAW_BLOCK_LEN};
 use crate::protocol::budget::uart_bytes_per_s;
 use crate::protocol::{
     encode, Estimate, EstimatorKind, Excitation as PExcitation, Frame, Message, Waveform,
@@ -67,7 +67,8 @@ impl Control<f32> for MockPipeline {
 struct MockDevice {
     p: MockPipeline,
     next_id: u32,
-    built: Vec<(EstimatorSettings, f64)>,
+    /// (settings, λ, U0, Y0, θ(0) length) of each build.
+    built: Vec<(EstimatorSettings, f64, f64, f64, usize)>,
     recycled: Vec<u32>,
     refuse_build: Option<RejectReason>,
 }
@@ -79,11 +80,22 @@ impl Device for MockDevice {
     fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut MockPipeline) -> R) -> R {
         f(&mut self.p)
     }
-    fn build_estimator(&mut self, s: &EstimatorSettings, lambda: f64) -> Result<u32, RejectReason> {
+    fn build_estimator(
+        &mut self,
+        s: &EstimatorSettings,
+        f: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<u32, RejectReason> {
         if let Some(r) = self.refuse_build {
             return Err(r);
         }
-        self.built.push((*s, lambda));
+        self.built.push((
+            *s,
+            f.lambda_rad_s,
+            f.scales.u_scale,
+            f.scales.y_scale,
+            theta0.len(),
+        ));
         self.next_id += 1;
         Ok(self.next_id)
     }
@@ -129,16 +141,59 @@ fn settings() -> Settings {
     }
 }
 
-fn link() -> DeviceLink {
+/// The rule with a 0.05 s start-up window.
+fn tuning() -> TuningConfig {
+    TuningConfig {
+        startup_s: 0.05,
+        ..TuningConfig::new(1e-4, crate::tuning::LambdaSource::Data)
+    }
+}
+
+fn link_with(settings: Settings) -> DeviceLink {
     DeviceLink::new(
         LinkConfig {
             limits: LIMITS,
             firmware: FIRMWARE_VERSION,
             rules: FlagRules::default(),
         },
-        settings(),
-        100.0,
+        settings,
+        &tuning(),
     )
+    .unwrap()
+}
+
+fn link() -> DeviceLink {
+    link_with(settings())
+}
+
+/// The start-up window's pairs: u = ±0.1 (RMS 0.1), y = 2e-3·sin (RMS
+/// √2·1e-3), in blocks as the sample task hands them over, until the
+/// window closes.
+fn feed_startup(l: &mut DeviceLink) -> usize {
+    let mut c = StartupCollector::<f32>::new();
+    let mut blocks = Vec::new();
+    let mut k = 0u32;
+    while l.collecting_startup() {
+        let t = k as f32 * 1e-4;
+        let u = if (t * 7.0).fract() < 0.5 { 0.1 } else { -0.1 };
+        c.push(u, 2e-3 * libm::sinf(300.0 * t), |b| {
+            blocks.push(b);
+            Ok(())
+        });
+        for b in blocks.drain(..) {
+            l.on_startup_block(&b);
+        }
+        k += 1;
+    }
+    k as usize
+}
+
+/// Start-up window, then the first build swapped in; its first sample.
+fn start(l: &mut DeviceLink, d: &mut MockDevice) -> u64 {
+    feed_startup(l);
+    let t = l.poll(d).unwrap().unwrap();
+    assert_eq!(t.kind, BuildKind::First);
+    t.at
 }
 
 /// A host: encodes commands, decodes everything the device queued.
@@ -198,7 +253,7 @@ fn every_command_is_acknowledged_and_applied() {
     let mut q: Queue<u8, 2048> = Queue::new();
     let (mut tx, mut rx) = q.split();
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
-    assert_eq!(l.start(&mut d).unwrap(), 1234);
+    assert_eq!(start(&mut l, &mut d), 1234);
     assert_eq!(d.p.calls, ["replace 1 100", "resume"]);
     assert_eq!(d.recycled, [0], "the stand-in comes back");
     d.p.calls.clear();
@@ -275,12 +330,12 @@ fn a_rejected_command_changes_nothing() {
     let mut q: Queue<u8, 2048> = Queue::new();
     let (mut tx, mut rx) = q.split();
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     d.p.calls.clear();
     for _ in 0..77 {
         d.p.excitation.next_sample();
     }
-    let before = (l.settings, l.lambda_rad_s, d.p.excitation);
+    let before = (l.settings, l.lambda_rad_s(), d.p.excitation);
     let outside = PExcitation {
         amplitude_v: 20.0,
         ..PExcitation::default()
@@ -351,7 +406,7 @@ fn a_rejected_command_changes_nothing() {
         .collect();
     assert_eq!(got, want);
     assert!(d.p.calls.is_empty(), "{:?}", d.p.calls);
-    assert_eq!((l.settings, l.lambda_rad_s, d.p.excitation), before);
+    assert_eq!((l.settings, l.lambda_rad_s(), d.p.excitation), before);
     assert_eq!(l.commands(), (0, 8));
     // The core refuses what validation let through: still nothing changes.
     d.refuse_build = Some(RejectReason::Gain);
@@ -361,7 +416,7 @@ fn a_rejected_command_changes_nothing() {
     });
     assert_eq!(l.execute(&c, &mut d), Err(RejectReason::Gain));
     assert!(d.p.calls.is_empty());
-    assert_eq!((l.settings, l.lambda_rad_s), (before.0, before.1));
+    assert_eq!((l.settings, l.lambda_rad_s()), (before.0, before.1));
 }
 
 #[test]
@@ -399,15 +454,21 @@ fn freeze_during_start_up_survives_the_start() {
     assert_eq!(acks(&h.drain(&mut rx)).len(), 4);
     assert_eq!(d.p.calls, ["freeze"]);
     assert_eq!(d.recycled, [1], "the trial build is returned");
-    // λ = None keeps the λ in use (until the automatic rule exists).
-    assert_eq!(l.lambda_rad_s(), 100.0);
+    // λ = None: the automatic rule; no λ until it has chosen.
+    assert!(l.is_automatic());
+    assert_eq!(l.lambda_rad_s(), None);
     assert_eq!(
         l.status(0, &Counters::default()).estimator.lambda_rad_s,
-        Some(100.0)
+        None
     );
     d.p.calls.clear();
-    l.start(&mut d).unwrap();
-    assert_eq!(d.p.calls, ["replace 2 100"], "no resume: frozen by command");
+    start(&mut l, &mut d);
+    let lambda = l.lambda_rad_s().unwrap();
+    assert_eq!(
+        d.p.calls,
+        [format!("replace 2 {lambda}")],
+        "no resume: frozen by command"
+    );
     assert!(l.status(0, &Counters::default()).adaptation_frozen);
 }
 
@@ -451,7 +512,7 @@ fn estimates_and_status_follow_the_record_clock() {
     assert!(estimates(&msgs).is_empty());
     assert_eq!(statuses(&msgs).len(), 1, "the first record brings a Status");
     d.p.next = 500;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     // 2 s of records at 100 Hz: 200 estimates, 2 more Status (1 Hz).
     let mut msgs = Vec::new();
     for k in 6..206u64 {
@@ -525,7 +586,7 @@ fn no_modes_before_the_laws_first_update() {
         ..record(index, Counters::default())
     };
     d.p.next = 500;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     let mut modes = Vec::new();
     let mut feed = |l: &mut DeviceLink, r, tx: &mut _, h: &mut Host, rx: &mut _| {
         l.on_record(&r, &w, tx);
@@ -553,7 +614,7 @@ fn full_tx_ring_drops_whole_frames_counted_as_gaps_and_flagged() {
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
     let w = [-2.0f32, 2.0];
     d.p.next = 0;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     // Nobody drains: the ring fills, later frames are dropped whole.
     for k in 1..=20u64 {
         l.on_record(&record(k * 100, Counters::default()), &w, &mut tx);
@@ -629,4 +690,177 @@ fn firmware_version_is_the_crate_version() {
     assert_eq!(interval_samples(0.0, 10_000.0), None);
     assert_eq!(interval_samples(f32::NAN, 10_000.0), None);
     assert_eq!(interval_samples(1e-9, 10_000.0), Some(u32::MAX));
+}
+
+/// A record of the running estimator: Θ of ω = 40, 250 rad/s (ζ 0.02,
+/// 0.13) at λ, with one law update.
+fn record_of(index: u64, lambda: f64) -> TelemetryRecord<f32, 7, 28> {
+    let tf = crate::model::ModalParams::new(&[40.0, 250.0], &[0.02, 0.13], &[10.0, 15.0], None)
+        .unwrap()
+        .transfer_function();
+    let mut theta = [0.0f64; 7];
+    tf.to_theta(lambda, &mut theta).unwrap();
+    TelemetryRecord {
+        theta: theta.map(|v| v as f32),
+        lambda_rad_s: lambda,
+        steps: StepCounts {
+            updated: 1,
+            ..StepCounts::default()
+        },
+        ..record(index, Counters::default())
+    }
+}
+
+#[test]
+fn the_automatic_rule_builds_from_the_window_and_recentres_with_carry_over() {
+    let mut q: Queue<u8, 8192> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let auto = Settings {
+        estimator: EstimatorSettings::default(),
+        ..settings()
+    };
+    assert_eq!(auto.estimator.lambda_rad_s, None, "automatic by default");
+    let (mut l, mut d, mut h) = (link_with(auto), device(), Host::new());
+    assert!(
+        l.poll(&mut d).unwrap().is_none(),
+        "nothing before the window"
+    );
+    let n = feed_startup(&mut l);
+    assert_eq!(n, 512, "500 samples, handed over in blocks of 32");
+    let first = l.poll(&mut d).unwrap().unwrap();
+    // U0, Y0: the window's RMS; λ0: twice y's centroid (300 rad/s).
+    let (_, lambda0, u0, y0, carried) = d.built[0];
+    assert!((u0 - 0.1).abs() < 1e-6, "{u0}");
+    assert!((y0 / 1.414e-3 - 1.0).abs() < 0.1, "{y0}");
+    assert!((lambda0 / 600.0 - 1.0).abs() < 0.05, "{lambda0}");
+    assert_eq!(carried, 0);
+    assert_eq!(first.filter.lambda_rad_s, lambda0);
+    assert_eq!(d.p.calls, [format!("replace 1 {lambda0}"), "resume".into()]);
+    assert_eq!(l.lambda_rad_s(), Some(lambda0));
+    assert!(!l.collecting_startup());
+    let at = first.at;
+    d.p.calls.clear();
+    // Records of a stable estimate: after settling (40/λ0) and ten reviews
+    // λ moves to √(40·250) = 100, Θ̂ carried over.
+    let mut k = at / 100 + 1;
+    let recentred = loop {
+        l.on_record(&record_of(k * 100 + 99, lambda0), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        k += 1;
+        if let Some(t) = l.poll(&mut d).unwrap() {
+            break t;
+        }
+        assert!(k < at / 100 + 40, "no re-centring");
+    };
+    let after = (k * 100).saturating_sub(at);
+    let settle = (40.0 / lambda0 / 1e-4) as u64;
+    assert!(after >= settle + 1000 && after <= settle + 1300, "{after}");
+    assert_eq!(recentred.kind, BuildKind::Recentre);
+    assert!((recentred.filter.lambda_rad_s - 100.0).abs() < 1e-4);
+    assert_eq!(d.built[1].4, 7, "the estimate is carried over");
+    assert_eq!((d.built[1].2, d.built[1].3), (u0, y0), "same scales");
+    assert_eq!(
+        d.p.calls,
+        [format!("replace 2 {}", recentred.filter.lambda_rad_s)]
+    );
+    assert!(l.has_estimate(), "the carried Θ̂ is an estimate");
+    // Records still at λ0 are not the new estimator's; at λ = 100 the rule
+    // converges without another build.
+    for j in 0..100 {
+        l.on_record(
+            &record_of((k + j) * 100 + 99, lambda0),
+            &[-2.0, 2.0],
+            &mut tx,
+        );
+        l.on_record(
+            &record_of((k + j) * 100 + 99, recentred.filter.lambda_rad_s),
+            &[-2.0, 2.0],
+            &mut tx,
+        );
+        h.drain(&mut rx);
+        assert!(l.poll(&mut d).unwrap().is_none());
+    }
+    assert_eq!(
+        l.tuner().phase(),
+        crate::tuning::Phase::Settled(crate::tuning::Settled::Converged)
+    );
+    assert_eq!(
+        l.status(0, &Counters::default()).estimator.lambda_rad_s,
+        Some(recentred.filter.lambda_rad_s as f32)
+    );
+}
+
+#[test]
+fn a_fixed_lambda_stops_the_rule_and_none_rearms_it() {
+    let mut q: Queue<u8, 8192> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let auto = Settings {
+        estimator: EstimatorSettings::default(),
+        ..settings()
+    };
+    let (mut l, mut d, mut h) = (link_with(auto), device(), Host::new());
+    let at = start(&mut l, &mut d);
+    let fixed = EstimatorSettings {
+        lambda_rad_s: Some(60.0),
+        ..EstimatorSettings::default()
+    };
+    l.receive(h.command(Command::SetEstimator(fixed)), &mut d, &mut tx);
+    assert_eq!(l.lambda_rad_s(), Some(60.0));
+    assert!(!l.is_automatic());
+    // A stable estimate for 3 s: no review, no build.
+    for k in at / 100 + 1..at / 100 + 300 {
+        l.on_record(&record_of(k * 100 + 99, 60.0), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        assert!(l.poll(&mut d).unwrap().is_none());
+    }
+    assert_eq!(d.built.len(), 2);
+    // λ = None again: new gains at λ = 60, then re-centred on the band.
+    d.p.next = 40_000;
+    l.receive(
+        h.command(Command::SetEstimator(EstimatorSettings::default())),
+        &mut d,
+        &mut tx,
+    );
+    assert_eq!(acks(&h.drain(&mut rx)), [(1, AckResult::Accepted)]);
+    assert_eq!((d.built[2].1, d.built[2].4), (60.0, 0));
+    assert!(l.is_automatic() && !l.has_estimate());
+    let mut got = None;
+    for k in 400..500u64 {
+        l.on_record(&record_of(k * 100 + 99, 60.0), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        if let Some(t) = l.poll(&mut d).unwrap() {
+            got = Some((k, t));
+            break;
+        }
+    }
+    let (k, t) = got.expect("re-centred");
+    // 40/60 s of settling and ten reviews after sample 40,000.
+    assert!((k * 100 + 99 - 40_000) >= 6_667 + 1_000, "{k}");
+    assert!((t.filter.lambda_rad_s - 100.0).abs() < 1e-4, "{t:?}");
+}
+
+#[test]
+fn dropped_startup_blocks_are_gaps_not_joins() {
+    let mut c = StartupCollector::<f32>::new();
+    let mut blocks = Vec::new();
+    for k in 0..(RAW_BLOCK_LEN * 4) {
+        c.push(0.1, k as f32, |b| {
+            if blocks.len() == 1 && b.first_index == RAW_BLOCK_LEN as u64 {
+                return Err(b);
+            }
+            blocks.push(b);
+            Ok(())
+        });
+    }
+    assert_eq!(c.dropped(), 1);
+    let firsts: Vec<u64> = blocks.iter().map(|b| b.first_index).collect();
+    let n = RAW_BLOCK_LEN as u64;
+    assert_eq!(firsts, [0, 2 * n, 3 * n]);
+    let mut t = Tuner::new(&TuningConfig::new(1e-4, crate::tuning::LambdaSource::Data)).unwrap();
+    for b in &blocks {
+        assert!(!t.startup_block(b));
+    }
+    assert_eq!(t.lost_pairs(), n);
+    let s = t.rule().stats();
+    assert_eq!((s.samples(), s.rejected()), (3 * n as u32, 1));
 }
