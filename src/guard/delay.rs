@@ -97,14 +97,8 @@ mod tests {
         assert_eq!(d.invalidate_recent(2, SampleFault::Stuck), 0);
         let e = d.push((6.0, 0.0, None, 6)).unwrap();
         assert_eq!((e.3, e.2), (3, None));
-        assert_eq!(
-            d.push((7.0, 0.0, None, 7)).unwrap().2,
-            Some(SampleFault::Stuck)
-        );
-        assert_eq!(
-            d.push((8.0, 0.0, None, 8)).unwrap().2,
-            Some(SampleFault::Stuck)
-        );
+        assert_eq!(d.push((7.0, 0.0, None, 7)).unwrap().2, Some(SampleFault::Stuck));
+        assert_eq!(d.push((8.0, 0.0, None, 8)).unwrap().2, Some(SampleFault::Stuck));
         assert_eq!(d.push((9.0, 0.0, None, 9)).unwrap().2, None);
         d.clear();
         assert_eq!(d.push((1.0, 0.0, None, 10)), None);

@@ -420,12 +420,7 @@ impl<T: Real> SensorGuard<T> {
 
     /// Classify at entry: (fault, level event, a stuck run completes now).
     #[inline]
-    fn classify(
-        &mut self,
-        u: T,
-        y: T,
-        valid: bool,
-    ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
+    fn classify(&mut self, u: T, y: T, valid: bool) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
         if !valid {
             self.interrupt();
             return (Some(SampleFault::Upstream), None, false);

@@ -59,11 +59,7 @@ fn non_finite_and_upstream_samples_are_rejected_at_once() {
     g.push_checked(0.1, 0.2, false);
     assert_eq!(g.last_screening().fault, Some(SampleFault::Upstream));
     let out = feed(&mut g, 1003, 100, signal);
-    let bad: Vec<_> = out
-        .iter()
-        .filter(|o| o.fault.is_some())
-        .map(|o| o.index)
-        .collect();
+    let bad: Vec<_> = out.iter().filter(|o| o.fault.is_some()).map(|o| o.index).collect();
     assert_eq!(bad, [1000, 1001, 1002]);
     let o = out.iter().find(|o| o.index == 1000).unwrap();
     assert!(o.for_estimator().0.is_nan() && o.for_estimator().1.is_nan());
@@ -75,19 +71,9 @@ fn non_finite_and_upstream_samples_are_rejected_at_once() {
 fn stuck_runs_are_caught_from_their_first_sample() {
     let mut g = guard(None, None);
     // The reading freezes at sample 5000 for 100 samples.
-    let y = |k: u64| {
-        if (5000..5100).contains(&k) {
-            signal(4999)
-        } else {
-            signal(k)
-        }
-    };
+    let y = |k: u64| if (5000..5100).contains(&k) { signal(4999) } else { signal(k) };
     let out = feed(&mut g, 0, 10_000, y);
-    let bad: Vec<_> = out
-        .iter()
-        .filter(|o| o.fault.is_some())
-        .map(|o| o.index)
-        .collect();
+    let bad: Vec<_> = out.iter().filter(|o| o.fault.is_some()).map(|o| o.index).collect();
     // The value first seen at 4999 repeats 100 times: a run of 101.
     assert_eq!(bad, (4999..5100).collect::<Vec<_>>());
     assert!(out
@@ -97,13 +83,7 @@ fn stuck_runs_are_caught_from_their_first_sample() {
     assert_eq!(g.counts().stuck, 101);
     // A shorter repeat is not a fault.
     let mut g = guard(None, None);
-    let out = feed(&mut g, 0, 2000, |k| {
-        if (500..520).contains(&k) {
-            signal(499)
-        } else {
-            signal(k)
-        }
-    });
+    let out = feed(&mut g, 0, 2000, |k| if (500..520).contains(&k) { signal(499) } else { signal(k) });
     assert!(out.iter().all(|o| o.fault.is_none()));
 }
 
@@ -113,10 +93,7 @@ fn saturation_and_open_bridge_at_the_rails() {
     let mut g = guard(Some([-fs, fs]), None);
     // Clipped signal: saturated where |y| ≥ 0.8 (approached continuously).
     let out = feed(&mut g, 0, 5000, |k| signal(k).clamp(-fs, fs));
-    let sat = out
-        .iter()
-        .filter(|o| o.fault == Some(SampleFault::Saturated))
-        .count();
+    let sat = out.iter().filter(|o| o.fault == Some(SampleFault::Saturated)).count();
     let expect = (0..5000 - g.delay_samples() as u64)
         .filter(|&k| signal(k).abs() >= fs)
         .count();
@@ -146,17 +123,11 @@ fn offset_steps_are_removed_and_noise_never_looks_like_one() {
     for (step, noisy) in [(0.05, false), (0.5, true)] {
         let mut g = guard(None, None);
         let y = |k: u64| {
-            signal(k)
-                + if noisy { noise[k as usize] } else { 0.0 }
-                + if k >= 300_000 { step } else { 0.0 }
+            signal(k) + if noisy { noise[k as usize] } else { 0.0 } + if k >= 300_000 { step } else { 0.0 }
         };
         let out = feed(&mut g, 0, 600_000, y);
         assert_eq!(g.counts().offset, 1, "step {step}");
-        assert!(
-            (g.offset() - step).abs() < 0.1 * step,
-            "{} vs {step}",
-            g.offset()
-        );
+        assert!((g.offset() - step).abs() < 0.1 * step, "{} vs {step}", g.offset());
         // After the step the output is the signal again, to the estimate's
         // accuracy (a second difference's worth).
         let worst = out
@@ -176,14 +147,7 @@ fn offset_steps_are_removed_and_noise_never_looks_like_one() {
 fn drift_is_flagged_and_high_passed_away() {
     let mut g = guard(None, Some(DEFAULT_HIGHPASS_RAD_S));
     // 0.2/s from 10 s on (20% of the signal's amplitude per second).
-    let y = |k: u64| {
-        signal(k)
-            + if k >= 100_000 {
-                0.2 * (k - 100_000) as f64 * TS
-            } else {
-                0.0
-            }
-    };
+    let y = |k: u64| signal(k) + if k >= 100_000 { 0.2 * (k - 100_000) as f64 * TS } else { 0.0 };
     let out = feed(&mut g, 0, 200_000, y);
     assert_eq!(g.counts().offset, 0);
     assert!(g.counts().drift >= 1);
@@ -202,22 +166,10 @@ fn bad_settings_are_refused() {
     let c = GuardConfig::new(TS);
     let bad = [
         GuardConfig { ts_s: 0.0, ..c },
-        GuardConfig {
-            range: Some([1.0, -1.0]),
-            ..c
-        },
-        GuardConfig {
-            range: Some([f64::NAN, 1.0]),
-            ..c
-        },
-        GuardConfig {
-            stuck_after: MAX_DELAY as u16,
-            ..c
-        },
-        GuardConfig {
-            highpass_rad_s: Some(0.0),
-            ..c
-        },
+        GuardConfig { range: Some([1.0, -1.0]), ..c },
+        GuardConfig { range: Some([f64::NAN, 1.0]), ..c },
+        GuardConfig { stuck_after: MAX_DELAY as u16, ..c },
+        GuardConfig { highpass_rad_s: Some(0.0), ..c },
     ];
     let want = [
         GuardError::SamplePeriod,

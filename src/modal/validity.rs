@@ -51,8 +51,7 @@ impl Validity {
         let n = m.modes.min(MAX_MODES);
         let mut prev: Option<T> = None;
         for i in 0..n {
-            let (Some(&w), Some(&z), Some(&b)) =
-                (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
+            let (Some(&w), Some(&z), Some(&b)) = (m.omega_rad_s.get(i), m.zeta.get(i), m.bbar.get(i))
             else {
                 return v.with(Self::MODE_COUNT);
             };
@@ -234,10 +233,7 @@ mod tests {
         assert_eq!((r.modal, r.current), (None, false));
         let ok = params([39.0, 245.0], [0.02, 0.13]);
         let r = h.update(&Ok(ok), 2);
-        assert_eq!(
-            (r.modal, r.current, r.validity),
-            (Some(ok), true, Validity::VALID)
-        );
+        assert_eq!((r.modal, r.current, r.validity), (Some(ok), true, Validity::VALID));
         let bad = params([39.0, f32::NAN], [0.02, 1.3]);
         let r = h.update(&Ok(bad), 2);
         assert_eq!((r.modal, r.current), (Some(ok), false));

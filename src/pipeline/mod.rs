@@ -129,8 +129,8 @@ pub use telemetry::{
 
 use crate::estimator::Estimator;
 use crate::excitation::{Excitation, ExcitationKind};
-pub use crate::guard::MAX_DELAY;
 use crate::guard::{GuardConfig, GuardError, SampleFault, SensorGuard};
+pub use crate::guard::MAX_DELAY;
 use crate::scalar::Real;
 use crate::supervise::ExcitationReason;
 
@@ -491,10 +491,7 @@ where
                 StatusFlags::INPUT_GONE,
                 sup.reason == ExcitationReason::InputGone,
             );
-            flags.set(
-                StatusFlags::CHANGE_DETECTED,
-                sup.changes != self.changes_seen,
-            );
+            flags.set(StatusFlags::CHANGE_DETECTED, sup.changes != self.changes_seen);
             self.changes_seen = sup.changes;
             flags.set(StatusFlags::SUPERVISED, true);
         }

@@ -154,9 +154,7 @@ impl core::fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Step(e) => write!(f, "invalid plant step: {e}"),
-            Self::Fault => {
-                f.write_str("invalid sensor fault: its level must be finite (full scale > 0)")
-            }
+            Self::Fault => f.write_str("invalid sensor fault: its level must be finite (full scale > 0)"),
             Self::Level => f.write_str("invalid excitation-off level: must be finite"),
             Self::SamplePeriod => {
                 f.write_str("the extra modes' plant must have the rig's sample period")
@@ -495,11 +493,7 @@ mod tests {
             let mut held = 0.0;
             for k in 0..300u64 {
                 let drive = sq.next_sample();
-                let u = if (150..160).contains(&k) {
-                    0.002
-                } else {
-                    drive
-                };
+                let u = if (150..160).contains(&k) { 0.002 } else { drive };
                 let y = truth.tick_with(u);
                 let got = s.tick();
                 assert_eq!(got.u, u);
@@ -582,19 +576,13 @@ mod tests {
     fn beam_modes_three_and_four() {
         let m = beam_modes(&BeamParams::paper(), 3, 2, 1.0).unwrap();
         // ω_i ∝ (β_iL)²: ω3 = 687.16 rad/s (the beam's table), ω4 from β4L = 10.9955.
-        assert!(
-            (m.omega_rad_s[0] - 687.1641).abs() < 1e-3,
-            "{}",
-            m.omega_rad_s[0]
-        );
+        assert!((m.omega_rad_s[0] - 687.1641).abs() < 1e-3, "{}", m.omega_rad_s[0]);
         let w1 = BeamParams::paper().natural_frequency_rad_s(1).unwrap();
         let ratio = (10.995_540_734_9f64 / 1.875_104_068_7).powi(2);
         assert!((m.omega_rad_s[1] / (w1 * ratio) - 1.0).abs() < 1e-6);
         // Kelvin–Voigt: ζ ∝ ω.
         assert!((m.zeta[1] / m.zeta[0] - m.omega_rad_s[1] / m.omega_rad_s[0]).abs() < 1e-9);
-        assert!(
-            (m.output_weight[0] + 2.0).abs() < 1e-12 && (m.output_weight[1] - 2.0).abs() < 1e-12
-        );
+        assert!((m.output_weight[0] + 2.0).abs() < 1e-12 && (m.output_weight[1] - 2.0).abs() < 1e-12);
         assert!(beam_modes(&BeamParams::paper(), 1, 4, 1.0).is_err());
     }
 }

@@ -120,11 +120,7 @@ impl<T: Real> ChangeDetector<T> {
             clip: T::from_f64(CLIP),
             alpha_ref: alpha(REFERENCE_S),
             alpha_learn: alpha(LEARN_S),
-            arm_samples: if arm >= u32::MAX as f64 {
-                u32::MAX
-            } else {
-                arm as u32
-            },
+            arm_samples: if arm >= u32::MAX as f64 { u32::MAX } else { arm as u32 },
             warmup: 0,
             mean_square: T::ZERO,
             cusum: T::ZERO,

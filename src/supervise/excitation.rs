@@ -219,11 +219,7 @@ mod tests {
         for _ in 0..200_000 {
             assert!(m.push(0.3));
         }
-        assert!(
-            (m.relative_level() - 1.0).abs() < 0.01,
-            "{}",
-            m.relative_level()
-        );
+        assert!((m.relative_level() - 1.0).abs() < 0.01, "{}", m.relative_level());
         m.reset();
         assert!(m.present());
     }

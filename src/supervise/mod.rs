@@ -30,7 +30,9 @@ pub mod change;
 pub mod excitation;
 
 pub use change::{ChangeDetector, TrackingConfig, DEFAULT_CHANGE_THRESHOLD, DISCOUNT};
-pub use excitation::{lemma1_excited, ExcitationReason, InputMonitor, EXCITATION_REL_THRESHOLD};
+pub use excitation::{
+    lemma1_excited, ExcitationReason, InputMonitor, EXCITATION_REL_THRESHOLD,
+};
 
 use crate::scalar::Real;
 
