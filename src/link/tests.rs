@@ -178,7 +178,7 @@ fn feed_startup(l: &mut DeviceLink) -> usize {
         let u = if (t * 7.0).fract() < 0.5 { 0.1 } else { -0.1 };
         c.push(u, 2e-3 * libm::sinf(300.0 * t), |b| {
             blocks.push(b);
-            Ok(())
+            true
         });
         for b in blocks.drain(..) {
             l.on_startup_block(&b);
@@ -846,10 +846,10 @@ fn dropped_startup_blocks_are_gaps_not_joins() {
     for k in 0..(RAW_BLOCK_LEN * 4) {
         c.push(0.1, k as f32, |b| {
             if blocks.len() == 1 && b.first_index == RAW_BLOCK_LEN as u64 {
-                return Err(b);
+                return false;
             }
             blocks.push(b);
-            Ok(())
+            true
         });
     }
     assert_eq!(c.dropped(), 1);

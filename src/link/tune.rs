@@ -246,7 +246,7 @@ impl Tuner {
 }
 
 /// The sample interrupt's half: copies fed pairs into blocks numbered by
-/// pair, hands each full block to `push` (a bounded queue's `try_push`;
+/// pair, hands each full block to `push` (a bounded queue's `enqueue`;
 /// a refused block is counted and shows as a gap). A handful of
 /// instructions per sample, no floating point but the copies.
 #[derive(Debug, Clone, Copy)]
@@ -278,9 +278,10 @@ impl<T: Real> StartupCollector<T> {
         }
     }
 
-    /// Take one fed pair (NaN if the sample was rejected).
+    /// Take one fed pair (NaN if the sample was rejected); a full block
+    /// goes to `push`, which returns whether it was taken.
     #[inline]
-    pub fn push(&mut self, u: T, y: T, push: impl FnOnce(RawBlock<T>) -> Result<(), RawBlock<T>>) {
+    pub fn push(&mut self, u: T, y: T, push: impl FnOnce(RawBlock<T>) -> bool) {
         let i = usize::from(self.block.len);
         if let (Some(du), Some(dy)) = (self.block.u_v.get_mut(i), self.block.y.get_mut(i)) {
             *du = u;
@@ -289,7 +290,7 @@ impl<T: Real> StartupCollector<T> {
         }
         self.next_pair = self.next_pair.wrapping_add(1);
         if usize::from(self.block.len) >= RAW_BLOCK_LEN {
-            if push(self.block).is_err() {
+            if !push(self.block) {
                 self.dropped = self.dropped.saturating_add(1);
             }
             self.block.len = 0;

@@ -254,7 +254,7 @@ impl Bench<'_> {
         if self.link.collecting_startup() {
             if let Some((u, y)) = tick.fed {
                 let out = &mut self.startup_out;
-                self.collector.push(u, y, |b| out.enqueue(b));
+                self.collector.push(u, y, |b| out.enqueue(b).is_ok());
             }
         }
         self.last_tick = Some(tick);

@@ -289,7 +289,7 @@ impl SampleTask {
         if COLLECTING.load(Ordering::Relaxed) {
             if let Some((u, y)) = tick.fed {
                 let out = &mut self.startup_out;
-                self.startup.push(u, y, |b| out.enqueue(b));
+                self.startup.push(u, y, |b| out.enqueue(b).is_ok());
             }
         }
         if NVIC::is_pending(board::Interrupt::TIMER0) {
