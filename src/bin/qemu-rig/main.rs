@@ -214,6 +214,9 @@ fn main() -> ! {
             link.on_raw(&block, &mut tx);
         }
         while let Some(block) = startup_consumer.dequeue() {
+            if run.first_block.is_none() {
+                run.first_block = Some(block);
+            }
             link.on_startup_block(&block);
             if !link.collecting_startup() {
                 COLLECTING.store(false, core::sync::atomic::Ordering::Relaxed);
@@ -238,7 +241,15 @@ fn main() -> ! {
             while let Some(block) = raw_consumer.dequeue() {
                 link.on_raw(&block, &mut tx);
             }
-            finish(&summary, last.as_ref(), &cal, &run, &link, &device, &mut tx);
+            finish(
+                &summary,
+                last.as_ref(),
+                &cal,
+                &run,
+                &link,
+                &mut device,
+                &mut tx,
+            );
         }
         match link.poll(&mut device) {
             Ok(Some(t)) => log_build(&t, &link, &mut run),

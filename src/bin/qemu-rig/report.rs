@@ -101,6 +101,8 @@ pub struct Run {
     pub first_lambda: Option<f64>,
     /// Re-centrings: (first sample, λ).
     pub recentred: heapless::Vec<(u64, f64), 4>,
+    /// The first start-up block (for the cost of the rule's window).
+    pub first_block: Option<crate::sample::Raw>,
 }
 
 /// Mean instructions of a span sum.
@@ -115,7 +117,7 @@ pub fn finish(
     cal: &Calibration,
     run: &Run,
     link: &DeviceLink,
-    device: &QemuDevice,
+    device: &mut QemuDevice,
     tx: &mut UartTx,
 ) -> ! {
     let ipt = cal.instructions_per_tick();
@@ -253,6 +255,7 @@ pub fn finish(
     if let Some(r) = last {
         frame_cost(r, ipt);
     }
+    tuning_cost(run, link, device, &s.tf, ipt);
     hprintln!(
         "instructions_per_sample: estimator={} isr={}",
         libm::round(est) as u32,
@@ -360,6 +363,76 @@ fn frame_cost(r: &Record, ipt: f32) {
         libm::roundf(e) as u32,
         libm::roundf(c) as u32,
         bytes
+    );
+}
+
+/// Thread-mode costs of the tuning rule (timer stopped, nothing preempts):
+/// one start-up block of 32 pairs (`AutoTune::startup_sample`, f64 in
+/// software), one review of the final estimate (its poles), the carry-over
+/// to a new λ, and one estimator build (the matrix exponentials) into the
+/// spare slot, which is given back.
+fn tuning_cost(
+    run: &Run,
+    link: &DeviceLink,
+    device: &mut QemuDevice,
+    tf: &beamest::model::TransferFunction<f32>,
+    ipt: f32,
+) {
+    let cfg = *link.tuner().rule().config();
+    let ticks = |t0: u32| (cycles::ticks_between(t0, cycles::now()) as f32 * ipt) as u32;
+    let block = run.first_block.map_or(0, |b| {
+        let Ok(mut t) = beamest::link::Tuner::new(&cfg) else {
+            return 0;
+        };
+        let t0 = cycles::now();
+        core::hint::black_box(t.startup_block(&b));
+        ticks(t0)
+    });
+    let Some(filter) = link.filter().copied() else {
+        return;
+    };
+    let mut rule = beamest::tuning::AutoTune::new(&beamest::tuning::TuningConfig {
+        scales: Some(filter.scales),
+        lambda: beamest::tuning::LambdaSource::Band {
+            lo_rad_s: filter.lambda_rad_s,
+            hi_rad_s: filter.lambda_rad_s,
+        },
+        ..cfg
+    })
+    .ok();
+    let review = rule.as_mut().map_or(0, |r| {
+        let t0 = cycles::now();
+        core::hint::black_box(r.review(tf));
+        ticks(t0)
+    });
+    let moved = beamest::filter_bank::FilterConfig {
+        lambda_rad_s: filter.lambda_rad_s * 1.2,
+        ..filter
+    };
+    let t0 = cycles::now();
+    let theta0 = beamest::tuning::carry_over::<f32, { crate::sample::NP }>(tf, &moved);
+    let carry = ticks(t0);
+    let t0 = cycles::now();
+    let built = beamest::link::Device::build_estimator(
+        device,
+        &link.settings().estimator,
+        &moved,
+        theta0.as_ref().map_or(&[][..], |t| &t[..]),
+    );
+    let build = ticks(t0);
+    let ok = built.is_ok();
+    if let Ok(e) = built {
+        beamest::link::Device::recycle_estimator(device, e);
+    }
+    hprintln!(
+        "tuning_thread_instructions: startup_block={} (32 pairs) review={} carry_over={} \
+         build={} (estimator {}built at lambda {} rad/s)",
+        block,
+        review,
+        carry,
+        build,
+        if ok { "" } else { "NOT " },
+        Fixed(moved.lambda_rad_s, 1)
     );
 }
 
