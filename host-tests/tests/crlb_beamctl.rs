@@ -83,18 +83,9 @@ fn beamctl_bound_is_the_spread_of_an_efficient_estimator() {
         let mean = errs.iter().map(|e| e[i]).sum::<f64>() / m;
         let sd = (errs.iter().map(|e| (e[i] - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
         let ratio = sd / bound[i];
-        println!(
-            "parameter {i}: sample std {sd:.3e}, bound {:.3e}, ratio {ratio:.3}",
-            bound[i]
-        );
-        assert!(
-            (ratio - 1.0).abs() < tol,
-            "parameter {i}: sample std ÷ bound {ratio}"
-        );
+        println!("parameter {i}: sample std {sd:.3e}, bound {:.3e}, ratio {ratio:.3}", bound[i]);
+        assert!((ratio - 1.0).abs() < tol, "parameter {i}: sample std ÷ bound {ratio}");
         // And the ML estimate is unbiased at this level.
-        assert!(
-            mean.abs() < 4.0 * bound[i] / m.sqrt(),
-            "parameter {i}: mean {mean:e}"
-        );
+        assert!(mean.abs() < 4.0 * bound[i] / m.sqrt(), "parameter {i}: mean {mean:e}");
     }
 }
