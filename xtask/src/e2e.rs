@@ -252,7 +252,7 @@ impl Host {
                             .push((r.first_sample_index + i as u64 * d, s.u_v, s.y));
                     }
                 }
-                Message::Status(s) => self.on_status(s, link)?,
+                Message::Status(s) => self.on_status(s),
                 Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
                 Message::Command(_) => self.fail("the device sent a Command frame".into()),
             }
@@ -299,7 +299,7 @@ impl Host {
         Ok(())
     }
 
-    fn on_status(&mut self, s: Status, link: &mut TcpStream) -> io::Result<()> {
+    fn on_status(&mut self, s: Status) {
         if self.first_status.is_none() {
             self.first_status = Some(s.clone());
         }
@@ -323,7 +323,6 @@ impl Host {
             _ => {}
         }
         self.last_status = Some(s);
-        Ok(())
     }
 
     fn on_ack(&mut self, seq: u32, result: AckResult, link: &mut TcpStream) -> io::Result<()> {
