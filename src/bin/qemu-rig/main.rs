@@ -71,8 +71,10 @@ use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
 const TELEMETRY_QUEUE: usize = 16;
 /// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
 const RAW_QUEUE: usize = 8;
-/// Start-up pair queue size (7 blocks of 32 pairs: 22 ms at 10 kHz).
-const STARTUP_QUEUE: usize = 8;
+/// Start-up pair queue size (3 blocks of 32 pairs: 9.6 ms at 10 kHz; thread
+/// mode takes ~73,000 instructions per block, under one period's share).
+/// A refused block is counted and its gap handled (`link::tune`).
+const STARTUP_QUEUE: usize = 4;
 
 static SPI_METER: SpiMeter = SpiMeter::new();
 // Large states are handed over by `&'static mut` into `singleton!` storage:
