@@ -436,6 +436,10 @@ impl DeviceLink {
         if self.is_automatic() && !self.frozen_by_command {
             self.tuner
                 .on_record(index, &record.theta, record.lambda_rad_s);
+        } else {
+            // Not reviewing: these samples do not count towards its
+            // settling, stability window or timeout.
+            self.tuner.skip_to(index);
         }
         let running = self.started_at.is_some_and(|s| index >= s);
         let due = interval_samples(self.settings.telemetry.estimate_rate_hz, fs)
@@ -562,11 +566,11 @@ impl DeviceLink {
         let Some(current) = self.filter else {
             // Before the first build: a trial build checks that the core
             // accepts it (unit scales; the window's replace them), at the
-            // commanded λ or, automatic, at a λ the rule may pick.
+            // commanded λ or, automatic, at the middle (log scale) of the
+            // range the rule picks from.
             let base = self.tuner.rule().config();
-            let lambda = s
-                .lambda_rad_s
-                .map_or(crate::tuning::MIN_LAMBDA_TS / base.ts_s, f64::from);
+            let middle = libm::sqrt(crate::tuning::MIN_LAMBDA_TS * crate::tuning::MAX_LAMBDA_TS);
+            let lambda = s.lambda_rad_s.map_or(middle / base.ts_s, f64::from);
             let trial = FilterConfig {
                 ts_s: base.ts_s,
                 lambda_rad_s: lambda,

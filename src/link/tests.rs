@@ -864,3 +864,39 @@ fn dropped_startup_blocks_are_gaps_not_joins() {
     let s = t.rule().stats();
     assert_eq!((s.samples(), s.rejected()), (3 * n as u32, 1));
 }
+
+#[test]
+fn a_long_freeze_does_not_time_the_rule_out() {
+    let mut q: Queue<u8, 8192> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let auto = Settings {
+        estimator: EstimatorSettings::default(),
+        ..settings()
+    };
+    let (mut l, mut d, mut h) = (link_with(auto), device(), Host::new());
+    let at = start(&mut l, &mut d);
+    let lambda0 = l.lambda_rad_s().unwrap();
+    l.receive(h.command(Command::Freeze), &mut d, &mut tx);
+    // 35 s frozen (longer than the rule's 30 s timeout): not counted.
+    let mut k = at / 100 + 1;
+    for _ in 0..3_500 {
+        l.on_record(&record_of(k * 100 + 99, lambda0), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        assert!(l.poll(&mut d).unwrap().is_none());
+        k += 1;
+    }
+    l.receive(h.command(Command::Resume), &mut d, &mut tx);
+    h.drain(&mut rx);
+    let mut recentred = None;
+    for _ in 0..100 {
+        l.on_record(&record_of(k * 100 + 99, lambda0), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        k += 1;
+        if let Some(t) = l.poll(&mut d).unwrap() {
+            recentred = Some(t);
+            break;
+        }
+    }
+    let t = recentred.expect("re-centred after the freeze");
+    assert!((t.filter.lambda_rad_s - 100.0).abs() < 1e-4);
+}

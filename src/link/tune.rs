@@ -161,6 +161,14 @@ impl Tuner {
         self.swapped_in(at);
     }
 
+    /// Samples up to `index` are not counted (adaptation frozen by command,
+    /// or λ fixed): the rule's clock resumes after them.
+    pub fn skip_to(&mut self, index: u64) {
+        if self.review_from.is_some() {
+            self.counted_to = self.counted_to.max(index.saturating_add(1));
+        }
+    }
+
     /// A rebuild failed: stop the rule, the running estimator stays.
     pub fn stop(&mut self) {
         self.stopped = true;
