@@ -2,7 +2,7 @@
 //! telemetry records and raw blocks from the sample task become frames in
 //! a bounded TX byte ring; command frames from an RX byte stream are
 //! validated, applied to the pipeline between samples and acknowledged.
-//! Every board uses it the same way ([`DeviceLink`], the QEMU image today);
+//! Every board uses it the same way ([`DeviceLink`], the QEMU image and the NUCLEO-H743ZI2);
 //! the board supplies the byte rings ([`TxSink`], any byte iterator) and
 //! the lock and estimator storage ([`Device`]).
 //!
@@ -24,8 +24,8 @@
 //! # Timing
 //! * Estimates: one per telemetry record, at the estimate rate
 //!   (round(f_s/rate) samples apart), from the record at which the
-//!   estimator was started ([`DeviceLink::start`]) on; none while the
-//!   start-up window measures the output scale.
+//!   first estimator was swapped in ([`DeviceLink::poll`]) on; none while
+//!   the start-up window measures U0, Y0 and λ0.
 //! * Status: at the status rate on the record clock (the pipeline's record
 //!   interval is the shorter of the two streams' intervals,
 //!   [`DeviceLink::record_every`]), the first with the first record; and

@@ -314,7 +314,7 @@ fn parse_seconds_as_samples(s: &str) -> Option<u32> {
 
 /// Boot the simulated bench: the chip models, both converters brought up
 /// through their drivers, the rig, a frozen pipeline with a stand-in
-/// estimator (never stepped, replaced once Y0 is known) and the sample
+/// estimator (never stepped, replaced by the tuning rule's first) and the sample
 /// task; returns the task and the spare estimator slot. Nothing that
 /// refers to the models leaves this function except the task.
 fn build_sample_task(
