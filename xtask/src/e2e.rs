@@ -145,11 +145,7 @@ const AMPLITUDE_BEFORE_V: f32 = 0.1;
 const AMPLITUDE_AFTER_V: f32 = 0.2;
 /// The refused amplitude: outside the ±10 V window.
 const AMPLITUDE_REFUSED_V: f32 = 20.0;
-/// The λ fixed for a moment before returning to the automatic rule
-/// (rad/s): half the paper's band centre, so the rule must re-centre.
-const FIXED_LAMBDA: f32 = 50.0;
-/// The rule's re-centring threshold (`TuningConfig::recentre_threshold`).
-const RECENTRE_THRESHOLD: f64 = 0.1;
+use crate::e2e_tuning::FIXED_LAMBDA;
 /// |u| vs the amplitude: the 16-bit DAC holds 0.1 V as 0.1007 V.
 const U_TOLERANCE: f32 = 0.02;
 /// Estimates vs the truth.
@@ -671,47 +667,13 @@ fn check(h: &mut Host, capture: &Capture) {
         )),
     }
     // 4. The automatic rule.
-    match h.first_status.as_ref().map(|s| s.estimator.lambda_rad_s) {
-        Some(None) => pass("first Status (start-up window): no lambda yet, automatic".into()),
-        l => fails.push(format!(
-            "first Status: lambda {l:?}, expected none (automatic rule, window open)"
-        )),
-    }
-    match h.after_auto.as_ref().map(|s| s.estimator.lambda_rad_s) {
-        Some(Some(l)) if l == FIXED_LAMBDA => pass(format!(
-            "SetEstimator lambda {FIXED_LAMBDA} then none accepted; Status: lambda {l} (the rule \
-             continues from the lambda in use)"
-        )),
-        l => fails.push(format!(
-            "Status after SetEstimator(none): lambda {l:?}, expected Some({FIXED_LAMBDA})"
-        )),
-    }
-    let last_lambda = h
-        .last_status
-        .as_ref()
-        .and_then(|s| s.estimator.lambda_rad_s)
-        .map(f64::from);
-    match (last_lambda, band_centre) {
-        (Some(l), Some(c)) => {
-            let off = |a: f64, b: f64| (a / b).max(b / a) - 1.0;
-            let moved = off(l, f64::from(FIXED_LAMBDA));
-            if off(l, c) < RECENTRE_THRESHOLD && moved > RECENTRE_THRESHOLD {
-                pass(format!(
-                    "automatic rule re-centred lambda from {FIXED_LAMBDA} to {l:.1} rad/s, within \
-                     {:.1}% of the estimate's band centre {c:.1} rad/s",
-                    100.0 * off(l, c)
-                ));
-            } else {
-                fails.push(format!(
-                    "last Status lambda {l:.1} rad/s: not re-centred on the estimate's band \
-                     centre {c:.1} rad/s (or still at {FIXED_LAMBDA})"
-                ));
-            }
-        }
-        (l, c) => fails.push(format!(
-            "no final lambda ({l:?}) or no estimated band ({c:?})"
-        )),
-    }
+    crate::e2e_tuning::check(
+        h.first_status.as_ref(),
+        h.after_auto.as_ref(),
+        h.last_status.as_ref(),
+        band_centre,
+        &mut fails,
+    );
 
     let expected_acks = 8;
     if h.acks.len() == expected_acks {

@@ -23,6 +23,7 @@
 
 mod callgraph;
 mod e2e;
+mod e2e_tuning;
 mod image;
 mod m7;
 mod memory_map;
