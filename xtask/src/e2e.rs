@@ -190,6 +190,9 @@ struct Host {
     /// Newest raw-sample index received before the amplitude command.
     raw_before_amplitude: Option<u64>,
     acks: Vec<(u32, AckResult)>,
+    /// The last RequestStatus has been acknowledged: the next Status is its
+    /// answer (a periodic Status may come between the request and its Ack).
+    status_acked: bool,
 }
 
 impl Host {
@@ -212,6 +215,7 @@ impl Host {
             refused_result: None,
             raw_before_amplitude: None,
             acks: Vec::new(),
+            status_acked: false,
         }
     }
 
@@ -221,6 +225,7 @@ impl Host {
             .map_err(|e| io::Error::other(format!("encoding {c:?}: {e}")))?;
         self.seq += 1;
         self.sent_at = Some(Instant::now());
+        self.status_acked = false;
         link.write_all(&out[..n])
     }
 
@@ -301,17 +306,17 @@ impl Host {
         }
         match self.step {
             Step::WaitRefused | Step::RefusedSent => self.before_refusal = Some(s.clone()),
-            Step::RefusedStatusSent if self.after_refusal.is_none() => {
+            Step::RefusedStatusSent if self.after_refusal.is_none() && self.status_acked => {
                 self.after_refusal = Some(s.clone());
                 self.step = Step::WaitAmplitude;
                 self.sent_at = None;
             }
-            Step::AmplitudeStatusSent if self.after_amplitude.is_none() => {
+            Step::AmplitudeStatusSent if self.after_amplitude.is_none() && self.status_acked => {
                 self.after_amplitude = Some(s.clone());
                 self.step = Step::Done;
                 self.sent_at = None;
             }
-            Step::AutoStatusSent if self.after_auto.is_none() => {
+            Step::AutoStatusSent if self.after_auto.is_none() && self.status_acked => {
                 self.after_auto = Some(s.clone());
                 self.step = Step::WaitRefused;
                 self.sent_at = None;
@@ -352,7 +357,7 @@ impl Host {
             (
                 Step::RefusedStatusSent | Step::AmplitudeStatusSent | Step::AutoStatusSent,
                 AckResult::Accepted,
-            ) => {}
+            ) => self.status_acked = true,
             (step, r) => {
                 self.fail(format!("command {seq} at step {step:?} answered {r:?}"));
                 self.step = Step::Done;
