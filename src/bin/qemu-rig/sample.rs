@@ -14,12 +14,12 @@
 //!    ([`StartupCollector`]: a few stores per sample, no arithmetic). Thread
 //!    mode computes U0, Y0 and λ0 from them (`beamest::tuning`, in `f64`),
 //!    builds the estimator and swaps it in between two samples
-//!    (`DeviceLink::poll`, inside the [`Shared`] lock); adaptation then
+//!    (`DeviceLink::poll`, inside the [`Shared`](beamest::board::qemu::Shared) lock); adaptation then
 //!    resumes with the law held until its filters have settled
 //!    (`Pipeline::resume`). Re-centrings of λ are built and swapped in the
 //!    same way; this handler never builds or reviews anything.
 //!
-//! Thread mode changes the pipeline only inside the [`Shared`] lock that
+//! Thread mode changes the pipeline only inside the [`Shared`](beamest::board::qemu::Shared) lock that
 //! this handler also runs in (the serial link's commands), so every change
 //! lands between two samples.
 //! 4. **Faults** ([`FAULTS`]): injected into the ADC model at fixed
@@ -41,8 +41,6 @@
 
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
-#[cfg(doc)]
-use beamest::board::qemu::Shared;
 use beamest::board::qemu::{self as board, Handoff};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
@@ -331,7 +329,7 @@ impl SampleTask {
         self.samples = k.wrapping_add(1);
     }
 
-    /// The pipeline (thread mode, inside the [`Shared`] lock).
+    /// The pipeline (thread mode, inside the [`Shared`](beamest::board::qemu::Shared) lock).
     pub fn pipeline_mut(&mut self) -> &mut RigPipeline {
         &mut self.pipeline
     }
