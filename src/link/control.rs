@@ -113,13 +113,17 @@ pub trait Device {
     /// setters and swaps inside.
     fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut Self::Pipeline) -> R) -> R;
 
-    /// Build an estimator for `settings` with filter pole `lambda_rad_s`
-    /// (called outside the lock; [`estimator_configs`] maps the settings).
-    /// The board keeps the signal scales (U0, Y0) it measured at start-up.
+    /// Build an estimator for `settings` on the filter bank `filter` (λ,
+    /// U0, Y0 from the tuning rule; Ts, hold and timing the board's),
+    /// starting from θ(0) = `theta0` in `filter`'s scaled coordinates
+    /// (empty: zero; otherwise exactly the estimator's parameter count, else
+    /// refuse with `EstimatorUnavailable`). Called outside the lock;
+    /// [`estimator_configs`] maps the settings, [`with_theta0`] the start.
     fn build_estimator(
         &mut self,
         settings: &EstimatorSettings,
-        lambda_rad_s: f64,
+        filter: &FilterConfig,
+        theta0: &[f64],
     ) -> Result<Self::Estimator, RejectReason>;
 
     /// Take back an estimator the pipeline no longer runs (e.g. to reuse
@@ -153,6 +157,19 @@ pub fn estimator_configs<const NP: usize>(
         ..AdaptiveConfig::default()
     };
     (filter, law)
+}
+
+/// `law` starting from θ(0) = `theta0` (scaled; empty: unchanged);
+/// `None` if `theta0` has another length than `NP`.
+pub fn with_theta0<const NP: usize>(
+    mut law: AdaptiveConfig<NP>,
+    theta0: &[f64],
+) -> Option<AdaptiveConfig<NP>> {
+    if theta0.is_empty() {
+        return Some(law);
+    }
+    law.theta0 = theta0.try_into().ok()?;
+    Some(law)
 }
 
 /// The reason to refuse an estimator the core would not build.

@@ -2,7 +2,7 @@
 //! telemetry records and raw blocks from the sample task become frames in
 //! a bounded TX byte ring; command frames from an RX byte stream are
 //! validated, applied to the pipeline between samples and acknowledged.
-//! Every board uses it the same way ([`DeviceLink`], the QEMU image today);
+//! Every board uses it the same way ([`DeviceLink`], the QEMU image and the NUCLEO-H743ZI2);
 //! the board supplies the byte rings ([`TxSink`], any byte iterator) and
 //! the lock and estimator storage ([`Device`]).
 //!
@@ -24,8 +24,8 @@
 //! # Timing
 //! * Estimates: one per telemetry record, at the estimate rate
 //!   (round(f_s/rate) samples apart), from the record at which the
-//!   estimator was started ([`DeviceLink::start`]) on; none while the
-//!   start-up window measures the output scale.
+//!   first estimator was swapped in ([`DeviceLink::poll`]) on; none while
+//!   the start-up window measures U0, Y0 and λ0.
 //! * Status: at the status rate on the record clock (the pipeline's record
 //!   interval is the shorter of the two streams' intervals,
 //!   [`DeviceLink::record_every`]), the first with the first record; and
@@ -37,10 +37,26 @@
 //!   produced under the new settings, except estimates and raw samples
 //!   already waiting in the sample task's queues (at most their depth).
 //!
-//! # λ = None (the automatic rule)
-//! The truth-free rule that chooses λ from the data is being built in the
-//! core (issue 8). Until it lands, `SetEstimator` with `lambda_rad_s =
-//! None` keeps the λ in use; Status reports that λ.
+//! # λ = None: the automatic rule
+//! The estimator's settings come from the truth-free rule of
+//! [`crate::tuning`] (docs/SETTINGS.md), run by [`tune::Tuner`]: U0, Y0 are
+//! the RMS of u and y over the start-up window (fed by the board with
+//! [`DeviceLink::on_startup_block`]), λ0 comes from the data (or a band the
+//! board knows), and while `lambda_rad_s` is `None` (the default) λ is
+//! re-centred on the estimated band with the estimate carried over. Every
+//! build happens in [`DeviceLink::poll`] (low-priority context, outside the
+//! lock) and is swapped in between two samples.
+//!
+//! * `SetEstimator` with `lambda_rad_s = Some(λ)`: that λ, fixed (the rule
+//!   stops re-centring), the start-up window's scales.
+//! * `SetEstimator` with `lambda_rad_s = None`: the new gains at the λ in
+//!   use, and the rule reviews the new estimate again (it re-centres if the
+//!   band moved).
+//! * Before the window closes a `SetEstimator` is checked (a trial build)
+//!   and remembered; the first build uses it.
+//!
+//! Status reports the λ in use (none before the first build under the
+//! automatic rule).
 #![deny(
     clippy::indexing_slicing,
     clippy::unwrap_used,
@@ -53,13 +69,16 @@
 pub mod control;
 pub mod estimate;
 pub mod raw;
+pub mod tune;
 pub mod tx;
 
-pub use control::{estimator_configs, Control, Device, ExcitationPlan};
+pub use control::{estimator_configs, with_theta0, Control, Device, ExcitationPlan};
 pub use estimate::{Convergence, EstimateContext, FlagRules};
 pub use raw::RawAssembler;
+pub use tune::{BuildKind, Pending, StartupCollector, Tuner};
 pub use tx::{Sent, Transmitter, TxSink, TxStats};
 
+use crate::filter_bank::{FilterConfig, SignalScales};
 use crate::pipeline::{recover, Counters, RawBlock, Recovered, TelemetryRecord};
 use crate::protocol::budget::MAX_COMMAND_ENCODED_LEN;
 use crate::protocol::{
@@ -67,6 +86,7 @@ use crate::protocol::{
     LinkCounters, Message, RejectReason, Status, TelemetryRates,
 };
 use crate::scalar::Real;
+use crate::tuning::{TuningConfig, TuningError};
 
 /// This crate's version, for [`Status::firmware`].
 pub const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
@@ -161,12 +181,25 @@ fn next_due(due: u64, every: u32, now: u64) -> u64 {
     }
 }
 
+/// An estimator [`DeviceLink::poll`] swapped in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tuned {
+    /// Why it was built.
+    pub kind: BuildKind,
+    /// Its filter bank.
+    pub filter: FilterConfig,
+    /// The first sample it runs on.
+    pub at: u64,
+}
+
 /// The device end of the link (see the module doc).
 #[derive(Debug, Clone)]
 pub struct DeviceLink {
     config: LinkConfig,
     settings: Settings,
-    lambda_rad_s: f64,
+    /// The running estimator's filter bank (λ, U0, Y0), once built.
+    filter: Option<FilterConfig>,
+    tuner: Tuner,
     tx: Transmitter,
     rx: Decoder<MAX_COMMAND_ENCODED_LEN>,
     accepted: u32,
@@ -188,14 +221,23 @@ pub struct DeviceLink {
 }
 
 impl DeviceLink {
-    /// The link for a pipeline built with `settings` and filter pole
-    /// `lambda_rad_s` (its record interval must be
-    /// [`record_interval`] of the rates, its raw decimation theirs).
-    pub fn new(config: LinkConfig, settings: Settings, lambda_rad_s: f64) -> Self {
-        Self {
+    /// The link for a pipeline built with `settings` (its record interval
+    /// must be [`record_interval`] of the rates, its raw decimation
+    /// theirs), frozen until the first estimator is built. `tuning` is the
+    /// board's rule: its sample period, output hold and converter timing
+    /// go into every estimator; its λ source (`Data`, or a `Band` the board
+    /// knows) is the automatic λ0. `settings.estimator.lambda_rad_s` =
+    /// `None` runs the automatic rule, `Some(λ)` fixes λ.
+    pub fn new(
+        config: LinkConfig,
+        settings: Settings,
+        tuning: &TuningConfig,
+    ) -> Result<Self, TuningError> {
+        Ok(Self {
             config,
             settings,
-            lambda_rad_s,
+            filter: None,
+            tuner: Tuner::new(tuning)?,
             tx: Transmitter::new(),
             rx: Decoder::new(),
             accepted: 0,
@@ -210,7 +252,7 @@ impl DeviceLink {
             next_estimate_at: 0,
             next_status_at: 0,
             drops_at_last_estimate: 0,
-        }
+        })
     }
 
     /// The settings in force.
@@ -218,9 +260,40 @@ impl DeviceLink {
         &self.settings
     }
 
-    /// The filter pole in use (rad/s).
-    pub fn lambda_rad_s(&self) -> f64 {
-        self.lambda_rad_s
+    /// The filter pole in use (rad/s): the running estimator's, else the
+    /// commanded one (`None` before the first build under the automatic
+    /// rule).
+    pub fn lambda_rad_s(&self) -> Option<f64> {
+        self.filter
+            .map(|f| f.lambda_rad_s)
+            .or(self.settings.estimator.lambda_rad_s.map(f64::from))
+    }
+
+    /// The running estimator's filter bank (λ, U0, Y0), once built.
+    pub fn filter(&self) -> Option<&FilterConfig> {
+        self.filter.as_ref()
+    }
+
+    /// The tuning rule (its phase, re-centrings, start-up statistics).
+    pub fn tuner(&self) -> &Tuner {
+        &self.tuner
+    }
+
+    /// λ is chosen by the automatic rule (`lambda_rad_s = None`).
+    pub fn is_automatic(&self) -> bool {
+        self.settings.estimator.lambda_rad_s.is_none()
+    }
+
+    /// The sample task should still hand start-up pairs over.
+    pub fn collecting_startup(&self) -> bool {
+        self.tuner.collecting()
+    }
+
+    /// One block of start-up pairs from the sample task (see [`tune`]).
+    /// Returns true when it closed the window: the first estimator is then
+    /// built by the next [`DeviceLink::poll`].
+    pub fn on_startup_block<T: Real>(&mut self, block: &RawBlock<T>) -> bool {
+        self.tuner.startup_block(block)
     }
 
     /// The fixed properties.
@@ -264,30 +337,69 @@ impl DeviceLink {
         (self.accepted, self.rejected)
     }
 
-    /// Start the estimator after the start-up window (the board has the
-    /// output scale now): build it from the settings in force outside the
-    /// lock, swap it in, and resume adaptation unless a `Freeze` command
-    /// came first. Returns the sample index from which it runs.
-    pub fn start<D: Device>(&mut self, dev: &mut D) -> Result<u64, RejectReason> {
-        let est = dev.build_estimator(&self.settings.estimator, self.lambda_rad_s)?;
-        let (lambda, frozen) = (self.lambda_rad_s, self.frozen_by_command);
-        let (swap, at) = dev.with_pipeline(|p| {
-            let swap = p.replace_estimator(est, lambda);
-            if swap.is_ok() && !frozen {
-                p.resume();
+    /// Build what the tuning rule asked for, if anything (low-priority
+    /// context): the first estimator after the start-up window (swapped in,
+    /// adaptation resumed unless a `Freeze` came first) or a re-centred one
+    /// with the estimate carried over. The build runs outside the lock,
+    /// the swap inside it. Returns what was swapped in and from which
+    /// sample. A failed first build is an error (nothing runs); a failed
+    /// re-centring keeps the running estimator and stops the rule.
+    pub fn poll<D: Device>(&mut self, dev: &mut D) -> Result<Option<Tuned>, RejectReason> {
+        let Some(p) = self.tuner.take_pending() else {
+            return Ok(None);
+        };
+        let mut filter = p.filter;
+        if p.kind == BuildKind::First {
+            if let Some(l) = self.settings.estimator.lambda_rad_s {
+                filter.lambda_rad_s = f64::from(l);
             }
-            (swap, p.next_sample_index())
+        }
+        let est = match dev.build_estimator(&self.settings.estimator, &filter, p.theta0()) {
+            Ok(e) => e,
+            Err(e) => {
+                self.tuner.stop();
+                return match p.kind {
+                    BuildKind::First => Err(e),
+                    BuildKind::Recentre => Ok(None),
+                };
+            }
+        };
+        let resume = p.kind == BuildKind::First && !self.frozen_by_command;
+        let (swap, at) = dev.with_pipeline(|pl| {
+            let swap = pl.replace_estimator(est, filter.lambda_rad_s);
+            if swap.is_ok() && resume {
+                pl.resume();
+            }
+            (swap, pl.next_sample_index())
         });
         match swap {
             Ok(old) => dev.recycle_estimator(old),
             Err(refused) => {
                 dev.recycle_estimator(refused);
-                return Err(RejectReason::Lambda);
+                self.tuner.stop();
+                return match p.kind {
+                    BuildKind::First => Err(RejectReason::Lambda),
+                    BuildKind::Recentre => Ok(None),
+                };
             }
         }
-        self.started_at = Some(at);
-        self.restarted(at);
-        Ok(at)
+        self.filter = Some(filter);
+        self.tuner.swapped_in(at);
+        match p.kind {
+            BuildKind::First => {
+                self.started_at = Some(at);
+                self.restarted(at);
+            }
+            // Θ̂ carried over is an estimate: modes stay on the wire. Without
+            // a carry-over the law starts from zero.
+            BuildKind::Recentre if p.theta0_len == 0 => self.restarted(at),
+            BuildKind::Recentre => {}
+        }
+        Ok(Some(Tuned {
+            kind: p.kind,
+            filter,
+            at,
+        }))
     }
 
     /// The estimator (re)started at sample `at`: no modes until its law has
@@ -321,6 +433,14 @@ impl DeviceLink {
             }
         }
         self.last_record = Some(index);
+        if self.is_automatic() && !self.frozen_by_command {
+            self.tuner
+                .on_record(index, &record.theta, record.lambda_rad_s);
+        } else {
+            // Not reviewing: these samples do not count towards its
+            // settling, stability window or timeout.
+            self.tuner.skip_to(index);
+        }
         let running = self.started_at.is_some_and(|s| index >= s);
         let due = interval_samples(self.settings.telemetry.estimate_rate_hz, fs)
             .filter(|_| running && index >= self.next_estimate_at);
@@ -430,11 +550,67 @@ impl DeviceLink {
             adaptation_frozen: self.frozen_by_command,
             excitation: self.settings.excitation,
             estimator: EstimatorSettings {
-                lambda_rad_s: Some(self.lambda_rad_s as f32),
+                lambda_rad_s: self.lambda_rad_s().map(|l| l as f32),
                 ..self.settings.estimator
             },
             telemetry: self.settings.telemetry,
         }
+    }
+
+    /// `SetEstimator` (see the module doc, "λ = None").
+    fn set_estimator<D: Device>(
+        &mut self,
+        s: &EstimatorSettings,
+        dev: &mut D,
+    ) -> Result<(), RejectReason> {
+        let Some(current) = self.filter else {
+            // Before the first build: a trial build checks that the core
+            // accepts it (unit scales; the window's replace them), at the
+            // commanded λ or, automatic, at the middle (log scale) of the
+            // range the rule picks from.
+            let base = self.tuner.rule().config();
+            let middle = libm::sqrt(crate::tuning::MIN_LAMBDA_TS * crate::tuning::MAX_LAMBDA_TS);
+            let lambda = s.lambda_rad_s.map_or(middle / base.ts_s, f64::from);
+            let trial = FilterConfig {
+                ts_s: base.ts_s,
+                lambda_rad_s: lambda,
+                scales: SignalScales::default(),
+                hold: base.hold,
+                timing: base.timing,
+            };
+            let est = dev.build_estimator(s, &trial, &[])?;
+            dev.recycle_estimator(est);
+            self.settings.estimator = *s;
+            return Ok(());
+        };
+        let filter = FilterConfig {
+            lambda_rad_s: s.lambda_rad_s.map_or(current.lambda_rad_s, f64::from),
+            ..current
+        };
+        let est = dev.build_estimator(s, &filter, &[])?;
+        let (swap, at) = dev.with_pipeline(|p| {
+            (
+                p.replace_estimator(est, filter.lambda_rad_s),
+                p.next_sample_index(),
+            )
+        });
+        match swap {
+            Ok(old) => dev.recycle_estimator(old),
+            Err(refused) => {
+                dev.recycle_estimator(refused);
+                return Err(RejectReason::Lambda);
+            }
+        }
+        self.restarted(at);
+        self.filter = Some(filter);
+        self.settings.estimator = *s;
+        if s.lambda_rad_s.is_none() {
+            self.tuner.rebuilt(filter, at);
+        } else {
+            self.tuner.cancel_pending();
+            self.tuner.swapped_in(at);
+        }
+        Ok(())
     }
 
     /// Validate `c` against the limits and apply it; on `Err` nothing has
@@ -450,31 +626,7 @@ impl DeviceLink {
                 dev.with_pipeline(|p| plan.apply(p.excitation_mut()))?;
                 self.settings.excitation = *x;
             }
-            Command::SetEstimator(s) => {
-                // λ = None: keep the λ in use until the automatic rule
-                // exists (module doc).
-                let lambda = s.lambda_rad_s.map_or(self.lambda_rad_s, f64::from);
-                let est = dev.build_estimator(s, lambda)?;
-                if self.started_at.is_some() {
-                    let (swap, at) = dev.with_pipeline(|p| {
-                        (p.replace_estimator(est, lambda), p.next_sample_index())
-                    });
-                    match swap {
-                        Ok(old) => dev.recycle_estimator(old),
-                        Err(refused) => {
-                            dev.recycle_estimator(refused);
-                            return Err(RejectReason::Lambda);
-                        }
-                    }
-                    self.restarted(at);
-                } else {
-                    // Before start-up ends: built only to check that the
-                    // core accepts it; start() builds it with the scales.
-                    dev.recycle_estimator(est);
-                }
-                self.settings.estimator = *s;
-                self.lambda_rad_s = lambda;
-            }
+            Command::SetEstimator(s) => self.set_estimator(s, dev)?,
             Command::SetTelemetry(t) => {
                 let every = record_interval(t, fs);
                 dev.with_pipeline(|p| {

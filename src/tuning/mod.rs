@@ -415,6 +415,41 @@ impl AutoTune {
         after > 0 && after % self.review_every == 0
     }
 
+    /// [`AutoTune::sample`] for `steps` estimator steps at once: true if any
+    /// of them made a review due (the low-priority task counts the steps
+    /// between two telemetry records and reviews the latest estimate). The
+    /// phase afterwards is the one `steps` calls would leave.
+    pub fn advance(&mut self, steps: u64) -> bool {
+        if self.phase != Phase::Reviewing || steps == 0 {
+            return false;
+        }
+        let before = self.since_build.saturating_sub(self.settle_samples);
+        self.since_build = self.since_build.saturating_add(steps);
+        let Some(after) = self.since_build.checked_sub(self.settle_samples) else {
+            return false;
+        };
+        // Steps with 0 < a ≤ timeout, a in (before, after], review when a
+        // is a multiple of the period.
+        let last = after.min(self.timeout_samples);
+        if after > self.timeout_samples {
+            self.phase = Phase::Settled(Settled::Timeout);
+        }
+        last > before && last / self.review_every > before / self.review_every
+    }
+
+    /// The estimator was rebuilt at `filter` by someone else (new gains
+    /// commanded with the automatic λ): review again from this build, with
+    /// the settling time, the re-centring count and the stability window
+    /// reset. Ignored during the start-up window (the rule builds first).
+    pub fn rebuilt(&mut self, filter: FilterConfig) {
+        if self.phase == Phase::Startup {
+            return;
+        }
+        self.phase = Phase::Reviewing;
+        self.recentres = 0;
+        self.built(filter, true);
+    }
+
     /// Review the current estimate. Returns the new filter configuration
     /// when λ is to be re-centred: build it with θ(0) = [`carry_over`] of
     /// `tf`, hold it for settling and use it from the next sample on.

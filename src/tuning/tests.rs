@@ -333,3 +333,61 @@ fn paper_plant_end_to_end_from_data_alone() {
     let e = err(est.as_ref().unwrap());
     assert!(e < 1e-8, "{e:e}");
 }
+
+#[test]
+fn advance_is_the_same_as_that_many_samples() {
+    // Settling 4000 samples (λ = 100), reviews every 100, timeout 1 s:
+    // batches of every size from 1 to 257 across settling, the reviews
+    // and the timeout give the same due flags and the same phase.
+    let mut cfg = TuningConfig::new(TS, LambdaSource::Data);
+    cfg.review_timeout_s = 1.0;
+    let filter = FilterConfig {
+        ts_s: TS,
+        lambda_rad_s: 100.0,
+        ..FilterConfig::default()
+    };
+    let armed = || {
+        let mut t = AutoTune::new(&cfg).unwrap();
+        for _ in 0..2_000 {
+            t.startup_sample(0.1, 1e-3 * libm::sin(0.01 * t.stats().samples() as f64));
+        }
+        assert_eq!(t.phase(), Phase::Reviewing);
+        t.rebuilt(filter);
+        t
+    };
+    for batch in 1..=257u64 {
+        let (mut a, mut b) = (armed(), armed());
+        for _ in 0..(16_000 / batch) {
+            let due_a = (0..batch).fold(false, |d, _| a.sample() | d);
+            let due_b = b.advance(batch);
+            assert_eq!(due_a, due_b, "batch {batch}");
+            assert_eq!(a.phase(), b.phase(), "batch {batch}");
+        }
+        assert_eq!(b.phase(), Phase::Settled(Settled::Timeout));
+    }
+    assert!(!armed().advance(0));
+}
+
+#[test]
+fn rebuilt_rearms_the_reviews_with_settling() {
+    let mut cfg = TuningConfig::new(TS, LambdaSource::Fixed(10.0));
+    cfg.scales = Some(SignalScales::default());
+    let mut t = AutoTune::new(&cfg).unwrap();
+    assert_eq!(t.phase(), Phase::Settled(Settled::Fixed));
+    let filter = FilterConfig {
+        lambda_rad_s: 10.0,
+        ..t.filter().unwrap()
+    };
+    t.rebuilt(filter);
+    assert_eq!((t.phase(), t.recentres()), (Phase::Reviewing, 0));
+    // 40/λ = 40,000 samples of settling before the first review.
+    assert!(!t.advance(40_000));
+    let tf = tf_of(&[40.0, 250.0], &[0.02, 0.13]);
+    let asked = reviews(&mut t, &tf, 2_000);
+    assert_eq!(asked.len(), 1);
+    assert!((asked[0] - 100.0).abs() < 1e-9);
+    // During the start-up window it does nothing.
+    let mut s = AutoTune::new(&TuningConfig::new(TS, LambdaSource::Data)).unwrap();
+    s.rebuilt(filter);
+    assert_eq!(s.phase(), Phase::Startup);
+}

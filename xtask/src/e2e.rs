@@ -15,7 +15,18 @@
 //!    refused with reason SafeWindow (3) and the Status that follows shows
 //!    every setting unchanged; at 1.5 s an amplitude of 0.2 V is accepted,
 //!    the next Status shows it, and the raw samples' u is at ±0.1 V before
-//!    the command and at ±0.2 V from that Status on.
+//!    the command and at ±0.2 V from that Status on;
+//! 4. the automatic tuning rule (docs/SETTINGS.md) runs on the device and
+//!    follows `SetEstimator`: the first Status (before the start-up window
+//!    closes) reports no λ; right after raw samples are switched on (0.5 s,
+//!    before the faults, whose quarantines would hold a new law) the host
+//!    fixes λ = 50 rad/s (`SetEstimator` with `lambda_rad_s = Some(50)`)
+//!    and at once returns to the automatic rule (`None`); the Status that
+//!    follows reports λ = 50 (the rule continues from the λ in use), and
+//!    by the end the rule has re-centred λ on the band of the device's own
+//!    estimate (the last Status's λ within 10% of √(ω̂1·ω̂2) and more than
+//!    10% away from 50) while the estimate still meets check 1. Nothing the
+//!    device uses comes from the truth; only this host compares with it.
 //!
 //! The schedule runs on the device's clock (the sample index in the frames),
 //! so it does not depend on how fast the host runs QEMU. The test fails
@@ -32,8 +43,9 @@ use std::time::{Duration, Instant};
 
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use beamest::protocol::{
-    encode, AckResult, Command, Decoder, Estimate, Excitation, Frame, LinkCounters, Message,
-    RejectReason, Status, StatusFlags, TelemetryRates, Waveform, MAX_ENCODED_LEN,
+    encode, AckResult, Command, Decoder, Estimate, EstimatorSettings, Excitation, Frame,
+    LinkCounters, Message, RejectReason, Status, StatusFlags, TelemetryRates, Waveform,
+    MAX_ENCODED_LEN,
 };
 
 use crate::qemu::{command, wait, Serial};
@@ -133,6 +145,7 @@ const AMPLITUDE_BEFORE_V: f32 = 0.1;
 const AMPLITUDE_AFTER_V: f32 = 0.2;
 /// The refused amplitude: outside the ±10 V window.
 const AMPLITUDE_REFUSED_V: f32 = 20.0;
+use crate::e2e_tuning::FIXED_LAMBDA;
 /// |u| vs the amplitude: the 16-bit DAC holds 0.1 V as 0.1007 V.
 const U_TOLERANCE: f32 = 0.02;
 /// Estimates vs the truth.
@@ -145,6 +158,9 @@ const ACK_TIMEOUT: Duration = Duration::from_secs(10);
 enum Step {
     WaitRawOn,
     RawOnSent,
+    FixedSent,
+    AutoSent,
+    AutoStatusSent,
     WaitRefused,
     RefusedSent,
     RefusedStatusSent,
@@ -169,10 +185,14 @@ struct Host {
     before_refusal: Option<Status>,
     after_refusal: Option<Status>,
     after_amplitude: Option<Status>,
+    after_auto: Option<Status>,
     refused_result: Option<AckResult>,
     /// Newest raw-sample index received before the amplitude command.
     raw_before_amplitude: Option<u64>,
     acks: Vec<(u32, AckResult)>,
+    /// The last RequestStatus has been acknowledged: the next Status is its
+    /// answer (a periodic Status may come between the request and its Ack).
+    status_acked: bool,
 }
 
 impl Host {
@@ -191,9 +211,11 @@ impl Host {
             before_refusal: None,
             after_refusal: None,
             after_amplitude: None,
+            after_auto: None,
             refused_result: None,
             raw_before_amplitude: None,
             acks: Vec::new(),
+            status_acked: false,
         }
     }
 
@@ -203,6 +225,7 @@ impl Host {
             .map_err(|e| io::Error::other(format!("encoding {c:?}: {e}")))?;
         self.seq += 1;
         self.sent_at = Some(Instant::now());
+        self.status_acked = false;
         link.write_all(&out[..n])
     }
 
@@ -283,14 +306,19 @@ impl Host {
         }
         match self.step {
             Step::WaitRefused | Step::RefusedSent => self.before_refusal = Some(s.clone()),
-            Step::RefusedStatusSent if self.after_refusal.is_none() => {
+            Step::RefusedStatusSent if self.after_refusal.is_none() && self.status_acked => {
                 self.after_refusal = Some(s.clone());
                 self.step = Step::WaitAmplitude;
                 self.sent_at = None;
             }
-            Step::AmplitudeStatusSent if self.after_amplitude.is_none() => {
+            Step::AmplitudeStatusSent if self.after_amplitude.is_none() && self.status_acked => {
                 self.after_amplitude = Some(s.clone());
                 self.step = Step::Done;
+                self.sent_at = None;
+            }
+            Step::AutoStatusSent if self.after_auto.is_none() && self.status_acked => {
+                self.after_auto = Some(s.clone());
+                self.step = Step::WaitRefused;
                 self.sent_at = None;
             }
             _ => {}
@@ -306,8 +334,8 @@ impl Host {
         }
         match (self.step, result) {
             (Step::RawOnSent, AckResult::Accepted) => {
-                self.step = Step::WaitRefused;
-                self.sent_at = None;
+                self.step = Step::FixedSent;
+                self.send(link, Command::SetEstimator(estimator(Some(FIXED_LAMBDA))))?;
             }
             (Step::RefusedSent, r) => {
                 self.refused_result = Some(r);
@@ -318,7 +346,18 @@ impl Host {
                 self.step = Step::AmplitudeStatusSent;
                 self.send(link, Command::RequestStatus)?;
             }
-            (Step::RefusedStatusSent | Step::AmplitudeStatusSent, AckResult::Accepted) => {}
+            (Step::FixedSent, AckResult::Accepted) => {
+                self.step = Step::AutoSent;
+                self.send(link, Command::SetEstimator(estimator(None)))?;
+            }
+            (Step::AutoSent, AckResult::Accepted) => {
+                self.step = Step::AutoStatusSent;
+                self.send(link, Command::RequestStatus)?;
+            }
+            (
+                Step::RefusedStatusSent | Step::AmplitudeStatusSent | Step::AutoStatusSent,
+                AckResult::Accepted,
+            ) => self.status_acked = true,
             (step, r) => {
                 self.fail(format!("command {seq} at step {step:?} answered {r:?}"));
                 self.step = Step::Done;
@@ -335,6 +374,14 @@ fn excitation(amplitude_v: f32) -> Excitation {
         waveform: Waveform::Square { freq_hz: 7.0 },
         amplitude_v,
         offset_v: 0.0,
+    }
+}
+
+/// The protocol's default estimator settings at `lambda_rad_s`.
+fn estimator(lambda_rad_s: Option<f32>) -> EstimatorSettings {
+    EstimatorSettings {
+        lambda_rad_s,
+        ..EstimatorSettings::default()
     }
 }
 
@@ -464,8 +511,12 @@ fn check(h: &mut Host, capture: &Capture) {
 
     // 1. The estimates.
     let valid = |e: &&Estimate| e.flags.contains(StatusFlags::PHYSICALLY_VALID);
+    let mut band_centre = None;
     match h.estimates.iter().rev().find(valid) {
         Some(e) => {
+            if let [m1, m2] = e.modes.as_slice() {
+                band_centre = Some((f64::from(m1.omega_rad_s) * f64::from(m2.omega_rad_s)).sqrt());
+            }
             let mut worst: f64 = 0.0;
             for (i, m) in e.modes.iter().enumerate() {
                 let ew = (f64::from(m.omega_rad_s) / PAPER_OMEGA[i] - 1.0).abs();
@@ -513,10 +564,10 @@ fn check(h: &mut Host, capture: &Capture) {
         }
         None => fails.push("no physically valid estimate".into()),
     }
-    // 100 Hz from the start-up (~0.1 s) to 5 s.
-    if h.estimates.len() >= 480 {
+    // 100 Hz from the start-up window (0.2 s) to 5 s.
+    if h.estimates.len() >= 470 {
         pass(format!(
-            "{} estimates (100 Hz after the 0.1 s start-up)",
+            "{} estimates (100 Hz after the 0.2 s start-up window)",
             h.estimates.len()
         ));
     } else {
@@ -548,8 +599,14 @@ fn check(h: &mut Host, capture: &Capture) {
     }
     match (&h.before_refusal, &h.after_refusal) {
         (Some(b), Some(a)) => {
+            // λ is the automatic rule's to change at any time; the
+            // commanded settings must not change.
+            let commanded = |s: &Status| EstimatorSettings {
+                lambda_rad_s: None,
+                ..s.estimator
+            };
             let same = a.excitation == b.excitation
-                && a.estimator == b.estimator
+                && commanded(a) == commanded(b)
                 && a.telemetry == b.telemetry
                 && a.adaptation_frozen == b.adaptation_frozen;
             let counted = a.counters.commands_rejected == b.counters.commands_rejected + 1;
@@ -614,7 +671,16 @@ fn check(h: &mut Host, capture: &Capture) {
             h.raw.len()
         )),
     }
-    let expected_acks = 5;
+    // 4. The automatic rule.
+    crate::e2e_tuning::check(
+        h.first_status.as_ref(),
+        h.after_auto.as_ref(),
+        h.last_status.as_ref(),
+        band_centre,
+        &mut fails,
+    );
+
+    let expected_acks = 8;
     if h.acks.len() == expected_acks {
         pass(format!(
             "{expected_acks} commands sent, {expected_acks} acknowledgements"

@@ -16,6 +16,8 @@ pub const NUCLEO_IMAGE: &str = "nucleo-rig";
 const PROBE_CHIP: &str = "STM32H743ZITx";
 /// The f32/f64 bench binary.
 const FP_BENCH: &str = "fp-bench";
+/// The robust estimator's bench binary.
+const ROBUST_BENCH: &str = "robust-bench";
 /// Wall-clock limit for one emulated bench run, s.
 const FP_BENCH_TIMEOUT_S: u64 = 300;
 
@@ -99,6 +101,28 @@ pub fn fp_bench() -> Result<(), String> {
     } else {
         Err(format!("fp-bench failed:\n  {}", failures.join("\n  ")))
     }
+}
+
+/// `cargo xtask robust-bench`: the robust estimator's costs on the
+/// Cortex-M4F (`src/bin/robust-bench/`), its `robust_bench:` lines.
+pub fn robust_bench() -> Result<(), String> {
+    require_tool(
+        QEMU,
+        &["--version"],
+        "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
+    )?;
+    let m = MACHINES.first().ok_or("no machine")?;
+    let elf = build_bin("board-qemu", ROBUST_BENCH, m.build)?;
+    println!(
+        "
+{ROBUST_BENCH} on {} — {}",
+        m.name, m.about
+    );
+    let out = run_qemu(m, &elf).map_err(|e| format!("robust-bench failed: {e}"))?;
+    for line in out.lines().filter(|l| l.starts_with("robust_bench:")) {
+        println!("  {line}");
+    }
+    Ok(())
 }
 
 /// Run `elf` on machine `m` to its semihosting exit; its stdout, or why

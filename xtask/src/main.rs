@@ -16,11 +16,14 @@
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
+//! * `robust-bench` — the noise-robust estimator's costs (step, model
+//!   update) on QEMU `mps2-an386`, split as the firmware would run it.
 //! * `fp-bench` — the f32/f64 cost of the estimator step on QEMU
 //!   `mps2-an386` (Cortex-M4F) and `mps2-an500` (Cortex-M7).
 
 mod callgraph;
 mod e2e;
+mod e2e_tuning;
 mod image;
 mod m7;
 mod memory_map;
@@ -117,6 +120,7 @@ fn main() -> ExitCode {
         Some("qemu") => qemu::run(&args[1..]),
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
+        Some("robust-bench") => m7::robust_bench(),
         Some("help" | "-h" | "--help") | None => {
             print!("{}", USAGE);
             Ok(())
@@ -158,6 +162,8 @@ usage: cargo xtask <command>
                            check it, flash and run it with probe-rs (defmt log)
   fp-bench                 estimator step cost in f32 and f64: QEMU mps2-an386
                            (Cortex-M4F) and mps2-an500 (Cortex-M7)
+  robust-bench             the robust estimator's step and model-update costs on QEMU
+                           mps2-an386 (Cortex-M4F, f32)
 ";
 
 fn workspace_root() -> PathBuf {

@@ -1,29 +1,33 @@
 //! The QEMU image's device on the host: the simulated bench behind the real
 //! drivers (`rig::bench`, `ConverterRig`), the per-sample pipeline in
-//! `f32`, the start-up window, and the device end of the serial link
-//! (`beamest::link::DeviceLink`) — the same sequence the firmware runs,
-//! with a host on the other end of the byte rings that decodes with the
-//! core's `Decoder`.
+//! `f32`, the truth-free tuning rule (start-up window, automatic λ), and
+//! the device end of the serial link (`beamest::link::DeviceLink`) — the
+//! same sequence and settings the firmware runs, with a host on the other
+//! end of the byte rings that decodes with the core's `Decoder`.
 //!
-//! One sample: `rig.tick()`, `pipeline.tick()` (the sample interrupt); the
-//! link runs after every [`SERVICE_EVERY`] samples, as thread mode would
-//! between interrupts. The lock of the firmware is trivial here: the tick
-//! and the link never interleave.
+//! One sample: `rig.tick()`, `pipeline.tick()` and the start-up pairs into
+//! their bounded queue (the sample interrupt); the link runs after every
+//! [`SERVICE_EVERY`] samples, as thread mode would between interrupts
+//! (start-up blocks, builds and swaps, records, raw blocks). The lock of the
+//! firmware is trivial here: the tick and the link never interleave.
 
 use std::collections::VecDeque;
 
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
-use beamest::filter_bank::SignalScales;
+use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
-use beamest::link::{estimator_configs, Device, DeviceLink, TxSink};
-use beamest::pipeline::{bring_up, OutputScaleWindow, Pipeline, RawBlock, TelemetryRecord, Tick};
+use beamest::link::{
+    estimator_configs, with_theta0, Device, DeviceLink, Settings, StartupCollector, Tuned, TxSink,
+};
+use beamest::pipeline::{bring_up, Pipeline, RawBlock, TelemetryRecord, Tick};
 use beamest::protocol::{
     encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
 };
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::rig::{bench, ConverterModels, ConverterRig};
+use beamest::tuning::{LambdaSource, TuningConfig};
 use heapless::spsc::{Consumer, Producer, Queue};
 
 pub type Rec = TelemetryRecord<f32, 7, 28>;
@@ -72,10 +76,9 @@ impl TxSink for Ring {
     }
 }
 
-/// The board side: the pipeline and the estimator's scales.
+/// The board side: the pipeline.
 pub struct SimDevice<'a> {
     pub pipeline: Pipe<'a>,
-    pub scales: SignalScales,
     /// Estimators built (including trial builds before start-up).
     pub built: usize,
 }
@@ -90,14 +93,33 @@ impl<'a> Device for SimDevice<'a> {
     fn build_estimator(
         &mut self,
         settings: &EstimatorSettings,
-        lambda_rad_s: f64,
+        filter: &FilterConfig,
+        theta0: &[f64],
     ) -> Result<Adaptive2<f32>, RejectReason> {
-        let base = bench::filter_config(self.scales.y_scale);
-        let (f, l) = estimator_configs::<7>(settings, lambda_rad_s, &base);
+        let (f, l) = estimator_configs::<7>(settings, filter.lambda_rad_s, filter);
+        let l = with_theta0(l, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
         self.built += 1;
         Adaptive2::new(&f, &l).map_err(reject_config)
     }
     fn recycle_estimator(&mut self, _old: Adaptive2<f32>) {}
+}
+
+/// The firmware's settings: the bench's, the estimator under the automatic
+/// rule (λ = none).
+pub fn firmware_settings() -> Settings {
+    Settings {
+        estimator: EstimatorSettings::default(),
+        ..bench::link_settings()
+    }
+}
+
+/// The firmware's tuning rule: λ0 from the data, the board's converter
+/// timing compensated.
+pub fn tuning() -> TuningConfig {
+    TuningConfig {
+        timing: bench::output_timing(),
+        ..TuningConfig::new(bench::TS_S, LambdaSource::Data)
+    }
 }
 
 /// The host: encodes commands, decodes every device frame.
@@ -146,10 +168,15 @@ pub struct Bench<'a> {
     pub device: SimDevice<'a>,
     pub records: Consumer<'a, Rec>,
     pub raws: Consumer<'a, Raw>,
-    pub window: OutputScaleWindow<f32>,
+    /// The sample task's half of the start-up window.
+    pub collector: StartupCollector<f32>,
+    pub startup_out: Producer<'a, Raw>,
+    pub startup_in: Consumer<'a, Raw>,
     pub link: DeviceLink,
     pub samples: u64,
     pub started_at: Option<u64>,
+    /// Every estimator the tuning rule swapped in.
+    pub builds: Vec<Tuned>,
     /// Skip the link's servicing (a stalled thread mode).
     pub stalled: bool,
     pub last_tick: Option<Tick<f32>>,
@@ -175,7 +202,7 @@ pub fn with_bench<R>(
     // The board's converter timing (sinc³, DAC latency), which the
     // estimator's filter bank compensates (`bench::filter_config`).
     let rig = bench::converter_rig(&models).unwrap();
-    let mut settings = bench::link_settings();
+    let mut settings = firmware_settings();
     let mut gen = bench::excitation::<f32>().unwrap();
     if let Some(x) = excitation {
         beamest::link::ExcitationPlan::<f32>::new(&x, &settings.excitation, bench::SAMPLE_RATE_HZ)
@@ -184,13 +211,15 @@ pub fn with_bench<R>(
             .unwrap();
         settings.excitation = x;
     }
-    let link = DeviceLink::new(bench::link_config(BAUD), settings, bench::LAMBDA_RAD_S);
+    let link = DeviceLink::new(bench::link_config(BAUD), settings, &tuning()).unwrap();
     let stand_in =
         Adaptive2::<f32>::new(&bench::filter_config(1.0), &AdaptiveConfig::default()).unwrap();
     let mut q: Queue<Rec, 16> = Queue::new();
     let mut rq: Queue<Raw, 8> = Queue::new();
+    let mut sq: Queue<Raw, 8> = Queue::new();
     let (prod, records) = q.split();
     let (raw_prod, raws) = rq.split();
+    let (startup_out, startup_in) = sq.split();
     let config = beamest::pipeline::PipelineConfig {
         telemetry_every: link.record_every(),
         ..bench::pipeline_config()
@@ -199,20 +228,16 @@ pub fn with_bench<R>(
     pipeline.freeze();
     let mut b = Bench {
         rig,
-        device: SimDevice {
-            pipeline,
-            scales: SignalScales {
-                u_scale: bench::EXCITATION_V,
-                y_scale: 1.0,
-            },
-            built: 0,
-        },
+        device: SimDevice { pipeline, built: 0 },
         records,
         raws,
-        window: OutputScaleWindow::new(bench::STARTUP_SAMPLES),
+        collector: StartupCollector::new(),
+        startup_out,
+        startup_in,
         link,
         samples: 0,
         started_at: None,
+        builds: Vec::new(),
         stalled: false,
         last_tick: None,
     };
@@ -226,9 +251,11 @@ impl Bench<'_> {
         self.rig.tick().unwrap();
         let tick = self.device.pipeline.tick();
         assert_eq!(tick.sample_index, self.samples, "every tick runs");
-        if let Some(y0) = self.window.observe(&tick) {
-            self.device.scales.y_scale = f64::from(y0);
-            self.started_at = Some(self.link.start(&mut self.device).unwrap());
+        if self.link.collecting_startup() {
+            if let Some((u, y)) = tick.fed {
+                let out = &mut self.startup_out;
+                self.collector.push(u, y, |b| out.enqueue(b).is_ok());
+            }
         }
         self.last_tick = Some(tick);
         self.samples += 1;
@@ -237,8 +264,23 @@ impl Bench<'_> {
         }
     }
 
-    /// Thread mode's pass: records and raw blocks to the link.
+    /// Thread mode's tuning: start-up blocks to the rule, what it asked
+    /// for built and swapped in.
+    pub fn tune(&mut self) {
+        while let Some(b) = self.startup_in.dequeue() {
+            self.link.on_startup_block(&b);
+        }
+        if let Some(t) = self.link.poll(&mut self.device).unwrap() {
+            if self.started_at.is_none() {
+                self.started_at = Some(t.at);
+            }
+            self.builds.push(t);
+        }
+    }
+
+    /// Thread mode's pass: tuning, records and raw blocks to the link.
     pub fn service(&mut self, tx: &mut Ring) {
+        self.tune();
         while let Some(r) = self.records.dequeue() {
             self.link
                 .on_record(&r, &bench::OUTPUT_WEIGHT.map(|w| w as f32), tx);

@@ -1,121 +1,104 @@
-//! The serial link's plumbing on the reference board: frames of the
-//! project's protocol (`beamest::protocol`, docs/PROTOCOL.md) into the
-//! USART3 TX ring, received bytes from the RX ring into the protocol's
-//! stream decoder. Thread mode only.
-//!
-//! What goes over the link — estimates, status, acknowledgements, and
-//! which commands are applied — is the serial-link work (issue 7); this
-//! module provides the two ends it plugs into: [`Link::send`] for any
-//! device → host message and [`Link::poll`] for host → device frames. It
-//! already forwards raw-sample blocks ([`Link::send_raw`]) when raw
-//! recording is switched on.
+//! The serial link on the reference board: the core's device end
+//! ([`beamest::link::DeviceLink`], docs/PROTOCOL.md) on USART3, the same
+//! code the QEMU image runs, with this board's side of it ([`NucleoDevice`]:
+//! the sample task's pipeline inside its critical section, estimators built
+//! by value) and its fixed properties ([`link_config`], [`start_settings`],
+//! [`tuning`]). Thread mode only: records, raw blocks and received bytes
+//! are handed to the link there; commands are applied between two samples
+//! (the lock masks the DRDY interrupt for a setter or a swap).
 
-use beamest::board::nucleo::uart::{UartRx, UartTx};
-use beamest::pipeline::RawBlock;
-use beamest::protocol::heapless::Vec;
-use beamest::protocol::{
-    Decoder, Encoder, Frame, LinkCounters, Payload, RawSamples, UySample, MAX_ENCODED_LEN,
-    MAX_RAW_SAMPLES,
+use beamest::estimator::Adaptive2;
+use beamest::excitation::{multisine, prbs};
+use beamest::filter_bank::FilterConfig;
+use beamest::link::control::reject_config;
+use beamest::link::{
+    estimator_configs, with_theta0, Device, FlagRules, LinkConfig, Settings, FIRMWARE_VERSION,
 };
+use beamest::protocol::budget::uart_bytes_per_s;
+use beamest::protocol::{
+    EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
+};
+use beamest::tuning::{LambdaSource, TuningConfig};
 
-/// Frames the link could not send, by reason.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, defmt::Format)]
-pub struct SendStats {
-    /// Frames queued whole.
-    pub sent: u32,
-    /// Frames dropped because the TX ring lacked room.
-    pub ring_full: u32,
-    /// Messages the encoder refused (malformed, too large).
-    pub encode_errors: u32,
+use beamest::board::nucleo::clocks;
+
+use crate::rig;
+use crate::{RigPipeline, SAMPLE};
+
+/// What the link checks commands against: the ADC's rate, the actuator's
+/// safe window, every generator's range, the adaptive law only, two
+/// modes, and USART3's line rate as the link budget.
+pub fn link_config() -> LinkConfig {
+    LinkConfig {
+        limits: Limits {
+            sample_rate_hz: rig::SAMPLE_RATE_HZ as f32,
+            piezo_min_v: rig::SAFE_WINDOW.min_v as f32,
+            piezo_max_v: rig::SAFE_WINDOW.max_v as f32,
+            max_multisine_tones: multisine::MAX_TONES as u8,
+            prbs_bits_min: prbs::MIN_ORDER,
+            prbs_bits_max: prbs::MAX_ORDER,
+            estimators: EstimatorKind::Adaptive.bit(),
+            modes: 2,
+            link_bytes_per_s: uart_bytes_per_s(clocks::BAUD) as f32,
+        },
+        firmware: FIRMWARE_VERSION,
+        rules: FlagRules::default(),
+    }
 }
 
-/// Both directions of the link.
-pub struct Link {
-    tx: UartTx,
-    rx: UartRx,
-    encoder: Encoder,
-    decoder: Decoder,
-    buf: [u8; MAX_ENCODED_LEN],
-    stats: SendStats,
+/// The settings at power-up: the start-up excitation of [`rig::excitation`],
+/// the core's default gains with λ chosen by the automatic rule
+/// (`lambda_rad_s = None`), the protocol's default telemetry rates.
+pub fn start_settings() -> Settings {
+    Settings {
+        excitation: Excitation {
+            waveform: Waveform::Square {
+                freq_hz: rig::EXCITATION_HZ as f32,
+            },
+            amplitude_v: rig::EXCITATION_AMPLITUDE_V as f32,
+            offset_v: 0.0,
+        },
+        estimator: EstimatorSettings::default(),
+        telemetry: TelemetryRates::default(),
+    }
 }
 
-impl Link {
-    /// The link over USART3's rings; the device's sequence numbers start
-    /// at 0 and the decoder at a frame boundary.
-    pub fn new(tx: UartTx, rx: UartRx) -> Self {
-        Self {
-            tx,
-            rx,
-            encoder: Encoder::new(),
-            decoder: Decoder::new(),
-            buf: [0; MAX_ENCODED_LEN],
-            stats: SendStats::default(),
+/// The truth-free tuning rule of this board (docs/SETTINGS.md): its sample
+/// period and converter timing, λ0 from the data, the core's defaults.
+pub fn tuning() -> TuningConfig {
+    TuningConfig {
+        timing: rig::output_timing(),
+        ..TuningConfig::new(rig::TS_S, LambdaSource::Data)
+    }
+}
+
+/// The board's side of the link.
+pub struct NucleoDevice;
+
+impl Device for NucleoDevice {
+    type Real = f64;
+    type Estimator = Adaptive2<f64>;
+    type Pipeline = RigPipeline;
+
+    fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut RigPipeline) -> R) -> R {
+        match SAMPLE.with(|t| f(&mut t.pipeline)) {
+            Some(r) => r,
+            // The task is placed before the link runs.
+            None => crate::fatal("sample task", "not placed"),
         }
     }
 
-    /// Encode `msg` as one frame and queue it whole, or count why not.
-    pub fn send<M: Payload + ?Sized>(&mut self, msg: &M) -> bool {
-        match self.encoder.encode(msg, &mut self.buf) {
-            Ok(n) => {
-                let frame = self.buf.get(..n).unwrap_or(&[]);
-                if self.tx.write_all_or_nothing(frame) {
-                    self.stats.sent = self.stats.sent.saturating_add(1);
-                    true
-                } else {
-                    self.stats.ring_full = self.stats.ring_full.saturating_add(1);
-                    false
-                }
-            }
-            Err(_) => {
-                self.stats.encode_errors = self.stats.encode_errors.saturating_add(1);
-                false
-            }
-        }
+    fn build_estimator(
+        &mut self,
+        settings: &EstimatorSettings,
+        filter: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<Adaptive2<f64>, RejectReason> {
+        let (filter, law) =
+            estimator_configs::<{ crate::NP }>(settings, filter.lambda_rad_s, filter);
+        let law = with_theta0(law, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
+        Adaptive2::<f64>::new(&filter, &law).map_err(reject_config)
     }
 
-    /// Forward a raw block as a `RawSamples` message: the (u, y) pairs
-    /// exactly as the estimator received them (u in actuator volts, y in
-    /// strain; NaN marks a rejected sample).
-    pub fn send_raw(&mut self, block: &RawBlock<f64>) -> bool {
-        let mut samples: Vec<UySample, MAX_RAW_SAMPLES> = Vec::new();
-        let len = usize::from(block.len);
-        for (u, y) in block.u_v.iter().zip(block.y.iter()).take(len) {
-            if samples
-                .push(UySample {
-                    u_v: *u as f32,
-                    y: *y as f32,
-                })
-                .is_err()
-            {
-                break;
-            }
-        }
-        let msg = RawSamples {
-            first_sample_index: block.first_index,
-            decimation: block.decimation.max(1),
-            samples,
-        };
-        self.send(&msg)
-    }
-
-    /// The next complete host → device frame, if the received bytes hold
-    /// one (bad frames are counted by the decoder and skipped).
-    pub fn poll(&mut self) -> Option<Frame> {
-        while let Some(byte) = self.rx.read() {
-            if let Some(Ok(frame)) = self.decoder.push(byte) {
-                return Some(frame);
-            }
-        }
-        None
-    }
-
-    /// Send-side counters.
-    pub fn send_stats(&self) -> SendStats {
-        self.stats
-    }
-
-    /// Receive-side counters (the protocol decoder's).
-    pub fn receive_stats(&self) -> LinkCounters {
-        *self.decoder.counters()
-    }
+    fn recycle_estimator(&mut self, _old: Adaptive2<f64>) {}
 }

@@ -12,11 +12,17 @@
 //!   late tick.
 //! * **`USART3` (below it):** moves bytes between the link's rings and the
 //!   USART FIFOs.
-//! * **Thread mode (lowest):** start-up (bridge null offset, Y0), then
-//!   telemetry records → modal recovery (eqs. 30–32) and λmin(P) →
-//!   defmt log once a second, raw blocks and received frames through
-//!   [`link`], ADC re-initialisation after a device reset, a warning when
-//!   no sample has come for 0.5 s (SysTick wakes it even then).
+//! * **Thread mode (lowest):** start-up (bridge null offset), the
+//!   truth-free tuning rule (U0, Y0, λ0 from the start-up window, λ
+//!   re-centred on the estimated band: `beamest::tuning`, docs/SETTINGS.md),
+//!   and the serial link ([`beamest::link::DeviceLink`] on USART3,
+//!   docs/PROTOCOL.md, the same code as the QEMU image): each record
+//!   recovered (eqs. 30–32, λmin(P)) and sent as an Estimate at the
+//!   estimate rate, Status at the status rate, raw samples when enabled,
+//!   commands decoded, validated, applied between samples ([`link`]) and
+//!   acknowledged; a defmt log once a second; ADC re-initialisation after a
+//!   device reset; a warning when no sample has come for 0.5 s (SysTick
+//!   wakes it even then).
 //!
 //! # Start-up
 //! 1. Board: clocks, CLKIN, pins, buses; converters reset by their pins.
@@ -27,11 +33,13 @@
 //!    read by polling DRDY, with the DAC at 0 V (the paper's "bridge offset
 //!    nulling").
 //! 5. The pipeline starts in the sample interrupt with the excitation on
-//!    and adaptation frozen; [`rig::STARTUP_SAMPLES`] raw samples give Y0
-//!    (the RMS of y); thread mode builds the estimator with it (outside
-//!    the lock), swaps it in and resumes adaptation: the first sample then
-//!    re-arms the estimator's input quarantine (40/λ) while its filters
-//!    settle on the moving beam.
+//!    and adaptation frozen; while the tuning rule's start-up window is
+//!    open (0.2 s) the interrupt copies the fed (u, y) pairs into blocks
+//!    for thread mode ([`beamest::link::StartupCollector`]); thread mode
+//!    computes U0, Y0, λ0 from them, builds the estimator (outside the
+//!    lock), swaps it in and resumes adaptation (`DeviceLink::poll`), with
+//!    the law held while its filters settle on the moving beam (40/λ).
+//!    Re-centrings of λ are built and swapped in the same way.
 //!
 //! Any start-up failure drives the DAC to 0 V (CLEAR), lights LD3 and
 //! halts with a defmt error saying what failed.
@@ -65,7 +73,9 @@ use beamest::board::nucleo::shared::Shared;
 use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::estimator::Adaptive2;
-use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, TelemetryRecord};
+use beamest::link::{BuildKind, DeviceLink, StartupCollector, Tuned};
+use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};
+use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt::{error, info, warn, Debug2Format};
 use defmt_rtt as _;
@@ -73,16 +83,18 @@ use embassy_stm32::interrupt;
 use heapless::spsc::{Producer, Queue};
 use panic_probe as _;
 
-use link::Link;
+use link::NucleoDevice;
 
 /// Θ entries for two modes (eq. 29: 4n − 1).
-const NP: usize = 7;
+pub(crate) const NP: usize = 7;
 /// Packed upper triangle of P: NP(NP + 1)/2.
 const NS: usize = NP * (NP + 1) / 2;
 /// Telemetry queue (holds 7 records: 70 ms at 100 Hz).
 const TELEMETRY_QUEUE: usize = 8;
 /// Raw-block queue (holds 7 blocks: 22 ms at one block per 32 samples).
 const RAW_QUEUE: usize = 8;
+/// Start-up pair queue (holds 7 blocks of 32 pairs: 22 ms).
+const STARTUP_QUEUE: usize = 8;
 /// Polling DRDY at start-up gives up after this many sample periods.
 const DRDY_TIMEOUT_PERIODS: u32 = 3;
 /// Records per status log line (1 s at 100 Hz).
@@ -95,7 +107,7 @@ const STALL_CYCLES: u32 = clocks::CPU_HZ / 2;
 const SETTLE_FRAMES: u32 = 4;
 
 type Record = TelemetryRecord<f64, NP, NS>;
-type RigPipeline = Pipeline<
+pub(crate) type RigPipeline = Pipeline<
     f64,
     Adaptive2<f64>,
     Adc<SpiDev>,
@@ -107,8 +119,11 @@ type RigPipeline = Pipeline<
 >;
 
 /// Everything the sample interrupt owns.
-struct SampleTask {
-    pipeline: RigPipeline,
+pub(crate) struct SampleTask {
+    pub(crate) pipeline: RigPipeline,
+    /// The start-up window's pairs for thread mode's tuning rule.
+    startup: StartupCollector<f64>,
+    startup_out: Producer<'static, RawBlock<f64>>,
     last_entry: Option<u32>,
     isr: Spans,
     late: u32,
@@ -123,8 +138,10 @@ struct SerialIsr {
 // The task (kilobytes) lives in `singleton!` storage and is shared by
 // reference: an empty `Option<&mut _>` is zero, so this static stays in
 // .bss instead of carrying the task's size of .data initialiser.
-static SAMPLE: Shared<&'static mut SampleTask> = Shared::new();
+pub(crate) static SAMPLE: Shared<&'static mut SampleTask> = Shared::new();
 static SERIAL: Shared<SerialIsr> = Shared::new();
+/// Thread mode's tuning rule still wants start-up pairs.
+static COLLECTING: AtomicBool = AtomicBool::new(true);
 
 #[interrupt]
 fn EXTI3() {
@@ -139,7 +156,13 @@ fn EXTI3() {
             }
         }
         task.last_entry = Some(entry);
-        task.pipeline.tick();
+        let tick = task.pipeline.tick();
+        if COLLECTING.load(Ordering::Relaxed) {
+            if let Some((u, y)) = tick.fed {
+                let out = &mut task.startup_out;
+                task.startup.push(u, y, |b| out.enqueue(b).is_ok());
+            }
+        }
         if drdy::is_pending() {
             task.late = task.late.saturating_add(1);
         }
@@ -207,9 +230,10 @@ fn main() -> ! {
         Err(e) => fatal("bridge null offset", e),
     };
 
-    let (Some(telemetry), Some(raw), Some(tx_ring), Some(rx_ring)) = (
+    let (Some(telemetry), Some(raw), Some(startup), Some(tx_ring), Some(rx_ring)) = (
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<RawBlock<f64>, RAW_QUEUE> = Queue::new()),
+        cortex_m::singleton!(: Queue<RawBlock<f64>, STARTUP_QUEUE> = Queue::new()),
         cortex_m::singleton!(: uart::TxRing = Queue::new()),
         cortex_m::singleton!(: uart::RxRing = Queue::new()),
     ) else {
@@ -217,13 +241,21 @@ fn main() -> ! {
     };
     let (telemetry_tx, mut telemetry_rx) = telemetry.split();
     let (raw_tx, mut raw_rx) = raw.split();
+    let (startup_tx, mut startup_rx) = startup.split();
 
-    let pipeline = match build_pipeline(null_offset_v, adc, dac, telemetry_tx, raw_tx) {
+    let mut link =
+        match DeviceLink::new(link::link_config(), link::start_settings(), &link::tuning()) {
+            Ok(l) => l,
+            Err(e) => fatal("tuning settings", e),
+        };
+    let pipeline = match build_pipeline(null_offset_v, &link, adc, dac, telemetry_tx, raw_tx) {
         Ok(p) => p,
         Err(e) => fatal("pipeline", e),
     };
     let task = SampleTask {
         pipeline,
+        startup: StartupCollector::new(),
+        startup_out: startup_tx,
         last_entry: None,
         isr: Spans::default(),
         late: 0,
@@ -235,40 +267,36 @@ fn main() -> ! {
         fatal("sample task", "not placed");
     }
 
-    let (tx, drain, fill, rx) = b.uart.split(tx_ring, rx_ring);
+    let (mut tx, drain, fill, mut rx) = b.uart.split(tx_ring, rx_ring);
     if SERIAL.put(SerialIsr { drain, fill }).is_err() {
         fatal("serial task", "not placed");
     }
-    let mut link = Link::new(tx, rx);
+    let mut device = NucleoDevice;
     board::enable_serial_interrupt();
     board::enable_sample_interrupt();
     info!(
-        "sample interrupt running; measuring Y0 over {} samples",
-        rig::STARTUP_SAMPLES
+        "sample interrupt running; serial link on USART3 at {} Bd, protocol version {}; \
+         tuning rule's start-up window {} s",
+        clocks::BAUD,
+        beamest::protocol::VERSION,
+        link.tuner().rule().config().startup_s
     );
 
-    let mut startup = Some(Startup::default());
     let mut records: u32 = 0;
     let mut last_record = cycles::now();
     loop {
-        while let Some(block) = raw_rx.dequeue() {
-            match startup.as_mut() {
-                Some(s) => {
-                    if s.add(&block) {
-                        start_estimator(s.y_rms());
-                        startup = None;
-                    }
-                }
-                None => {
-                    link.send_raw(&block);
-                }
+        while let Some(block) = startup_rx.dequeue() {
+            link.on_startup_block(&block);
+            if !link.collecting_startup() {
+                COLLECTING.store(false, Ordering::Relaxed);
             }
         }
         while let Some(record) = telemetry_rx.dequeue() {
             last_record = cycles::now();
             records = records.wrapping_add(1);
+            let recovered = link.on_record(&record, &rig::OUTPUT_WEIGHT, &mut tx);
             if records % LOG_EVERY_RECORDS == 0 {
-                report(&record, &link);
+                report(&record, recovered, &link);
                 b.led_heartbeat.toggle();
                 if record.counters != Counters::default() {
                     b.led_fault.set_high();
@@ -276,13 +304,14 @@ fn main() -> ! {
                 service_adc(&mut b.delay);
             }
         }
-        while let Some(frame) = link.poll() {
-            // Applying commands is the serial-link work (issue 7).
-            info!(
-                "link: frame seq {} kind {} received (not applied yet)",
-                frame.seq,
-                frame.message.kind()
-            );
+        while let Some(block) = raw_rx.dequeue() {
+            link.on_raw(&block, &mut tx);
+        }
+        link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        match link.poll(&mut device) {
+            Ok(Some(t)) => log_build(&t, &link),
+            Ok(None) => {}
+            Err(e) => fatal("estimator start", e),
         }
         if cycles::between(last_record, cycles::now()) > STALL_CYCLES {
             // Re-armed every 0.5 s, so the difference never wraps.
@@ -295,10 +324,13 @@ fn main() -> ! {
     }
 }
 
-/// The pipeline, adaptation frozen until Y0 is known (the placeholder
-/// estimator uses the front end's a priori scale and is never stepped).
+/// The pipeline, adaptation frozen until the tuning rule's first estimator
+/// is swapped in (the placeholder estimator uses the front end's a priori
+/// scale and is never stepped); records and raw samples at the link's
+/// rates.
 fn build_pipeline(
     null_offset_v: f64,
+    link: &DeviceLink,
     adc: Adc<SpiDev>,
     dac: Ad5761r<SpiDev>,
     telemetry: Producer<'static, Record>,
@@ -306,92 +338,48 @@ fn build_pipeline(
 ) -> Result<RigPipeline, &'static str> {
     let placeholder = rig::estimator(rig::nominal_y_scale()).map_err(|_| "estimator settings")?;
     let excitation = rig::excitation().map_err(|_| "excitation settings")?;
-    let mut pipeline = Pipeline::new(
-        &rig::pipeline_config(null_offset_v),
-        placeholder,
-        excitation,
-        adc,
-        dac,
-        telemetry,
-        raw,
-    )
-    .map_err(|_| "pipeline settings")?;
+    let config = beamest::pipeline::PipelineConfig {
+        telemetry_every: link.record_every(),
+        raw_decimation: link.settings().telemetry.raw_decimation,
+        ..rig::pipeline_config(null_offset_v)
+    };
+    let mut pipeline = Pipeline::new(&config, placeholder, excitation, adc, dac, telemetry, raw)
+        .map_err(|_| "pipeline settings")?;
     pipeline.freeze();
     Ok(pipeline)
 }
 
-/// The Y0 measurement over the first raw samples.
-#[derive(Default)]
-struct Startup {
-    sum_sq: f64,
-    n: u32,
-    rejected: u32,
-}
-
-impl Startup {
-    /// Add a raw block; `true` once [`rig::STARTUP_SAMPLES`] valid samples
-    /// are in.
-    fn add(&mut self, block: &RawBlock<f64>) -> bool {
-        for y in block.y.iter().take(usize::from(block.len)) {
-            if y.is_finite() {
-                self.sum_sq += y * y;
-                self.n += 1;
+/// Log an estimator the tuning rule swapped in.
+fn log_build(t: &Tuned, link: &DeviceLink) {
+    let f = &t.filter;
+    match t.kind {
+        BuildKind::First => info!(
+            "start-up: U0 = {} V, Y0 = {} (RMS of u, y over {} samples, {} rejected); lambda = {} \
+             rad/s ({}); estimator running from sample {}",
+            f.scales.u_scale,
+            f.scales.y_scale,
+            link.tuner().rule().stats().samples(),
+            link.tuner().rule().stats().rejected(),
+            f.lambda_rad_s,
+            if link.is_automatic() {
+                "automatic"
             } else {
-                self.rejected += 1;
-            }
-        }
-        self.n >= rig::STARTUP_SAMPLES
-    }
-
-    fn y_rms(&self) -> f64 {
-        let y_rms = libm::sqrt(self.sum_sq / f64::from(self.n.max(1)));
-        info!(
-            "start-up: y_rms = {} over {} samples ({} rejected)",
-            y_rms, self.n, self.rejected
-        );
-        y_rms
-    }
-}
-
-/// Build the estimator with Y0 = `y_rms` (outside the lock), swap it in,
-/// stop the raw stream (or slow it to the run-time rate), resume.
-fn start_estimator(y_rms: f64) {
-    let y0 = if y_rms.is_finite() && y_rms > 0.0 {
-        y_rms
-    } else {
-        let nominal = rig::nominal_y_scale();
-        warn!("start-up: no usable y_rms; Y0 = a priori {}", nominal);
-        nominal
-    };
-    let estimator = match rig::estimator(y0) {
-        Ok(e) => e,
-        Err(e) => fatal("estimator", Debug2Format(&e)),
-    };
-    let swapped = SAMPLE.with(move |t| {
-        let ok = t
-            .pipeline
-            .replace_estimator(estimator, rig::LAMBDA_RAD_S)
-            .is_ok();
-        t.pipeline.set_raw_decimation(rig::RAW_DECIMATION_RUN);
-        t.pipeline.resume();
-        ok
-    });
-    if swapped == Some(true) {
-        info!(
-            "estimator running: U0 = {} V, Y0 = {}, lambda = {} rad/s",
-            rig::EXCITATION_AMPLITUDE_V,
-            y0,
-            rig::LAMBDA_RAD_S
-        );
-    } else {
-        fatal("estimator hand-over", "refused");
+                "commanded"
+            },
+            t.at
+        ),
+        BuildKind::Recentre => info!(
+            "tuning: lambda re-centred on the estimated band: {} rad/s, estimate carried over; \
+             running from sample {}",
+            f.lambda_rad_s, t.at
+        ),
     }
 }
 
 /// One status line: the recovered modes, λmin(P), the counters, the
 /// sample interrupt's cycles (since the previous line) and the link.
-fn report(record: &Record, link: &Link) {
-    let r = recover(record, &rig::OUTPUT_WEIGHT);
+fn report(record: &Record, recovered: Option<Recovered<f64>>, link: &DeviceLink) {
+    let r = recovered.unwrap_or_else(|| recover(record, &rig::OUTPUT_WEIGHT));
     let t_s = record.sample_index as f64 * rig::TS_S;
     match r.modal {
         Ok(m) => {
@@ -419,11 +407,20 @@ fn report(record: &Record, link: &Link) {
             Debug2Format(&record.counters)
         );
     }
+    let (accepted, rejected) = link.commands();
+    let tx = link.tx_stats();
     info!(
-        "link: sent {}, uart {}, received {}",
-        link.send_stats(),
+        "link: {} frames ({} bytes) sent, {} dropped; uart {}; received {} frames, {} bad; \
+         commands {} accepted, {} rejected; lambda {} rad/s",
+        tx.frames_sent,
+        tx.bytes_sent,
+        tx.frames_dropped,
         uart::link_stats(),
-        link.receive_stats()
+        link.rx_counters().frames_ok,
+        link.rx_counters().errors(),
+        accepted,
+        rejected,
+        link.lambda_rad_s()
     );
 }
 
@@ -522,7 +519,7 @@ fn wait_drdy() -> Result<(), NullError> {
 }
 
 /// Start-up failure: piezo to 0 V, LD3 on, say why, stop.
-fn fatal(what: &str, why: impl defmt::Format) -> ! {
+pub(crate) fn fatal(what: &str, why: impl defmt::Format) -> ! {
     board::disable_sample_interrupt();
     board::safe_state();
     error!("halted: {}: {}", what, why);

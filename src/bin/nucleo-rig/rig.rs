@@ -2,8 +2,9 @@
 //! and the pipeline, in one place (docs/RIG.md explains each number).
 //!
 //! None of these is derived from a simulated plant: the front-end numbers
-//! describe the hardware (gauge, bridge, PGA, amplifier), the estimator's
-//! Y0 is measured at start-up, U0 is the excitation amplitude the user set.
+//! describe the hardware (gauge, bridge, PGA, amplifier); the estimator's
+//! U0, Y0 and λ come from the data through the truth-free tuning rule
+//! (`beamest::tuning`, set up in `link::tuning`).
 
 use beamest::drivers::{ad5761r, ads131m02};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, ConfigError};
@@ -25,10 +26,12 @@ pub const TS_S: f64 = 1.0 / SAMPLE_RATE_HZ;
 /// ≈ 14–15 µs (docs/RIG.md, "Timing"; scope it and set it here).
 pub const DAC_LATENCY_S: f64 = 15e-6;
 
-/// Estimator filter pole λ (rad/s): the paper's choice (Wang,
-/// Costa-Castelló, Na et al., *Modelling and Adaptive Parameter Estimation
-/// for a Piezoelectric Cantilever Beam*, Section IV).
-pub const LAMBDA_RAD_S: f64 = 100.0;
+/// Filter pole λ (rad/s) of the placeholder estimator the frozen pipeline
+/// holds until the tuning rule's first one is swapped in (never stepped):
+/// the paper's value (Wang, Costa-Castelló, Na et al., *Modelling and
+/// Adaptive Parameter Estimation for a Piezoelectric Cantilever Beam*,
+/// Section IV). The running estimators' λ is the rule's.
+pub const PLACEHOLDER_LAMBDA_RAD_S: f64 = 100.0;
 
 /// Piezo amplifier gain, actuator volts per DAC volt: the paper's
 /// ±10 V → ±100 V amplifier (Section V).
@@ -74,10 +77,6 @@ pub const OUTPUT_WEIGHT: [f64; 2] = [1.0, 1.0];
 
 /// Samples averaged for the bridge null offset at boot (0.1 s).
 pub const NULL_SAMPLES: u32 = 1_000;
-/// Samples whose RMS is Y0 (0.1 s, excitation running).
-pub const STARTUP_SAMPLES: u32 = 1_000;
-/// Raw-sample decimation once running (0 = off, the protocol's default).
-pub const RAW_DECIMATION_RUN: u16 = 0;
 
 /// The ADS131M02 settings: the driver's defaults (OSR 256, high-resolution
 /// mode, 24-bit words, CCITT CRC both ways, DRDY a logic level) with the
@@ -125,8 +124,8 @@ pub fn conversion(null_offset_v: f64) -> ConversionConfig {
 }
 
 /// The pipeline: commanded u, immediate DAC update (command 0011, LDAC
-/// tied low), no prefilter, telemetry at 100 Hz, raw blocks every sample
-/// for the start-up window.
+/// tied low), no prefilter, telemetry at 100 Hz, no raw samples (the
+/// serial link's rates replace both at boot).
 pub fn pipeline_config(null_offset_v: f64) -> PipelineConfig {
     PipelineConfig {
         conversion: conversion(null_offset_v),
@@ -135,9 +134,9 @@ pub fn pipeline_config(null_offset_v: f64) -> PipelineConfig {
         dac_latch: DacLatch::Immediate,
         prefilter: None,
         telemetry_every: TELEMETRY_EVERY,
-        raw_decimation: 1,
+        raw_decimation: 0,
         stuck_after: STUCK_AFTER,
-        lambda_rad_s: LAMBDA_RAD_S,
+        lambda_rad_s: PLACEHOLDER_LAMBDA_RAD_S,
     }
 }
 
@@ -169,13 +168,14 @@ pub fn output_timing() -> OutputTiming {
     OutputTiming::sinc3_adc(DAC_LATENCY_S, TS_S)
 }
 
-/// The paper's adaptive law (eqs. 33–41) with the default gains, U0 = the
-/// excitation amplitude, Y0 = `y_scale` and the converters'
+/// The placeholder estimator (never stepped): the paper's adaptive law
+/// (eqs. 33–41) with the default gains, U0 = the excitation amplitude,
+/// Y0 = `y_scale`, [`PLACEHOLDER_LAMBDA_RAD_S`] and the converters'
 /// [`output_timing`].
 pub fn estimator(y_scale: f64) -> Result<Adaptive2<f64>, ConfigError> {
     let filter = FilterConfig {
         ts_s: TS_S,
-        lambda_rad_s: LAMBDA_RAD_S,
+        lambda_rad_s: PLACEHOLDER_LAMBDA_RAD_S,
         scales: SignalScales {
             u_scale: EXCITATION_AMPLITUDE_V,
             y_scale,

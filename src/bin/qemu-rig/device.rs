@@ -20,11 +20,10 @@ use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::TimedEstimator;
 use beamest::board::qemu::{IsrOwned, Shared};
 use beamest::estimator::Adaptive2;
-use beamest::filter_bank::SignalScales;
+use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
-use beamest::link::{estimator_configs, Device};
+use beamest::link::{estimator_configs, with_theta0, Device};
 use beamest::protocol::{EstimatorSettings, RejectReason};
-use beamest::rig::bench;
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};
 
@@ -32,13 +31,12 @@ use crate::sample::{Est, RigPipeline, SampleTask, NP};
 pub struct QemuDevice {
     task: &'static Shared<IsrOwned<&'static mut SampleTask>>,
     spare: Option<&'static mut Adaptive2<f32>>,
-    scales: SignalScales,
     locks: SpanSum,
 }
 
 impl QemuDevice {
     /// The device around the shared sample task, with the spare estimator
-    /// slot; U0 is the bench's commanded amplitude, Y0 1 until measured.
+    /// slot.
     pub fn new(
         task: &'static Shared<IsrOwned<&'static mut SampleTask>>,
         spare: &'static mut Adaptive2<f32>,
@@ -46,17 +44,8 @@ impl QemuDevice {
         Self {
             task,
             spare: Some(spare),
-            scales: SignalScales {
-                u_scale: bench::EXCITATION_V,
-                y_scale: 1.0,
-            },
             locks: SpanSum::default(),
         }
-    }
-
-    /// Y0 from the start-up window: estimators built from now on use it.
-    pub fn set_output_scale(&mut self, y0: f64) {
-        self.scales.y_scale = y0;
     }
 
     /// Thread-mode lock spans so far (SysTick ticks).
@@ -84,13 +73,16 @@ impl Device for QemuDevice {
     fn build_estimator(
         &mut self,
         settings: &EstimatorSettings,
-        lambda_rad_s: f64,
+        filter: &FilterConfig,
+        theta0: &[f64],
     ) -> Result<Est, RejectReason> {
+        let (filter, law) = estimator_configs::<NP>(settings, filter.lambda_rad_s, filter);
+        let Some(law) = with_theta0(law, theta0) else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
         let Some(slot) = self.spare.take() else {
             return Err(RejectReason::EstimatorUnavailable);
         };
-        let base = bench::filter_config(self.scales.y_scale);
-        let (filter, law) = estimator_configs::<NP>(settings, lambda_rad_s, &base);
         match Adaptive2::<f32>::new(&filter, &law) {
             Ok(est) => {
                 *slot = est;

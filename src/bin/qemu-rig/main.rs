@@ -19,8 +19,11 @@
 //!   (ω, ζ, b̄, λmin(P)) and sent as an Estimate at the estimate rate
 //!   (default 100 Hz), Status at the status rate (default 1 Hz), raw
 //!   samples when enabled, commands decoded, validated, applied between
-//!   samples (inside the lock, [`device`]) and acknowledged; the estimator
-//!   built and swapped in when the start-up window reports Y0; a
+//!   samples (inside the lock, [`device`]) and acknowledged; the
+//!   truth-free tuning rule (`beamest::tuning`, docs/SETTINGS.md): U0, Y0
+//!   and λ0 from the start-up window's pairs, the estimator built and
+//!   swapped in, λ re-centred on the estimated band with the estimate
+//!   carried over (`DeviceLink::poll`); a
 //!   human-readable log through semihosting as the estimate converges;
 //!   at the end the instruction counts, the link's counters, the cost of an
 //!   Estimate frame, the fault counters against what was injected, and ω, ζ
@@ -48,9 +51,12 @@ use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrO
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
-use beamest::link::DeviceLink;
+use beamest::filter_bank::FilterConfig;
+use beamest::link::{BuildKind, DeviceLink, Settings, Tuned};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
+use beamest::protocol::EstimatorSettings;
 use beamest::rig::{bench, ConverterModels};
+use beamest::tuning::{LambdaSource, TuningConfig};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
@@ -58,19 +64,22 @@ use panic_semihosting as _;
 
 use device::QemuDevice;
 use numfmt::{Fixed, Sci};
-use report::{finish, log, LOG_EVERY, OUTPUT_WEIGHT};
-use sample::{Raw, Record, SampleTask, Summary, RUN_SAMPLES};
+use report::{finish, log, Run, LOG_EVERY, OUTPUT_WEIGHT};
+use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
 
 /// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 150 ms).
 const TELEMETRY_QUEUE: usize = 16;
 /// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
 const RAW_QUEUE: usize = 8;
+/// Start-up pair queue size (3 blocks of 32 pairs: 9.6 ms at 10 kHz; thread
+/// mode takes ~73,000 instructions per block, under one period's share).
+/// A refused block is counted and its gap handled (`link::tune`).
+const STARTUP_QUEUE: usize = 4;
 
 static SPI_METER: SpiMeter = SpiMeter::new();
 // Large states are handed over by `&'static mut` into `singleton!` storage:
 // an `Option` of a reference is zero when empty, so these stay in .bss.
 static SAMPLE_TASK: Shared<IsrOwned<&'static mut SampleTask>> = Shared::new();
-static Y0: Handoff<f32> = Handoff::new();
 static SUMMARY: Handoff<Summary> = Handoff::new();
 static TX_DRAIN: Handoff<TxDrain> = Handoff::new();
 static RX_FILL: Handoff<RxFill> = Handoff::new();
@@ -132,11 +141,12 @@ fn main() -> ! {
     }
     let run_samples = run_length();
 
-    let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue)) = (
+    let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue), Some(startup_queue)) = (
         cortex_m::singleton!(: TxRing = Queue::new()),
         cortex_m::singleton!(: RxRing = Queue::new()),
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<Raw, RAW_QUEUE> = Queue::new()),
+        cortex_m::singleton!(: Queue<Raw, STARTUP_QUEUE> = Queue::new()),
     ) else {
         fail("static buffers already taken")
     };
@@ -145,11 +155,13 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
-    let mut link = DeviceLink::new(
+    let Ok(mut link) = DeviceLink::new(
         bench::link_config(board::UART_BAUD),
-        bench::link_settings(),
-        bench::LAMBDA_RAD_S,
-    );
+        default_settings(),
+        &tuning(),
+    ) else {
+        fail("tuning settings")
+    };
     let config = PipelineConfig {
         telemetry_every: link.record_every(),
         raw_decimation: link.settings().telemetry.raw_decimation,
@@ -157,7 +169,14 @@ fn main() -> ! {
     };
     let (producer, mut consumer) = queue.split();
     let (raw_producer, mut raw_consumer) = raw_queue.split();
-    let (task, spare) = build_sample_task(&config, producer, raw_producer, run_samples);
+    let (startup_producer, mut startup_consumer) = startup_queue.split();
+    let (task, spare) = build_sample_task(
+        &config,
+        producer,
+        raw_producer,
+        startup_producer,
+        run_samples,
+    );
     // SAFETY: the chip models were created inside `build_sample_task` and
     // only the task (its rig and its drivers) refers to them.
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
@@ -181,7 +200,7 @@ fn main() -> ! {
 
     let mut next_log: u64 = LOG_EVERY;
     let mut last: Option<Record> = None;
-    let mut started_at: Option<u64> = None;
+    let mut run = Run::default();
     loop {
         while let Some(record) = consumer.dequeue() {
             let recovered = link.on_record(&record, &OUTPUT_WEIGHT, &mut tx);
@@ -196,10 +215,17 @@ fn main() -> ! {
         while let Some(block) = raw_consumer.dequeue() {
             link.on_raw(&block, &mut tx);
         }
-        link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
-        if let Some(y0) = Y0.take() {
-            started_at = Some(start_estimator(y0, &mut link, &mut device));
+        while let Some(block) = startup_consumer.dequeue() {
+            if run.first_block.is_none() {
+                run.first_block = Some(block);
+            }
+            link.on_startup_block(&block);
+            if !link.collecting_startup() {
+                COLLECTING.store(false, core::sync::atomic::Ordering::Relaxed);
+            }
         }
+        link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        // The summary first: nothing is swapped in after the last sample.
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();
             // Records and raw blocks pushed before the summary are still
@@ -221,11 +247,19 @@ fn main() -> ! {
                 &summary,
                 last.as_ref(),
                 &cal,
-                started_at,
+                &run,
                 &link,
-                &device,
+                &mut device,
                 &mut tx,
             );
+        }
+        match link.poll(&mut device) {
+            Ok(Some(t)) => log_build(&t, &link, &mut run),
+            Ok(None) => {}
+            Err(e) => {
+                hprintln!("error: the estimator could not be started: {}", e);
+                board::exit(false)
+            }
         }
         // Idle by executing, never WFI: under `-icount sleep=off` QEMU 7.2
         // warps virtual time past the next timer deadline while the CPU
@@ -280,13 +314,14 @@ fn parse_seconds_as_samples(s: &str) -> Option<u32> {
 
 /// Boot the simulated bench: the chip models, both converters brought up
 /// through their drivers, the rig, a frozen pipeline with a stand-in
-/// estimator (never stepped, replaced once Y0 is known) and the sample
+/// estimator (never stepped, replaced by the tuning rule's first) and the sample
 /// task; returns the task and the spare estimator slot. Nothing that
 /// refers to the models leaves this function except the task.
 fn build_sample_task(
     config: &PipelineConfig,
     producer: Producer<'static, Record>,
     raw_producer: Producer<'static, Raw>,
+    startup_producer: Producer<'static, Raw>,
     run_samples: u32,
 ) -> (&'static mut SampleTask, &'static mut Adaptive2<f32>) {
     let Some(models) = cortex_m::singleton!(: ConverterModels = ConverterModels::new()) else {
@@ -342,35 +377,69 @@ fn build_sample_task(
     ) else {
         fail("pipeline settings")
     };
-    let task = SampleTask::new(rig, pipeline, &SPI_METER, &Y0, &SUMMARY, run_samples);
+    let task = SampleTask::new(
+        rig,
+        pipeline,
+        &SPI_METER,
+        startup_producer,
+        &SUMMARY,
+        run_samples,
+    );
     let Some(task) = cortex_m::singleton!(: SampleTask = task) else {
         fail("sample task already placed")
     };
     (task, spare)
 }
 
-/// Y0 from the start-up window: the estimator is built with it (outside
-/// the lock) and swapped in between two samples; returns the sample from
-/// which it runs.
-fn start_estimator(y0: f32, link: &mut DeviceLink, device: &mut QemuDevice) -> u64 {
-    device.set_output_scale(f64::from(y0));
-    let lambda = link.lambda_rad_s();
-    match link.start(device) {
-        Ok(at) => {
+/// The bench's start-up settings with the estimator under the automatic
+/// rule (`lambda_rad_s = None`): nothing of the simulated beam's truth.
+fn default_settings() -> Settings {
+    Settings {
+        estimator: EstimatorSettings::default(),
+        ..bench::link_settings()
+    }
+}
+
+/// The tuning rule of this board: its sample period and converter-timing
+/// compensation, λ0 from the data (no band known), the core's defaults
+/// otherwise (0.2 s window, reviews every 10 ms, docs/SETTINGS.md).
+fn tuning() -> TuningConfig {
+    TuningConfig {
+        timing: bench::output_timing(),
+        ..TuningConfig::new(bench::TS_S, LambdaSource::Data)
+    }
+}
+
+/// Log an estimator the tuning rule swapped in.
+fn log_build(t: &Tuned, link: &DeviceLink, run: &mut Run) {
+    let f: &FilterConfig = &t.filter;
+    match t.kind {
+        BuildKind::First => {
+            run.started_at = Some(t.at);
+            run.first_lambda = Some(f.lambda_rad_s);
             hprintln!(
-                "start-up: Y0 = {} m (RMS of y over {} samples, excitation running); \
-                 U0 = {} V, lambda = {} rad/s; estimator running from sample {}",
-                Sci(y0.into(), 4),
-                bench::STARTUP_SAMPLES,
-                Fixed(bench::EXCITATION_V, 2),
-                Fixed(lambda, 0),
-                at
+                "start-up: U0 = {} V, Y0 = {} m (RMS of u, y over {} samples, excitation \
+                 running); lambda = {} rad/s ({}); estimator running from sample {}",
+                Sci(f.scales.u_scale, 4),
+                Sci(f.scales.y_scale, 4),
+                link.tuner().rule().stats().samples(),
+                Fixed(f.lambda_rad_s, 1),
+                if link.is_automatic() {
+                    "automatic: twice the frequency centroid of y"
+                } else {
+                    "commanded"
+                },
+                t.at
             );
-            at
         }
-        Err(e) => {
-            hprintln!("error: the estimator could not be started: {}", e);
-            board::exit(false)
+        BuildKind::Recentre => {
+            let _ = run.recentred.push((t.at, f.lambda_rad_s));
+            hprintln!(
+                "tuning: lambda re-centred on the estimated band: {} rad/s, estimate carried \
+                 over; running from sample {}",
+                Fixed(f.lambda_rad_s, 1),
+                t.at
+            );
         }
     }
 }

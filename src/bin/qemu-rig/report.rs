@@ -19,10 +19,11 @@ use beamest::board::qemu::uart::{self, UartTx};
 use beamest::link::estimate::{estimate, Convergence, EstimateContext};
 use beamest::link::{DeviceLink, Sent, Transmitter, TxSink};
 use beamest::modal::modal_from_tf;
-use beamest::model::{ModalParams, TransferFunction, PAPER_OMEGA, PAPER_ZETA};
+use beamest::model::{ModalParams, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{recover, Recovered};
 use beamest::protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::rig::bench;
+use beamest::tuning::{Phase, Settled};
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::Queue;
 
@@ -91,6 +92,19 @@ pub fn log(
     );
 }
 
+/// What thread mode saw of the tuning rule's builds.
+#[derive(Debug, Clone, Default)]
+pub struct Run {
+    /// First sample of the first estimator.
+    pub started_at: Option<u64>,
+    /// Its λ (rad/s).
+    pub first_lambda: Option<f64>,
+    /// Re-centrings: (first sample, λ).
+    pub recentred: heapless::Vec<(u64, f64), 4>,
+    /// The first start-up block (for the cost of the rule's window).
+    pub first_block: Option<crate::sample::Raw>,
+}
+
 /// Mean instructions of a span sum.
 fn mean(s: &SpanSum, ipt: f32) -> f64 {
     f64::from(s.mean_instructions(ipt))
@@ -101,9 +115,9 @@ pub fn finish(
     s: &Summary,
     last: Option<&Record>,
     cal: &Calibration,
-    started_at: Option<u64>,
+    run: &Run,
     link: &DeviceLink,
-    device: &QemuDevice,
+    device: &mut QemuDevice,
     tx: &mut UartTx,
 ) -> ! {
     let ipt = cal.instructions_per_tick();
@@ -121,7 +135,7 @@ pub fn finish(
          {} rejected, {} skipped; overruns: {}; rig errors: {}",
         s.samples,
         Fixed(f64::from(s.samples) * bench::TS_S, 1),
-        started_at.unwrap_or(0),
+        run.started_at.unwrap_or(0),
         updated,
         held,
         rejected,
@@ -223,8 +237,7 @@ pub fn finish(
 
     // Final estimate; one timed recovery (timer stopped: no preemption).
     let t0 = cycles::now();
-    let modes = TransferFunction::from_theta(&s.theta, bench::LAMBDA_RAD_S)
-        .and_then(|tf| modal_from_tf(&tf, &OUTPUT_WEIGHT).ok());
+    let modes = modal_from_tf(&s.tf, &OUTPUT_WEIGHT).ok();
     let recovery = cycles::ticks_between(t0, cycles::now());
     let record_ticks = last.map_or(0, |r| {
         let t0 = cycles::now();
@@ -242,6 +255,7 @@ pub fn finish(
     if let Some(r) = last {
         frame_cost(r, ipt);
     }
+    tuning_cost(run, link, device, &s.tf, ipt);
     hprintln!(
         "instructions_per_sample: estimator={} isr={}",
         libm::round(est) as u32,
@@ -256,12 +270,13 @@ pub fn finish(
         libm::round(tick_product - est) as u32
     );
 
+    let tuning_ok = check_tuning(run, link, modes.as_ref(), s.startup_dropped);
     let modes_ok = check_modes(modes.as_ref());
-    let others_ok = s.overruns == 0 && s.rig_errors == 0 && started_at.is_some();
+    let others_ok = s.overruns == 0 && s.rig_errors == 0 && run.started_at.is_some();
     if !counters_ok {
         hprintln!("fault counters differ from the injected faults");
     }
-    let pass = modes_ok && counters_ok && others_ok;
+    let pass = modes_ok && counters_ok && others_ok && tuning_ok;
     // Let the TX interrupt hand the last frames to the UART (≤ 40 ms).
     let mut spins = 0u32;
     while !tx.is_drained() && spins < 20_000 {
@@ -271,7 +286,8 @@ pub fn finish(
     // The last byte leaves the UART's one-byte buffer.
     board::idle();
     hprintln!(
-        "result: {} (all of omega, zeta within {} after {} s; fault counters {}; no overrun)",
+        "result: {} (all of omega, zeta within {} after {} s; lambda settled by the automatic \
+         rule on the estimated band; fault counters {}; no overrun)",
         if pass { "PASS" } else { "FAIL" },
         Sci(TOLERANCE, 0),
         Fixed(f64::from(s.samples) * bench::TS_S, 1),
@@ -350,9 +366,146 @@ fn frame_cost(r: &Record, ipt: f32) {
     );
 }
 
+/// Thread-mode costs of the tuning rule (timer stopped, nothing preempts):
+/// one start-up block of 32 pairs (`AutoTune::startup_sample`, f64 in
+/// software), one review of the final estimate (its poles), the carry-over
+/// to a new λ, and one estimator build (the matrix exponentials) into the
+/// spare slot, which is given back.
+fn tuning_cost(
+    run: &Run,
+    link: &DeviceLink,
+    device: &mut QemuDevice,
+    tf: &beamest::model::TransferFunction<f32>,
+    ipt: f32,
+) {
+    let cfg = *link.tuner().rule().config();
+    let ticks = |t0: u32| (cycles::ticks_between(t0, cycles::now()) as f32 * ipt) as u32;
+    let block = run.first_block.map_or(0, |b| {
+        let Ok(mut t) = beamest::link::Tuner::new(&cfg) else {
+            return 0;
+        };
+        let t0 = cycles::now();
+        core::hint::black_box(t.startup_block(&b));
+        ticks(t0)
+    });
+    let Some(filter) = link.filter().copied() else {
+        return;
+    };
+    let mut rule = beamest::tuning::AutoTune::new(&beamest::tuning::TuningConfig {
+        scales: Some(filter.scales),
+        lambda: beamest::tuning::LambdaSource::Band {
+            lo_rad_s: filter.lambda_rad_s,
+            hi_rad_s: filter.lambda_rad_s,
+        },
+        ..cfg
+    })
+    .ok();
+    let review = rule.as_mut().map_or(0, |r| {
+        let t0 = cycles::now();
+        core::hint::black_box(r.review(tf));
+        ticks(t0)
+    });
+    let moved = beamest::filter_bank::FilterConfig {
+        lambda_rad_s: filter.lambda_rad_s * 1.2,
+        ..filter
+    };
+    let t0 = cycles::now();
+    let theta0 = beamest::tuning::carry_over::<f32, { crate::sample::NP }>(tf, &moved);
+    let carry = ticks(t0);
+    let t0 = cycles::now();
+    let built = beamest::link::Device::build_estimator(
+        device,
+        &link.settings().estimator,
+        &moved,
+        theta0.as_ref().map_or(&[][..], |t| &t[..]),
+    );
+    let build = ticks(t0);
+    let ok = built.is_ok();
+    if let Ok(e) = built {
+        beamest::link::Device::recycle_estimator(device, e);
+    }
+    hprintln!(
+        "tuning_thread_instructions: startup_block={} (32 pairs) review={} carry_over={} \
+         build={} (estimator {}built at lambda {} rad/s)",
+        block,
+        review,
+        carry,
+        build,
+        if ok { "" } else { "NOT " },
+        Fixed(moved.lambda_rad_s, 1)
+    );
+}
+
 /// The link's flag thresholds (the same as the running link's).
 fn link_rules() -> beamest::link::FlagRules {
     bench::link_config(board::UART_BAUD).rules
+}
+
+/// The tuning rule, judged without the truth: it ran from the data
+/// (automatic λ), settled because λ is within its re-centring threshold of
+/// the final estimate's band centre √(ω̂1·ω̂2), and lost no start-up pair.
+/// The truth's band centre is printed beside it for the reader only.
+fn check_tuning(
+    run: &Run,
+    link: &DeviceLink,
+    modes: Option<&ModalParams<f32>>,
+    startup_dropped: u32,
+) -> bool {
+    let phase = link.tuner().phase();
+    let lambda = link.lambda_rad_s().unwrap_or(f64::NAN);
+    let cfg = link.tuner().rule().config();
+    let centre = modes.map_or(f64::NAN, |m| {
+        libm::sqrt(f64::from(m.omega_rad_s[0]) * f64::from(m.omega_rad_s[1]))
+    });
+    let truth_centre = libm::sqrt(PAPER_OMEGA[0] * PAPER_OMEGA[1]);
+    hprintln!(
+        "tuning: automatic {}; lambda0 = {} rad/s from the data, {} re-centring(s){}; final \
+         lambda = {} rad/s, phase {}; estimated band centre sqrt(w1*w2) = {} rad/s (the truth's: \
+         {}); start-up pairs lost {}",
+        link.is_automatic(),
+        Fixed(run.first_lambda.unwrap_or(f64::NAN), 1),
+        run.recentred.len(),
+        Recentres(&run.recentred),
+        Fixed(lambda, 1),
+        match phase {
+            Phase::Startup => "startup",
+            Phase::Reviewing => "reviewing",
+            Phase::Settled(Settled::Converged) => "settled (converged)",
+            Phase::Settled(Settled::Fixed) => "settled (fixed)",
+            Phase::Settled(Settled::MaxRecentres) => "settled (most re-centrings)",
+            Phase::Settled(Settled::Timeout) => "settled (timeout)",
+        },
+        Fixed(centre, 1),
+        Fixed(truth_centre, 1),
+        link.tuner().lost_pairs()
+    );
+    let ratio = lambda / centre;
+    let centred = ratio.max(1.0 / ratio) < 1.0 + cfg.recentre_threshold;
+    let ok = link.is_automatic()
+        && phase == Phase::Settled(Settled::Converged)
+        && centred
+        && startup_dropped == 0
+        && link.tuner().lost_pairs() == 0;
+    if !ok {
+        hprintln!("the automatic rule did not settle on the estimated band");
+    }
+    ok
+}
+
+/// " (at sample s: λ rad/s, …)".
+struct Recentres<'a>(&'a [(u64, f64)]);
+
+impl core::fmt::Display for Recentres<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        for (i, (at, l)) in self.0.iter().enumerate() {
+            let sep = if i == 0 { " (" } else { ", " };
+            write!(f, "{sep}at sample {at}: {}", Fixed(*l, 1))?;
+        }
+        if !self.0.is_empty() {
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
 }
 
 /// The only read of the simulated truth: ω, ζ within [`TOLERANCE`].

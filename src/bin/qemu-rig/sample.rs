@@ -8,14 +8,18 @@
 //!    conversion over its `SpiDevice` (the model), the AD5761R driver writes
 //!    the next excitation value, the estimator steps, a telemetry record
 //!    goes into the SPSC queue every 100 samples.
-//! 3. **Start-up**: the pipeline starts frozen; after
-//!    [`bench::STARTUP_SAMPLES`] valid samples the RMS of y goes to thread
-//!    mode as Y0, which builds the estimator and swaps it in between two
-//!    samples (`DeviceLink::start`, inside the [`Shared`] lock); adaptation
-//!    then resumes with the law held until its filters have settled
-//!    (`Pipeline::resume`).
+//! 3. **Start-up**: the pipeline starts frozen; while thread mode's
+//!    tuning rule is in its start-up window ([`COLLECTING`]) every fed
+//!    (u, y) pair is copied into blocks of 32 for it
+//!    ([`StartupCollector`]: a few stores per sample, no arithmetic). Thread
+//!    mode computes U0, Y0 and λ0 from them (`beamest::tuning`, in `f64`),
+//!    builds the estimator and swaps it in between two samples
+//!    (`DeviceLink::poll`, inside the [`Shared`](beamest::board::qemu::Shared) lock); adaptation then
+//!    resumes with the law held until its filters have settled
+//!    (`Pipeline::resume`). Re-centrings of λ are built and swapped in the
+//!    same way; this handler never builds or reviews anything.
 //!
-//! Thread mode changes the pipeline only inside the [`Shared`] lock that
+//! Thread mode changes the pipeline only inside the [`Shared`](beamest::board::qemu::Shared) lock that
 //! this handler also runs in (the serial link's commands), so every change
 //! lands between two samples.
 //! 4. **Faults** ([`FAULTS`]): injected into the ADC model at fixed
@@ -37,18 +41,23 @@
 
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
-#[cfg(doc)]
-use beamest::board::qemu::Shared;
 use beamest::board::qemu::{self as board, Handoff};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::drivers::Rail;
-use beamest::estimator::{Adaptive2, StepStatus};
-use beamest::pipeline::{Counters, OutputScaleWindow, Pipeline, RawBlock, TelemetryRecord};
+use beamest::estimator::{Adaptive2, Estimator, StepStatus};
+use beamest::link::StartupCollector;
+use beamest::model::TransferFunction;
+use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use beamest::rig::{bench, ConverterRig};
+use beamest::rig::ConverterRig;
+use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;
+
+/// Thread mode's tuning rule still wants start-up pairs (cleared by thread
+/// mode when its window closes).
+pub static COLLECTING: AtomicBool = AtomicBool::new(true);
 
 /// Parameters of Θ for two modes (eq. 29: 4n − 1) and of packed P.
 pub const NP: usize = 7;
@@ -184,8 +193,10 @@ pub struct Summary {
     pub rig_errors: u32,
     /// The pipeline's counters.
     pub counters: Counters,
-    /// Θ at the end.
-    pub theta: [f32; NP],
+    /// The estimate at the end (at the running estimator's λ).
+    pub tf: TransferFunction<f32>,
+    /// Start-up blocks the queue refused (thread mode too slow).
+    pub startup_dropped: u32,
     /// The steps' statuses: [updated, held (frozen), rejected, skipped].
     pub step_counts: [u32; 4],
 }
@@ -194,9 +205,9 @@ pub struct Summary {
 pub struct SampleTask {
     rig: ConverterRig<'static>,
     pipeline: RigPipeline,
-    window: OutputScaleWindow<f32>,
+    startup: StartupCollector<f32>,
+    startup_out: Producer<'static, Raw>,
     meter: &'static SpiMeter,
-    y0_out: &'static Handoff<f32>,
     summary_out: &'static Handoff<Summary>,
     run_samples: u32,
     samples: u32,
@@ -217,7 +228,7 @@ impl SampleTask {
         rig: ConverterRig<'static>,
         mut pipeline: RigPipeline,
         meter: &'static SpiMeter,
-        y0_out: &'static Handoff<f32>,
+        startup_out: Producer<'static, Raw>,
         summary_out: &'static Handoff<Summary>,
         run_samples: u32,
     ) -> Self {
@@ -225,9 +236,9 @@ impl SampleTask {
         Self {
             rig,
             pipeline,
-            window: OutputScaleWindow::new(bench::STARTUP_SAMPLES),
+            startup: StartupCollector::new(),
+            startup_out,
             meter,
-            y0_out,
             summary_out,
             run_samples,
             samples: 0,
@@ -272,9 +283,12 @@ impl SampleTask {
         let tick = self.pipeline.tick();
         let t2 = cycles::now();
         let models = self.meter.ticks().wrapping_sub(m0);
-        // 3. Start-up: Y0 out (thread mode swaps the estimator in).
-        if let Some(y0) = self.window.observe(&tick) {
-            self.y0_out.put(y0);
+        // 3. Start-up: the fed pairs out to thread mode's tuning rule.
+        if COLLECTING.load(Ordering::Relaxed) {
+            if let Some((u, y)) = tick.fed {
+                let out = &mut self.startup_out;
+                self.startup.push(u, y, |b| out.enqueue(b).is_ok());
+            }
         }
         if NVIC::is_pending(board::Interrupt::TIMER0) {
             self.overruns = self.overruns.saturating_add(1);
@@ -315,7 +329,7 @@ impl SampleTask {
         self.samples = k.wrapping_add(1);
     }
 
-    /// The pipeline (thread mode, inside the [`Shared`] lock).
+    /// The pipeline (thread mode, inside the [`Shared`](beamest::board::qemu::Shared) lock).
     pub fn pipeline_mut(&mut self) -> &mut RigPipeline {
         &mut self.pipeline
     }
@@ -347,7 +361,8 @@ impl SampleTask {
             overruns: self.overruns,
             rig_errors: self.rig_errors,
             counters: self.pipeline.counters(),
-            theta: beamest::estimator::Estimator::theta(self.pipeline.estimator()),
+            tf: self.pipeline.estimator().transfer_function(),
+            startup_dropped: self.startup.dropped(),
             step_counts: self.step_counts,
         });
     }

@@ -166,6 +166,19 @@ impl UartTx {
     }
 }
 
+/// The serial link's frames go out through the ring: whole frames only
+/// (the link checks [`TxSink::free`](crate::link::TxSink::free) first),
+/// then the transmit interrupt is enabled.
+impl crate::link::TxSink for UartTx {
+    fn free(&self) -> usize {
+        self.space()
+    }
+
+    fn push(&mut self, bytes: &[u8]) {
+        self.write(bytes);
+    }
+}
+
 /// The interrupt's transmit end.
 pub struct TxDrain {
     ring: Consumer<'static, u8>,

@@ -148,7 +148,7 @@ impl UartTx {
 }
 
 /// The serial link's frames go out through the ring: whole frames only
-/// (the link checks [`TxSink::free`] first), then the TX interrupt is
+/// (the link checks [`TxSink::free`](crate::link::TxSink::free) first), then the TX interrupt is
 /// pended.
 impl crate::link::TxSink for UartTx {
     fn free(&self) -> usize {

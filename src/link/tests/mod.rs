@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::excitation::{Excitation, SafeWindow, Shape};
-use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts};
+use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts, RAW_BLOCK_LEN};
 use crate::protocol::budget::uart_bytes_per_s;
 use crate::protocol::{
     encode, Estimate, EstimatorKind, Excitation as PExcitation, Frame, Message, Waveform,
@@ -67,7 +67,8 @@ impl Control<f32> for MockPipeline {
 struct MockDevice {
     p: MockPipeline,
     next_id: u32,
-    built: Vec<(EstimatorSettings, f64)>,
+    /// (settings, λ, U0, Y0, θ(0) length) of each build.
+    built: Vec<(EstimatorSettings, f64, f64, f64, usize)>,
     recycled: Vec<u32>,
     refuse_build: Option<RejectReason>,
 }
@@ -79,11 +80,22 @@ impl Device for MockDevice {
     fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut MockPipeline) -> R) -> R {
         f(&mut self.p)
     }
-    fn build_estimator(&mut self, s: &EstimatorSettings, lambda: f64) -> Result<u32, RejectReason> {
+    fn build_estimator(
+        &mut self,
+        s: &EstimatorSettings,
+        f: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<u32, RejectReason> {
         if let Some(r) = self.refuse_build {
             return Err(r);
         }
-        self.built.push((*s, lambda));
+        self.built.push((
+            *s,
+            f.lambda_rad_s,
+            f.scales.u_scale,
+            f.scales.y_scale,
+            theta0.len(),
+        ));
         self.next_id += 1;
         Ok(self.next_id)
     }
@@ -129,16 +141,59 @@ fn settings() -> Settings {
     }
 }
 
-fn link() -> DeviceLink {
+/// The rule with a 0.05 s start-up window.
+fn tuning() -> TuningConfig {
+    TuningConfig {
+        startup_s: 0.05,
+        ..TuningConfig::new(1e-4, crate::tuning::LambdaSource::Data)
+    }
+}
+
+fn link_with(settings: Settings) -> DeviceLink {
     DeviceLink::new(
         LinkConfig {
             limits: LIMITS,
             firmware: FIRMWARE_VERSION,
             rules: FlagRules::default(),
         },
-        settings(),
-        100.0,
+        settings,
+        &tuning(),
     )
+    .unwrap()
+}
+
+fn link() -> DeviceLink {
+    link_with(settings())
+}
+
+/// The start-up window's pairs: u = ±0.1 (RMS 0.1), y = 2e-3·sin (RMS
+/// √2·1e-3), in blocks as the sample task hands them over, until the
+/// window closes.
+fn feed_startup(l: &mut DeviceLink) -> usize {
+    let mut c = StartupCollector::<f32>::new();
+    let mut blocks = Vec::new();
+    let mut k = 0u32;
+    while l.collecting_startup() {
+        let t = k as f32 * 1e-4;
+        let u = if (t * 7.0).fract() < 0.5 { 0.1 } else { -0.1 };
+        c.push(u, 2e-3 * libm::sinf(300.0 * t), |b| {
+            blocks.push(b);
+            true
+        });
+        for b in blocks.drain(..) {
+            l.on_startup_block(&b);
+        }
+        k += 1;
+    }
+    k as usize
+}
+
+/// Start-up window, then the first build swapped in; its first sample.
+fn start(l: &mut DeviceLink, d: &mut MockDevice) -> u64 {
+    feed_startup(l);
+    let t = l.poll(d).unwrap().unwrap();
+    assert_eq!(t.kind, BuildKind::First);
+    t.at
 }
 
 /// A host: encodes commands, decodes everything the device queued.
@@ -198,7 +253,7 @@ fn every_command_is_acknowledged_and_applied() {
     let mut q: Queue<u8, 2048> = Queue::new();
     let (mut tx, mut rx) = q.split();
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
-    assert_eq!(l.start(&mut d).unwrap(), 1234);
+    assert_eq!(start(&mut l, &mut d), 1234);
     assert_eq!(d.p.calls, ["replace 1 100", "resume"]);
     assert_eq!(d.recycled, [0], "the stand-in comes back");
     d.p.calls.clear();
@@ -275,12 +330,12 @@ fn a_rejected_command_changes_nothing() {
     let mut q: Queue<u8, 2048> = Queue::new();
     let (mut tx, mut rx) = q.split();
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     d.p.calls.clear();
     for _ in 0..77 {
         d.p.excitation.next_sample();
     }
-    let before = (l.settings, l.lambda_rad_s, d.p.excitation);
+    let before = (l.settings, l.lambda_rad_s(), d.p.excitation);
     let outside = PExcitation {
         amplitude_v: 20.0,
         ..PExcitation::default()
@@ -351,7 +406,7 @@ fn a_rejected_command_changes_nothing() {
         .collect();
     assert_eq!(got, want);
     assert!(d.p.calls.is_empty(), "{:?}", d.p.calls);
-    assert_eq!((l.settings, l.lambda_rad_s, d.p.excitation), before);
+    assert_eq!((l.settings, l.lambda_rad_s(), d.p.excitation), before);
     assert_eq!(l.commands(), (0, 8));
     // The core refuses what validation let through: still nothing changes.
     d.refuse_build = Some(RejectReason::Gain);
@@ -361,7 +416,7 @@ fn a_rejected_command_changes_nothing() {
     });
     assert_eq!(l.execute(&c, &mut d), Err(RejectReason::Gain));
     assert!(d.p.calls.is_empty());
-    assert_eq!((l.settings, l.lambda_rad_s), (before.0, before.1));
+    assert_eq!((l.settings, l.lambda_rad_s()), (before.0, before.1));
 }
 
 #[test]
@@ -399,15 +454,21 @@ fn freeze_during_start_up_survives_the_start() {
     assert_eq!(acks(&h.drain(&mut rx)).len(), 4);
     assert_eq!(d.p.calls, ["freeze"]);
     assert_eq!(d.recycled, [1], "the trial build is returned");
-    // λ = None keeps the λ in use (until the automatic rule exists).
-    assert_eq!(l.lambda_rad_s(), 100.0);
+    // λ = None: the automatic rule; no λ until it has chosen.
+    assert!(l.is_automatic());
+    assert_eq!(l.lambda_rad_s(), None);
     assert_eq!(
         l.status(0, &Counters::default()).estimator.lambda_rad_s,
-        Some(100.0)
+        None
     );
     d.p.calls.clear();
-    l.start(&mut d).unwrap();
-    assert_eq!(d.p.calls, ["replace 2 100"], "no resume: frozen by command");
+    start(&mut l, &mut d);
+    let lambda = l.lambda_rad_s().unwrap();
+    assert_eq!(
+        d.p.calls,
+        [format!("replace 2 {lambda}")],
+        "no resume: frozen by command"
+    );
     assert!(l.status(0, &Counters::default()).adaptation_frozen);
 }
 
@@ -451,7 +512,7 @@ fn estimates_and_status_follow_the_record_clock() {
     assert!(estimates(&msgs).is_empty());
     assert_eq!(statuses(&msgs).len(), 1, "the first record brings a Status");
     d.p.next = 500;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     // 2 s of records at 100 Hz: 200 estimates, 2 more Status (1 Hz).
     let mut msgs = Vec::new();
     for k in 6..206u64 {
@@ -525,7 +586,7 @@ fn no_modes_before_the_laws_first_update() {
         ..record(index, Counters::default())
     };
     d.p.next = 500;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     let mut modes = Vec::new();
     let mut feed = |l: &mut DeviceLink, r, tx: &mut _, h: &mut Host, rx: &mut _| {
         l.on_record(&r, &w, tx);
@@ -553,7 +614,7 @@ fn full_tx_ring_drops_whole_frames_counted_as_gaps_and_flagged() {
     let (mut l, mut d, mut h) = (link(), device(), Host::new());
     let w = [-2.0f32, 2.0];
     d.p.next = 0;
-    l.start(&mut d).unwrap();
+    start(&mut l, &mut d);
     // Nobody drains: the ring fills, later frames are dropped whole.
     for k in 1..=20u64 {
         l.on_record(&record(k * 100, Counters::default()), &w, &mut tx);
@@ -630,3 +691,5 @@ fn firmware_version_is_the_crate_version() {
     assert_eq!(interval_samples(f32::NAN, 10_000.0), None);
     assert_eq!(interval_samples(1e-9, 10_000.0), Some(u32::MAX));
 }
+
+mod tune;
