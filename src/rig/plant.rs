@@ -309,11 +309,6 @@ impl<T: Real> ModalPlant<T> {
         self.modes
     }
 
-    /// Sample period (s).
-    pub fn ts_s(&self) -> f64 {
-        self.ts_s
-    }
-
     /// The continuous modes (the first [`Self::modes`] entries).
     pub(crate) fn specs(&self) -> &[ModeSpec] {
         self.spec.get(..self.modes).unwrap_or(&[])
