@@ -205,7 +205,11 @@ fn csv_has_every_sample_and_estimates_at_1khz() {
     assert_eq!(last[3], "", "no guard flag");
     let w1: f64 = last[11].parse().unwrap(); // omega_1
     assert!((w1 / 39.1533 - 1.0).abs() < 1e-3);
-    assert_eq!(&last[16..], ["1", "excited", "0", "0"], "supervisor, validity");
+    assert_eq!(
+        &last[16..],
+        ["1", "excited", "0", "0"],
+        "supervisor, validity"
+    );
     // Estimates on every 10th row only; none in the start-up window (nor
     // in the sensor guard's 2.6 ms delay line after it).
     let omega = |r: &&str| r.split(',').nth(11).is_some_and(|v| !v.is_empty());
