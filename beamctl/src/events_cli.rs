@@ -220,7 +220,7 @@ pub fn events(
             }
             if let Some(w) = w {
                 check_list("--step-omega", w, modes)?;
-                if let Some(&bad) = w.iter().find(|v| !(**v > 0.0)) {
+                if let Some(&bad) = w.iter().find(|v| **v <= 0.0) {
                     return Err(CliError::usage(
                         "--step-omega",
                         format!("natural frequencies must be > 0 rad/s (got {bad})"),
@@ -235,7 +235,7 @@ pub fn events(
             }
             if let Some(z) = z {
                 check_list("--step-zeta", z, modes)?;
-                if let Some(&bad) = z.iter().find(|v| !(**v > 0.0 && **v < 1.0)) {
+                if let Some(&bad) = z.iter().find(|v| **v <= 0.0 || **v >= 1.0) {
                     return Err(CliError::usage(
                         "--step-zeta",
                         format!("damping ratios must be in (0, 1) (got {bad})"),

@@ -681,7 +681,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         Some(set) => run_bound(cfg, set)?,
         None => None,
     };
-    let truth = truths.at(total.saturating_sub(1)).clone();
+    let truth = *truths.at(total.saturating_sub(1));
     let mut reports = Vec::with_capacity(kinds.len());
     for (i, score) in scores.into_iter().enumerate() {
         let fit = match session.model(i, cfg.ts_s) {

@@ -218,7 +218,7 @@ fn csv_has_every_sample_and_estimates_at_1khz() {
         (360..=1000).contains(&filled),
         "{filled} rows with estimates"
     );
-    assert!(!rows[..1999].iter().any(|r| omega(&r)));
+    assert!(!rows[..1999].iter().any(omega));
     // Evaluation rows carry the validity (not_recovered = 1 before the
     // first estimate), the other rows nothing.
     assert!(rows[9].ends_with(",1") && rows[8].ends_with(",,,,"));
