@@ -10,7 +10,7 @@
 use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::events::{self, Detection, Events, ScenarioReport, Settling};
 use crate::fit::{self, Model};
-use crate::scenario::{PlantSpec, Truth};
+use crate::scenario::PlantSpec;
 use crate::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
 use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
@@ -432,7 +432,7 @@ pub fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
 }
 
 /// The noise-free rig of a run: plant and square wave.
-fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let plant = cfg
         .plant
         .plant(cfg.ts_s)
@@ -458,7 +458,7 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     let Some(snr) = cfg.snr_db else {
         return Ok(None);
     };
-    let mut probe = events_rig(cfg, false)?;
+    let mut probe = events::events_rig(cfg, false)?;
     let n = samples(cfg).max(1);
     let mut acc = 0.0;
     for _ in 0..n {
@@ -468,43 +468,10 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     Ok(Some(noise_sd_for_snr((acc / n as f64).sqrt(), snr)))
 }
 
-/// The noise-free rig of a run with its events (`with_fault`: the sensor
-/// fault too; without it, the beam as it moves, for the SNR).
-fn events_rig(
-    cfg: &RunConfig,
-    with_fault: bool,
-) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
-    let rig = clean_rig(cfg)?;
-    let ev = &cfg.events;
-    let truth = cfg.plant.truth();
-    let setup = |e: String| RunError::Setup(e);
-    let mut sc =
-        events::scenario(ev, rig.plant(), &truth, cfg.ts_s, 1.0, cfg.range).map_err(setup)?;
-    if with_fault && ev.fault.is_some() {
-        // Default fault levels are relative to the moving beam's RMS.
-        let mut probe = events_rig(cfg, false)?;
-        let n = samples(cfg).max(1);
-        let acc: f64 = (0..n).map(|_| probe.tick().y.powi(2)).sum();
-        let rms = (acc / n as f64).sqrt();
-        sc = events::scenario(ev, rig.plant(), &truth, cfg.ts_s, rms, cfg.range).map_err(setup)?;
-    } else {
-        sc.fault = None;
-    }
-    let mut r = ScenarioRig::new(rig, sc).map_err(|e| RunError::Setup(e.to_string()))?;
-    if let Some(m) = &ev.extra_modes {
-        let p = beamest::rig::ModalPlant::from_modal(m, cfg.ts_s)
-            .map_err(|e| RunError::Plant(format!("extra modes: {e}")))?;
-        r = r
-            .with_extra_modes(p)
-            .map_err(|e| RunError::Setup(e.to_string()))?;
-    }
-    Ok(r)
-}
-
 /// The simulated rig of a run with its events ([`RunConfig::events`]) and
 /// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
 pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
-    let rig = events_rig(cfg, true)?;
+    let rig = events::events_rig(cfg, true)?;
     Ok(match noise_sd(cfg)? {
         Some(sd) => {
             let noise = GaussianNoise::new(sd, cfg.seed)
@@ -565,41 +532,6 @@ struct Score {
     max_after_1s: Option<f64>,
 }
 
-/// The truth in force: before and (with a plant step) after it.
-struct Truths {
-    before: Truth,
-    after: Option<(u64, Truth)>,
-}
-
-impl Truths {
-    fn new(cfg: &RunConfig) -> Result<Self, RunError> {
-        let before = cfg.plant.truth();
-        let after = match &cfg.events.step {
-            Some(step) => {
-                let n = before.modal.modes;
-                let plant = cfg
-                    .plant
-                    .plant(cfg.ts_s)
-                    .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-                let p = events::stepped_plant(&plant, step, &before).map_err(RunError::Setup)?;
-                let t = events::truth_of(&p, &before.modal.output_weight[..n])
-                    .map_err(RunError::Setup)?;
-                Some((events::sample_at(step.at_s, cfg.ts_s), t))
-            }
-            None => None,
-        };
-        Ok(Self { before, after })
-    }
-
-    /// The truth at sample `k`.
-    fn at(&self, k: u64) -> &Truth {
-        match &self.after {
-            Some((at, t)) if k >= *at => t,
-            _ => &self.before,
-        }
-    }
-}
-
 fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     cfg: &RunConfig,
     kinds: &[EstimatorKind],
@@ -611,7 +543,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     if cfg.eval_every == 0 {
         return Err(RunError::Setup("eval_every must be at least 1".into()));
     }
-    let truths = Truths::new(cfg)?;
+    let truths = events::Truths::new(cfg)?;
     let weights = &truths.before.modal.output_weight[..truths.before.modal.modes];
     let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?
         .with_guard(&guard_config(cfg.ts_s, cfg.range, cfg.level_correction))?;
@@ -701,8 +633,15 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         let error_over_crlb = bound
             .as_ref()
             .map(|b| b.ratio(&rel_error.omega, &rel_error.zeta, &rel_error.bbar));
-        let scenario = (!cfg.events.is_empty())
-            .then(|| scenario_report(cfg, &score, &detection, fault_window, total));
+        let scenario = (!cfg.events.is_empty()).then(|| {
+            events::scenario_report(
+                cfg,
+                (score.t1.after_start(), score.t01.after_start()),
+                &detection,
+                fault_window,
+                total,
+            )
+        });
         reports.push(RunReport {
             estimator: kinds[i],
             precision: cfg.precision,
@@ -735,38 +674,6 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         });
     }
     Ok(reports)
-}
-
-/// The `scenario` object of a run with events.
-fn scenario_report(
-    cfg: &RunConfig,
-    score: &Score,
-    detection: &Detection,
-    fault_window: Option<beamest::rig::Window>,
-    total: u64,
-) -> ScenarioReport {
-    let ev = &cfg.events;
-    let ts = cfg.ts_s;
-    let stepped = ev.step.is_some();
-    ScenarioReport {
-        step_at_s: ev.step.as_ref().map(|s| s.at_s),
-        tracking_1pct_s: score.t1.after_start().filter(|_| stepped),
-        tracking_0p1pct_s: score.t01.after_start().filter(|_| stepped),
-        excitation_off_s: ev.excitation_off.map(|(a, b)| [a, b]),
-        fault: ev.fault.map(|f| f.kind.name()),
-        fault_window_s: fault_window.map(|w| {
-            [
-                w.from as f64 * ts,
-                w.until.unwrap_or(total).min(total) as f64 * ts,
-            ]
-        }),
-        fault_detection_latency_s: match (detection.first, fault_window) {
-            (Some((k, _)), Some(w)) => Some((k - w.from) as f64 * ts),
-            _ => None,
-        },
-        fault_detected_as: detection.first.map(|(_, w)| w),
-        truth_modes: cfg.plant.modes() + ev.extra_modes.map_or(0, |m| m.modes),
-    }
 }
 
 /// The model-output fit over the run's samples (the rig is deterministic:
