@@ -1,11 +1,13 @@
 //! Run estimators against a simulated rig and measure them.
 //!
 //! The estimators see only what the firmware would: the held input u and
-//! the sampled output y (plus optional noise), through their own filter
-//! banks, with λ and the signal scales chosen by the truth-free rule
-//! ([`beamest::tuning`], via [`crate::tuned`]). Modal parameters are
-//! recovered at the telemetry rate ([`RunConfig::eval_every`]) and compared
-//! with the truth here, and only here.
+//! the sampled output y (plus optional noise, and the run's events:
+//! [`crate::events`]), screened by the sensor guard ([`beamest::guard`],
+//! via [`crate::session`]), through their own filter banks, with λ and the
+//! signal scales chosen by the truth-free rule ([`beamest::tuning`], via
+//! [`crate::tuned`]). Modal parameters are recovered at the telemetry rate
+//! ([`RunConfig::eval_every`]) and compared here, and only here, with the
+//! truth in force (after a plant step, the new plant's).
 
 use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::events::{self, Detection, Events, ScenarioReport, Settling};

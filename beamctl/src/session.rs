@@ -2,7 +2,10 @@
 //! rate: the part of a run that `beamctl simulate` (samples from the
 //! simulated rig) and `beamctl replay` (samples from a file) share. Knows
 //! nothing of the truth; the simulation scores the evaluations it is
-//! handed.
+//! handed. Every sample passes one sensor guard ([`beamest::guard`]) on its
+//! way to the estimators (they share it: they see the same samples); the
+//! outcome carries its counters, the supervisor's state and the final
+//! estimate's physical validity.
 
 use crate::fit::{Fit, Model};
 use crate::gains::{EstimatorKind, Gains};
@@ -97,13 +100,15 @@ pub struct SupervisionReport {
     /// Changes of the plant detected since the estimator started.
     pub changes_detected: u32,
     /// Time of the last detected change (s from the first sample of the
-    /// estimator's record), if any.
+    /// record), if any.
     pub last_change_s: Option<f64>,
 }
 
 impl SupervisionReport {
-    /// From the estimator's supervision and the sample period.
-    pub fn new<T: Real>(s: &beamest::supervise::Supervision<T>, ts_s: f64) -> Self {
+    /// From the estimator's supervision, the sample period and the index
+    /// of the record's sample the estimator took first (its sample count
+    /// starts there).
+    pub fn new<T: Real>(s: &beamest::supervise::Supervision<T>, ts_s: f64, first: u64) -> Self {
         Self {
             excited: s.excited(),
             excitation_reason: s.reason.as_str(),
@@ -111,7 +116,10 @@ impl SupervisionReport {
             forgetting: s.forgetting,
             lemma1_ratio: s.lemma1_ratio.map(|r| r.to_f64()),
             changes_detected: s.changes,
-            last_change_s: s.last_change_sample.map(|k| k as f64 * ts_s),
+            // The count includes the sample of the detection.
+            last_change_s: s
+                .last_change_sample
+                .map(|k| (first + k.saturating_sub(1)) as f64 * ts_s),
         }
     }
 }
@@ -304,9 +312,16 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
 
     /// The supervisor's state of estimator `i` now, if it is supervised.
     pub fn supervision(&self, i: usize) -> Option<SupervisionReport> {
-        let est = self.runs[i].estimator()?;
+        let run = &self.runs[i];
+        let est = run.estimator()?;
+        // A robust estimator's count starts at its replayed record's first
+        // sample, the paper's laws' at their build.
+        let first = run
+            .builds()
+            .last()
+            .map_or(0, |b| b.sample.saturating_sub(b.replayed_samples));
         est.supervision()
-            .map(|s| SupervisionReport::new(&s, self.ts_s))
+            .map(|s| SupervisionReport::new(&s, self.ts_s, first))
     }
 
     /// Number of estimators.

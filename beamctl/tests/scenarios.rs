@@ -85,6 +85,9 @@ fn a_plant_step_scores_against_the_new_plant() {
             num(&r["supervision"]["changes_detected"]) >= 1.0,
             "{precision}"
         );
+        // Detected within 10 ms of the step (record time).
+        let at = num(&r["supervision"]["last_change_s"]);
+        assert!((3.0..3.01).contains(&at), "{precision}: change at {at} s");
         assert!(max_error(&r) < 1e-3, "{precision}: {}", r["rel_error"]);
         assert!(r["crlb"].is_null());
     }
