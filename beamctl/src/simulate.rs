@@ -23,7 +23,7 @@ use crate::report;
 use crate::settings::{self, EstimatorPlan};
 use crate::SimulateArgs;
 use beamctl::fit::{self, Model};
-use beamctl::runner::{rig, run_many, samples};
+use beamctl::runner::{run_many, samples, scenario_rig};
 use beamctl::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
 use serde::Serialize;
@@ -332,7 +332,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, CliError> {
     let n = samples(cfg);
     let keep = n.saturating_sub((0.5 / cfg.ts_s).round() as u64)..n;
-    let start = rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
+    let start = scenario_rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
     let record = || {
         let mut r = start.clone();
         (0..n).map(move |_| {
