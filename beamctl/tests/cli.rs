@@ -478,6 +478,17 @@ fn help_documents_every_flag() {
         "--csv",
         "--plot",
         "--json",
+        "--step-at",
+        "--step-omega",
+        "--step-zeta",
+        "--excitation-off",
+        "--fault",
+        "--fault-at",
+        "--fault-for",
+        "--fault-level",
+        "--truth-modes",
+        "--range",
+        "--level-correction",
     ] {
         assert!(h.contains(flag), "{flag} missing from help");
     }

@@ -211,7 +211,14 @@ fn an_uncorrected_offset_is_reported_as_biasing() {
     // is biased (here to an unphysical model, or none at all: exit 1): the
     // report shows it.
     let o = beamctl(&[
-        "simulate", "--json", "--duration", "4", "--fault", "offset", "--fault-at", "2",
+        "simulate",
+        "--json",
+        "--duration",
+        "4",
+        "--fault",
+        "offset",
+        "--fault-at",
+        "2",
     ]);
     let r: Value = serde_json::from_str(&stdout(&o)).expect("JSON");
     assert_eq!(r["guard"]["offset_steps"], 0);
