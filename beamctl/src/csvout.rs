@@ -3,10 +3,16 @@
 //!
 //! One row per sample: `t_s, u, y` (exactly the values the estimators
 //! received, shortest round-trip decimal, so `beamctl replay` reads back
-//! the same f64), then per estimator `theta_0..theta_{NP−1}` (Θ of eq. 29,
+//! the same f64), `guard` (what the sensor guard flagged in this sample,
+//! or for `replay`, whose rows are the evaluations, since the last row:
+//! `non_finite`, `saturated`, `stuck`, `open`, `offset`, `drift`, or
+//! empty), then per estimator `theta_0..theta_{NP−1}` (Θ of eq. 29,
 //! physical units), `omega_1..omega_N` (rad/s), `zeta_1..zeta_N`,
-//! `lambda_rad_s` — prefixed `<name>_` when several estimators share the
-//! file. The estimate fields are filled on evaluation rows (every
+//! `lambda_rad_s`, `excited` (1/0, the supervisor's flag),
+//! `excitation_reason`, `changes` (detected so far), `validity` (the
+//! physical-validity bits of the estimate, 0 = valid; see
+//! `beamest::modal::validity`) — prefixed `<name>_` when several
+//! estimators share the file. The estimate fields are filled on evaluation rows (every
 //! `eval_every` = 10 samples, 1 kHz) and empty elsewhere, and empty where
 //! there is no estimate (start-up window, failed recovery).
 
@@ -16,6 +22,9 @@ use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+
+/// The per-estimator columns after `lambda_rad_s`.
+pub const SUPERVISION_COLUMNS: [&str; 4] = ["excited", "excitation_reason", "changes", "validity"];
 
 /// A CSV file being written.
 pub struct CsvOut {
@@ -31,12 +40,14 @@ pub struct CsvOut {
     line: String,
     /// The estimate cells of one estimator without an estimate.
     empty: String,
+    /// The guard's flag of the current row.
+    guard: &'static str,
 }
 
 /// The header for `modes` modes and the estimators `names`.
 pub fn header(modes: usize, names: &[&str]) -> Vec<String> {
     let np = 4 * modes - 1;
-    let mut h: Vec<String> = ["t_s", "u", "y"].map(String::from).to_vec();
+    let mut h: Vec<String> = ["t_s", "u", "y", "guard"].map(String::from).to_vec();
     for name in names {
         let prefix = if names.len() > 1 {
             format!("{name}_")
@@ -47,6 +58,9 @@ pub fn header(modes: usize, names: &[&str]) -> Vec<String> {
         h.extend((1..=modes).map(|i| format!("{prefix}omega_{i}")));
         h.extend((1..=modes).map(|i| format!("{prefix}zeta_{i}")));
         h.push(format!("{prefix}lambda_rad_s"));
+        for c in SUPERVISION_COLUMNS {
+            h.push(format!("{prefix}{c}"));
+        }
     }
     h
 }
@@ -69,8 +83,21 @@ impl CsvOut {
             failed: None,
             pending: vec![String::new(); names.len()],
             line: String::with_capacity(256),
-            empty: ",".repeat(4 * modes - 1 + 2 * modes + 1),
+            empty: ",".repeat(4 * modes - 1 + 2 * modes + 1 + SUPERVISION_COLUMNS.len()),
+            guard: "",
         })
+    }
+
+    /// What the sensor guard flagged in a sample since the last row (a
+    /// flag is kept until the row is written: replay writes one row per
+    /// evaluation).
+    pub fn screening(&mut self, s: &beamest::guard::Screening) {
+        let flag = match (s.fault, s.level) {
+            (Some(f), _) => beamctl::session::fault_name(f),
+            (None, Some(l)) => beamctl::session::level_name(l),
+            (None, None) => return,
+        };
+        self.guard = flag;
     }
 
     /// The estimate of estimator `index` for the current row.
@@ -95,6 +122,19 @@ impl CsvOut {
         }
         cell.push(',');
         num(cell, t.lambda_rad_s.unwrap_or(f64::NAN));
+        match &t.supervision {
+            Some(s) => {
+                let _ = write!(
+                    cell,
+                    ",{},{},{}",
+                    u8::from(s.excited),
+                    s.excitation_reason,
+                    s.changes_detected
+                );
+            }
+            None => cell.push_str(",,,"),
+        }
+        let _ = write!(cell, ",{}", t.validity);
     }
 
     /// Write the row of one sample (with the estimates given since the
@@ -110,6 +150,9 @@ impl CsvOut {
         num(&mut self.line, u);
         self.line.push(',');
         num(&mut self.line, y);
+        self.line.push(',');
+        self.line.push_str(self.guard);
+        self.guard = "";
         for cell in self.pending.iter_mut().take(self.estimators) {
             if cell.is_empty() {
                 self.line.push_str(&self.empty);
@@ -169,12 +212,12 @@ mod tests {
         let h = header(2, &["adaptive"]).join(",");
         assert_eq!(
             h,
-            "t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s"
+            "t_s,u,y,guard,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s,excited,excitation_reason,changes,validity"
         );
         let all = header(1, &["adaptive", "gradient", "ls"]);
-        assert_eq!(all[3], "adaptive_theta_0");
-        assert_eq!(all.len(), 3 + 3 * (3 + 2 + 1));
-        assert_eq!(header(3, &["ls"]).len(), 3 + 11 + 6 + 1);
+        assert_eq!(all[4], "adaptive_theta_0");
+        assert_eq!(all.len(), 4 + 3 * (3 + 2 + 1 + 4));
+        assert_eq!(header(3, &["ls"]).len(), 4 + 11 + 6 + 1 + 4);
         assert_eq!(s(4.978767555286603e-7), "4.978767555286603e-7");
         assert_eq!(s(0.0009), "0.0009");
         assert_eq!(s(-1.11e6), "-1110000");

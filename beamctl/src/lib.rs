@@ -13,6 +13,8 @@
 //! * [`bound`] — the Cramér–Rao bound of an experiment, and error ÷ bound;
 //! * [`seeds`] — one configuration over several noise seeds: RMS errors
 //!   and RMS ÷ bound;
+//! * [`events`] — the events of a simulated run (plant change, excitation
+//!   pause, sensor fault, modes beyond the model) and what they did;
 //! * [`csvin`] — reading recorded samples for `beamctl replay`.
 //! * [`link`] — the host end of the serial link (`beamctl monitor`,
 //!   `beamctl send`) and a fake device that speaks the protocol.
@@ -26,6 +28,7 @@
 
 pub mod bound;
 pub mod csvin;
+pub mod events;
 pub mod fit;
 pub mod gains;
 pub mod link;

@@ -25,6 +25,7 @@
 mod crlb;
 mod csvout;
 mod error;
+mod events_cli;
 mod model;
 mod monitor;
 mod multiseed;
@@ -51,6 +52,8 @@ struct Cli {
     command: Command,
 }
 
+// Parsed once per run: the size of the largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run an estimator against the simulated beam and compare its estimates
@@ -151,7 +154,17 @@ Output: a table of estimate, truth and relative error per parameter, the time af
 which the largest relative ω/ζ error stays below 1% and 0.1%, the excitation level \
 λmin(P) of Lemma 1 (scaled coordinates; adaptive law only) and the estimator's \
 rejected/skipped counters. A progress bar is shown on stderr for runs that take \
-longer than about a second (only when stderr is a terminal and not with --json).";
+longer than about a second (only when stderr is a terminal and not with --json).
+
+Robustness: every sample passes the sensor guard (non-finite, saturated and open with \
+--range, stuck; offset steps and drift flagged), whose rejections are counted by kind; \
+the report gives the supervisor's excitation flag and its reason, the changes it \
+detected and the physical-validity flags of the final estimate. Scenarios: a plant \
+change (--step-at with --step-omega/--step-zeta; the truth is then the new plant's and \
+the tracking time is reported), an excitation pause (--excitation-off), a sensor fault \
+(--fault, --fault-at, --fault-for; its detection latency is reported) and modes beyond \
+the model (--truth-modes). With an event the Cramér–Rao bound is not computed (the \
+experiment is not the stationary one it describes).";
 
 const REPLAY_ABOUT: &str = "\
 Run the estimator over recorded samples, exactly as the firmware would run it on the \
@@ -380,6 +393,12 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub plant: PlantArgs,
 
+    #[command(flatten)]
+    pub scenario: events_cli::ScenarioArgs,
+
+    #[command(flatten)]
+    pub guard: events_cli::GuardArgs,
+
     /// Add white Gaussian noise to y at this signal-to-noise ratio in dB,
     /// relative to the RMS of the noise-free y over the whole run (the
     /// Cramér–Rao bound's definition) [default: no noise].
@@ -454,6 +473,9 @@ pub struct ReplayArgs {
 
     #[command(flatten)]
     pub est: EstimatorArgs,
+
+    #[command(flatten)]
+    pub guard: events_cli::GuardArgs,
 
     /// Columns by header name: T,U,Y, or U,Y with --ts [default: t,u,y;
     /// u,y with --ts].

@@ -33,7 +33,7 @@ use beamctl::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use beamctl::csvin::{Columns, Reader};
 use beamctl::fit;
 use beamctl::runner::Outcome;
-use beamctl::session::{drift_every, Session};
+use beamctl::session::{drift_every, guard_config, Session};
 use beamctl::{EstimatorKind, Precision, Trace};
 use beamest::crlb::ModelSet;
 use beamest::model::default_output_weight;
@@ -56,6 +56,10 @@ struct Plan {
     ts_s: Option<f64>,
     /// `--crlb`: the model set and a given σ.
     crlb: Option<(ModelSet, Option<f64>)>,
+    /// `--range`.
+    range: Option<[f64; 2]>,
+    /// `--level-correction`.
+    level_correction: bool,
 }
 
 fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
@@ -117,6 +121,8 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
         columns,
         ts_s: args.ts,
         crlb: args.crlb.then(|| (args.model_set.set(), args.noise_sd)),
+        range: crate::events_cli::range(&args.guard)?,
+        level_correction: args.guard.level_correction,
     })
 }
 
@@ -229,6 +235,7 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let tuning = TuningConfig::new(ts, plan.est.lambda);
     let mut session =
         Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
+            .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
             .map_err(|e| CliError::failure(format!("replay: {e}")))?;
     let dense = csv.is_some() || want_plot;
     let drift = drift_every(ts);
@@ -272,6 +279,8 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 modal: e.modal.as_ref(),
                 lambda_rad_s: e.lambda_rad_s,
                 max_rel_error: None,
+                supervision: session.supervision(i),
+                validity: e.validity,
             };
             if let Some(c) = csv.as_mut() {
                 c.estimate(i, &trace);
@@ -311,7 +320,10 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 }
             };
             for &(u, y) in &batch {
-                session.step(u, y);
+                let screening = session.step(u, y);
+                if let Some(c) = csv.as_mut() {
+                    c.screening(&screening);
+                }
                 // A countdown, not (k + 1) % every: a 64-bit division per
                 // sample is a measurable share of the ~70 ns budget.
                 countdown -= 1;
@@ -479,6 +491,10 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
             sigma_source: r.crlb_sigma_source,
             ratio: None,
             robust: r.outcome.robust,
+            supervision: r.outcome.supervision,
+            validity: &r.outcome.validity,
+            guard: r.outcome.guard,
+            tracking: None,
         })
         .collect();
     if let Some((set, _)) = plan.crlb {
@@ -490,6 +506,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     out.push('\n');
     out.push_str(&report::table(plan.modes, None, None, &columns));
     out.push_str(report::FOOTNOTE);
+    out.push_str(report::FOOTNOTE_GUARD);
     if reports.iter().any(|r| r.outcome.robust.is_some()) {
         out.push_str(report::FOOTNOTE_ROBUST);
     }

@@ -6,6 +6,7 @@ use crate::error::CliError;
 use crate::table::{rel, seconds, sig, Column as TableColumn, Table};
 use beamctl::bound::{BoundRatio, ExperimentBound};
 use beamctl::runner::{Build, ModalSummary, RobustStatus};
+use beamctl::session::{GuardReport, SupervisionReport};
 use beamctl::EstimatorKind;
 use serde::Serialize;
 
@@ -56,6 +57,14 @@ pub struct Column<'a> {
     pub ratio: Option<&'a BoundRatio>,
     /// The robust estimator's extra outputs.
     pub robust: Option<RobustStatus>,
+    /// The supervisor's state at the end.
+    pub supervision: Option<SupervisionReport>,
+    /// The final estimate's physical-validity flags (empty: valid).
+    pub validity: &'a [&'static str],
+    /// The sensor guard's counters.
+    pub guard: GuardReport,
+    /// After a plant step: the tracking times to 1% and 0.1%.
+    pub tracking: Option<(Option<f64>, Option<f64>)>,
 }
 
 /// The table: estimate (and with the truth, truth and relative error) per
@@ -200,10 +209,63 @@ pub fn table(
             },
         );
     }
+    if cols.iter().any(|c| c.tracking.is_some()) {
+        metric(&mut t, "tracking: 1% after step", &|c| {
+            seconds(c.tracking.and_then(|t| t.0))
+        });
+        metric(&mut t, "tracking: 0.1% after step", &|c| {
+            seconds(c.tracking.and_then(|t| t.1))
+        });
+    }
+    metric(&mut t, "excitation (supervisor)", &|c| {
+        c.supervision.map_or("n/a".to_string(), |s| {
+            if s.frozen {
+                format!("{} (frozen)", s.excitation_reason)
+            } else {
+                s.excitation_reason.to_string()
+            }
+        })
+    });
+    metric(&mut t, "changes detected", &|c| {
+        c.supervision
+            .map_or("n/a".to_string(), |s| s.changes_detected.to_string())
+    });
+    metric(&mut t, "physically valid", &|c| {
+        if c.validity.is_empty() {
+            "yes".to_string()
+        } else {
+            format!("no: {}", c.validity.join(", "))
+        }
+    });
     metric(&mut t, "samples", &|c| c.samples.to_string());
+    metric(&mut t, "guard: rejected", &|c| guard_kinds(&c.guard));
+    metric(&mut t, "guard: level events", &|c| {
+        format!(
+            "offset {}, drift {}",
+            c.guard.offset_steps, c.guard.drift_flags
+        )
+    });
     metric(&mut t, "rejected samples", &|c| c.rejected.to_string());
     metric(&mut t, "skipped updates", &|c| c.skipped.to_string());
     t.render()
+}
+
+/// "none" or "N (stuck N, …)": the guard's rejections by kind.
+pub fn guard_kinds(g: &GuardReport) -> String {
+    if g.rejected == 0 {
+        return "none".to_string();
+    }
+    let kinds: Vec<String> = [
+        ("non-finite", g.non_finite),
+        ("saturated", g.saturated),
+        ("stuck", g.stuck),
+        ("open", g.open),
+    ]
+    .iter()
+    .filter(|(_, n)| *n > 0)
+    .map(|(k, n)| format!("{k} {n}"))
+    .collect();
+    format!("{} ({})", g.rejected, kinds.join(", "))
 }
 
 /// The table's short name of a σ source (`given`, `robust_residual`,
@@ -246,6 +308,13 @@ pub const FOOTNOTE_TRUTH: &str = "\ntime to x%: simulated time after which the l
 ω/ζ error stays below x% to the end.";
 
 /// Footnote of the truth-free metrics.
+pub const FOOTNOTE_GUARD: &str =
+    "guard: samples the sensor guard kept from the estimators, by kind \
+(non-finite, saturated/open at a rail of --range, stuck: y repeated 25 times), and the level \
+events it flagged (offset steps, drifts; removed with --level-correction). excitation: the \
+supervisor's flag (excited, input_gone, not_persistent, starting); frozen = adaptation held \
+while the input is gone. physically valid: ω > 0, 0 < ζ < 1, distinct modes.\n";
+/// Footnote of the fit and drift rows.
 pub const FOOTNOTE: &str = "\nmodel output fit: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), ŷ = the final \
 model driven by the recorded u (initial state fitted).\nmoved over last 10%: largest \
 (max − min)/|final| of ω̂, ζ̂ over the last 10% of the record.\nλ: the filter pole of each \

@@ -1,21 +1,24 @@
 //! Run estimators against a simulated rig and measure them.
 //!
 //! The estimators see only what the firmware would: the held input u and
-//! the sampled output y (plus optional noise), through their own filter
-//! banks, with λ and the signal scales chosen by the truth-free rule
-//! ([`beamest::tuning`], via [`crate::tuned`]). Modal parameters are
-//! recovered at the telemetry rate ([`RunConfig::eval_every`]) and compared
-//! with the truth here, and only here.
+//! the sampled output y (plus optional noise, and the run's events:
+//! [`crate::events`]), screened by the sensor guard ([`beamest::guard`],
+//! via [`crate::session`]), through their own filter banks, with λ and the
+//! signal scales chosen by the truth-free rule ([`beamest::tuning`], via
+//! [`crate::tuned`]). Modal parameters are recovered at the telemetry rate
+//! ([`RunConfig::eval_every`]) and compared here, and only here, with the
+//! truth in force (after a plant step, the new plant's).
 
 use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
+use crate::events::{self, Detection, Events, ScenarioReport, Settling};
 use crate::fit::{self, Model};
-use crate::scenario::{PlantSpec, Truth};
-use crate::session::{drift_every, Eval, Session};
+use crate::scenario::PlantSpec;
+use crate::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
 use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::model::{ModalParams, TransferFunction};
-use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample};
+use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use serde::Serialize;
@@ -71,6 +74,16 @@ pub struct RunConfig {
     pub seed: u64,
     /// Evaluate modal parameters every this many samples (10 → 1 kHz).
     pub eval_every: usize,
+    /// Events of the run: plant change, excitation pause, sensor fault,
+    /// modes beyond the model ([`crate::events`]).
+    pub events: Events,
+    /// The converter's rails in units of y, [min, max]: the sensor guard's
+    /// saturation and open-bridge tests, and what a saturated or open
+    /// sensor reads (None: unknown).
+    pub range: Option<[f64; 2]>,
+    /// The guard's level corrections (DC-removing high-pass on u and y,
+    /// offset-step removal; [`beamest::guard`]).
+    pub level_correction: bool,
 }
 
 impl Default for RunConfig {
@@ -95,6 +108,9 @@ impl Default for RunConfig {
             crlb: None,
             seed: 1,
             eval_every: 10,
+            events: Events::default(),
+            range: None,
+            level_correction: false,
         }
     }
 }
@@ -266,6 +282,15 @@ pub struct RunReport {
     /// The robust estimator's phase, a-posteriori noise RMS and model
     /// updates (None for the paper's laws).
     pub robust: Option<RobustStatus>,
+    /// The supervisor's state at the end (see [`Outcome::supervision`]).
+    pub supervision: Option<SupervisionReport>,
+    /// The final estimate's physical-validity flags (see
+    /// [`Outcome::validity`]).
+    pub validity: Vec<&'static str>,
+    /// The sensor guard's counters.
+    pub guard: crate::session::GuardReport,
+    /// With events: what they did (tracking time, fault latency).
+    pub scenario: Option<ScenarioReport>,
 }
 
 /// One telemetry-rate sample handed to an observer.
@@ -287,6 +312,11 @@ pub struct Trace<'a> {
     pub lambda_rad_s: Option<f64>,
     /// Largest relative ω/ζ error, when the truth is known (simulation).
     pub max_rel_error: Option<f64>,
+    /// The supervisor's state (excitation flag and reason, changes).
+    pub supervision: Option<SupervisionReport>,
+    /// The physical-validity flags of the estimate
+    /// ([`beamest::modal::validity::Validity`] bits; 0 = valid).
+    pub validity: u8,
 }
 
 /// What a run reports as it goes.
@@ -296,6 +326,9 @@ pub trait Observer {
     fn sample(&mut self, _k: u64, _t_s: f64, _u: f64, _y: f64) {}
     /// At the evaluation rate, once per estimator (`index` in run order).
     fn estimate(&mut self, _index: usize, _trace: &Trace<'_>) {}
+    /// The sensor guard's screening of sample `k`, just before
+    /// [`Observer::sample`] (only when [`Observer::wants_samples`]).
+    fn screening(&mut self, _k: u64, _s: &beamest::guard::Screening) {}
     /// Whether [`Observer::sample`] is wanted (it costs a call per sample).
     fn wants_samples(&self) -> bool {
         false
@@ -400,33 +433,8 @@ pub fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
     }
 }
 
-/// Tracks "the time after which the error stays below a threshold".
-#[derive(Debug, Clone, Copy)]
-struct Settling {
-    threshold: f64,
-    since: Option<f64>,
-}
-
-impl Settling {
-    fn new(threshold: f64) -> Self {
-        Self {
-            threshold,
-            since: None,
-        }
-    }
-    fn observe(&mut self, t: f64, err: f64) {
-        if err < self.threshold {
-            if self.since.is_none() {
-                self.since = Some(t);
-            }
-        } else {
-            self.since = None;
-        }
-    }
-}
-
 /// The noise-free rig of a run: plant and square wave.
-fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let plant = cfg
         .plant
         .plant(cfg.ts_s)
@@ -452,7 +460,7 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     let Some(snr) = cfg.snr_db else {
         return Ok(None);
     };
-    let mut probe = clean_rig(cfg)?;
+    let mut probe = events::events_rig(cfg, false)?;
     let n = samples(cfg).max(1);
     let mut acc = 0.0;
     for _ in 0..n {
@@ -462,8 +470,22 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     Ok(Some(noise_sd_for_snr((acc / n as f64).sqrt(), snr)))
 }
 
-/// The simulated rig of a run: plant, square wave and (with an SNR or a
-/// σ) white noise on y of σ = [`noise_sd`].
+/// The simulated rig of a run with its events ([`RunConfig::events`]) and
+/// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
+pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
+    let rig = events::events_rig(cfg, true)?;
+    Ok(match noise_sd(cfg)? {
+        Some(sd) => {
+            let noise = GaussianNoise::new(sd, cfg.seed)
+                .map_err(|_| RunError::Setup(format!("invalid noise level (σ = {sd})")))?;
+            rig.with_noise(noise)
+        }
+        None => rig,
+    })
+}
+
+/// The simulated rig of a run without its events: plant, square wave and
+/// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
 pub fn rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let rig = clean_rig(cfg)?;
     Ok(match noise_sd(cfg)? {
@@ -506,6 +528,9 @@ pub fn samples(cfg: &RunConfig) -> u64 {
 struct Score {
     s1: Settling,
     s01: Settling,
+    /// Since the plant step (tracking).
+    t1: Settling,
+    t01: Settling,
     max_after_1s: Option<f64>,
 }
 
@@ -520,34 +545,45 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     if cfg.eval_every == 0 {
         return Err(RunError::Setup("eval_every must be at least 1".into()));
     }
-    let truth: Truth = cfg.plant.truth();
-    let weights = &truth.modal.output_weight[..truth.modal.modes];
-    let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?;
-    let mut rig = rig(cfg)?;
+    let truths = events::Truths::new(cfg)?;
+    let weights = &truths.before.modal.output_weight[..truths.before.modal.modes];
+    let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?
+        .with_guard(&guard_config(cfg.ts_s, cfg.range, cfg.level_correction))?;
+    let mut rig = scenario_rig(cfg)?;
     let total = samples(cfg);
     let every = cfg.eval_every as u64;
+    let step_s = cfg.events.step.as_ref().map_or(0.0, |s| s.at_s);
     let mut scores: Vec<Score> = kinds
         .iter()
         .map(|_| Score {
-            s1: Settling::new(1e-2),
-            s01: Settling::new(1e-3),
+            s1: Settling::new(1e-2, 0.0),
+            s01: Settling::new(1e-3, 0.0),
+            t1: Settling::new(1e-2, step_s),
+            t01: Settling::new(1e-3, step_s),
             max_after_1s: None,
         })
         .collect();
+    let fault_window = rig.scenario().fault.map(|f| f.window);
+    let mut detection = Detection::default();
     let per_sample = observer.wants_samples();
     let drift = drift_every(cfg.ts_s);
     for k in 0..total {
         let Sample { u, y } = rig.tick();
-        session.step(u, y);
+        let screening = session.step(u, y);
+        if fault_window.is_some_and(|w| w.contains(k)) {
+            detection.observe(k, &screening);
+        }
         // Real time of the newest sample: when the estimate is available.
         let t = k as f64 * cfg.ts_s;
         if (k + 1) % every == 0 || k + 1 == total {
             let record = (k + 1) % drift == 0 || k + 1 == total;
+            let truth = truths.at(k);
             for (i, score) in scores.iter_mut().enumerate() {
                 let e: Eval<NP> = session.evaluate(i, t, record);
                 let err = rel_error(e.modal.as_ref(), &truth.modal).max();
-                score.s1.observe(t, err);
-                score.s01.observe(t, err);
+                for s in [&mut score.s1, &mut score.s01, &mut score.t1, &mut score.t01] {
+                    s.observe(t, err);
+                }
                 if t >= 1.0 {
                     score.max_after_1s = Some(score.max_after_1s.unwrap_or(0.0).max(err));
                 }
@@ -562,11 +598,14 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                         modal: e.modal.as_ref(),
                         lambda_rad_s: e.lambda_rad_s,
                         max_rel_error: Some(err),
+                        supervision: session.supervision(i),
+                        validity: e.validity,
                     },
                 );
             }
         }
         if per_sample {
+            observer.screening(k, &screening);
             observer.sample(k, t, u, y);
         }
     }
@@ -576,6 +615,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         Some(set) => run_bound(cfg, set)?,
         None => None,
     };
+    let truth = *truths.at(total.saturating_sub(1));
     let mut reports = Vec::with_capacity(kinds.len());
     for (i, score) in scores.into_iter().enumerate() {
         let fit = match session.model(i, cfg.ts_s) {
@@ -595,6 +635,15 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         let error_over_crlb = bound
             .as_ref()
             .map(|b| b.ratio(&rel_error.omega, &rel_error.zeta, &rel_error.bbar));
+        let scenario = (!cfg.events.is_empty()).then(|| {
+            events::scenario_report(
+                cfg,
+                (score.t1.after_start(), score.t01.after_start()),
+                &detection,
+                fault_window,
+                total,
+            )
+        });
         reports.push(RunReport {
             estimator: kinds[i],
             precision: cfg.precision,
@@ -602,8 +651,8 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             samples: total,
             rel_error,
             truth: ModalSummary::new(Some(&truth.modal), &truth.tf),
-            time_to_1pct_s: score.s1.since,
-            time_to_0p1pct_s: score.s01.since,
+            time_to_1pct_s: score.s1.since(),
+            time_to_0p1pct_s: score.s01.since(),
             max_error_after_1s: score.max_after_1s,
             estimate: o.estimate,
             excitation_min_eig: o.excitation_min_eig,
@@ -620,6 +669,10 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             crlb: bound.clone(),
             error_over_crlb,
             robust: o.robust,
+            supervision: o.supervision,
+            validity: o.validity,
+            guard: o.guard,
+            scenario,
         });
     }
     Ok(reports)
@@ -628,7 +681,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
 /// The model-output fit over the run's samples (the rig is deterministic:
 /// it is replayed rather than stored).
 fn fit_on_rig(cfg: &RunConfig, model: &Model) -> Result<Option<fit::Fit>, RunError> {
-    let start = rig(cfg)?;
+    let start = scenario_rig(cfg)?;
     let n = samples(cfg);
     Ok(fit::fit(model, || {
         let mut rig = start.clone();

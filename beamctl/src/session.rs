@@ -2,13 +2,20 @@
 //! rate: the part of a run that `beamctl simulate` (samples from the
 //! simulated rig) and `beamctl replay` (samples from a file) share. Knows
 //! nothing of the truth; the simulation scores the evaluations it is
-//! handed.
+//! handed. Every sample passes one sensor guard ([`beamest::guard`]) on its
+//! way to the estimators (they share it: they see the same samples); the
+//! outcome carries its counters, the supervisor's state and the final
+//! estimate's physical validity.
 
 use crate::fit::{Fit, Model};
 use crate::gains::{EstimatorKind, Gains};
 use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
 use crate::tuned::{Build, RobustStatus, Totals, Tuned};
+use beamest::guard::{
+    GuardConfig, GuardCounts, GuardError, LevelEvent, SampleFault, Screening, SensorGuard,
+};
 use beamest::modal::modal_from_tf;
+use beamest::modal::validity::Validity;
 use beamest::model::{ModalParams, TransferFunction};
 use beamest::tuning::TuningConfig;
 use beamest::Real;
@@ -23,6 +30,9 @@ pub struct Eval<const NP: usize> {
     pub modal: Option<ModalParams<f64>>,
     /// The estimator's λ (rad/s), once built.
     pub lambda_rad_s: Option<f64>,
+    /// Physical-validity flags of the estimate (0 = valid;
+    /// [`Validity`] bits, `not_recovered` without an estimate).
+    pub validity: u8,
 }
 
 /// The part of a report that needs no truth.
@@ -59,6 +69,130 @@ pub struct Outcome {
     /// The robust estimator's phase, a-posteriori noise RMS and model
     /// updates (None for the paper's laws).
     pub robust: Option<RobustStatus>,
+    /// The supervisor's state at the end (excitation flag and reason,
+    /// anti-windup, detected changes); None for an unsupervised law or
+    /// without an estimator.
+    pub supervision: Option<SupervisionReport>,
+    /// Why the final estimate is not a physical beam
+    /// ([`beamest::modal::validity::Validity`] names; empty: valid):
+    /// `not_recovered`, `mode_count`, `non_finite`, `omega_not_positive`,
+    /// `zeta_out_of_range`, `not_distinct`.
+    pub validity: Vec<&'static str>,
+    /// What the sensor guard flagged over the record (shared by every
+    /// estimator of the run: they see the same samples).
+    pub guard: GuardReport,
+}
+
+/// The supervisor's state ([`beamest::supervise::Supervision`]) as
+/// reported.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SupervisionReport {
+    /// Excited by both tests (input present, Lemma 1).
+    pub excited: bool,
+    /// `excited`, `input_gone`, `not_persistent` or `starting`.
+    pub excitation_reason: &'static str,
+    /// Adaptation frozen by the anti-windup now (input gone).
+    pub frozen: bool,
+    /// Forgetting active (false while suspended for lack of excitation).
+    pub forgetting: bool,
+    /// λmin(P)/tr(P) of Lemma 1, if measured.
+    pub lemma1_ratio: Option<f64>,
+    /// Changes of the plant detected since the estimator started.
+    pub changes_detected: u32,
+    /// Time of the last detected change (s from the first sample of the
+    /// record), if any.
+    pub last_change_s: Option<f64>,
+}
+
+impl SupervisionReport {
+    /// From the estimator's supervision, the sample period and the index
+    /// of the record's sample the estimator took first (its sample count
+    /// starts there).
+    pub fn new<T: Real>(s: &beamest::supervise::Supervision<T>, ts_s: f64, first: u64) -> Self {
+        Self {
+            excited: s.excited(),
+            excitation_reason: s.reason.as_str(),
+            frozen: s.frozen,
+            forgetting: s.forgetting,
+            lemma1_ratio: s.lemma1_ratio.map(|r| r.to_f64()),
+            changes_detected: s.changes,
+            // The count includes the sample of the detection.
+            last_change_s: s
+                .last_change_sample
+                .map(|k| (first + k.saturating_sub(1)) as f64 * ts_s),
+        }
+    }
+}
+
+/// The sensor guard's counters ([`beamest::guard::GuardCounts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct GuardReport {
+    /// Samples kept from the estimators, all kinds.
+    pub rejected: u32,
+    /// … of which u or y NaN or ±∞.
+    pub non_finite: u32,
+    /// … y at a rail of `--range` (overload).
+    pub saturated: u32,
+    /// … y repeating exactly (stuck sensor).
+    pub stuck: u32,
+    /// … y jumped to a rail and stays (open gauge).
+    pub open: u32,
+    /// Offset steps of y detected (removed with `--level-correction`).
+    pub offset_steps: u32,
+    /// Slow drifts of y's level flagged.
+    pub drift_flags: u32,
+}
+
+impl From<GuardCounts> for GuardReport {
+    fn from(c: GuardCounts) -> Self {
+        Self {
+            rejected: c.rejected(),
+            non_finite: c.non_finite,
+            saturated: c.saturated,
+            stuck: c.stuck,
+            open: c.open,
+            offset_steps: c.offset,
+            drift_flags: c.drift,
+        }
+    }
+}
+
+/// The name of a guard fault (`non_finite`, `saturated`, `stuck`, `open`,
+/// `upstream`).
+pub fn fault_name(f: SampleFault) -> &'static str {
+    match f {
+        SampleFault::NonFinite => "non_finite",
+        SampleFault::Saturated => "saturated",
+        SampleFault::Stuck => "stuck",
+        SampleFault::Open => "open",
+        SampleFault::Upstream => "upstream",
+    }
+}
+
+/// The name of a guard level event (`offset`, `drift`).
+pub fn level_name(l: LevelEvent) -> &'static str {
+    match l {
+        LevelEvent::Offset => "offset",
+        LevelEvent::Drift => "drift",
+    }
+}
+
+/// The guard settings of `beamctl simulate` and `replay`: the converter's
+/// rails in units of y (`--range`; without them saturation and open
+/// bridges show as stuck readings), the default stuck run, and the level
+/// corrections (DC-removing high-pass and offset-step removal) only with
+/// `--level-correction` (as the firmware pipeline: off by default).
+pub fn guard_config(ts_s: f64, range: Option<[f64; 2]>, level_correction: bool) -> GuardConfig {
+    GuardConfig {
+        range,
+        highpass_rad_s: if level_correction {
+            Some(beamest::guard::DEFAULT_HIGHPASS_RAD_S)
+        } else {
+            None
+        },
+        offset_steps: level_correction,
+        ..GuardConfig::new(ts_s)
+    }
 }
 
 /// ω̂, ζ̂ over time, kept to measure the drift at the end.
@@ -115,17 +249,23 @@ pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
     runs: Vec<Tuned<T, D, NP, NS>>,
     history: Vec<History>,
     weights: Vec<T>,
+    guard: SensorGuard<f64>,
+    ts_s: f64,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP, NS> {
     /// One estimator per kind under the tuning rule; modal recovery with
-    /// output weights `weights` (one per mode).
+    /// output weights `weights` (one per mode); the samples pass the sensor
+    /// guard of [`guard_config`] without a range or level corrections
+    /// ([`Session::with_guard`] sets others).
     pub fn new(
         kinds: &[EstimatorKind],
         gains: Gains,
         tuning: &TuningConfig,
         weights: &[f64],
     ) -> Result<Self, RunError> {
+        let guard = SensorGuard::new(&guard_config(tuning.ts_s, None, false))
+            .map_err(|e: GuardError| RunError::Setup(e.to_string()))?;
         let runs = kinds
             .iter()
             .map(|&k| Tuned::new(k, gains, tuning))
@@ -135,16 +275,53 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             history: vec![History::default(); runs.len()],
             runs,
             weights: weights.iter().map(|&w| T::from_f64(w)).collect(),
+            guard,
+            ts_s: tuning.ts_s,
         })
     }
 
-    /// Feed one sample to every estimator.
+    /// The same session with another sensor guard (see [`guard_config`]).
+    ///
+    /// # Errors
+    /// Invalid guard settings.
+    pub fn with_guard(mut self, cfg: &GuardConfig) -> Result<Self, RunError> {
+        self.guard = SensorGuard::new(cfg).map_err(|e| RunError::Setup(e.to_string()))?;
+        Ok(self)
+    }
+
+    /// Feed one raw sample: it passes the sensor guard
+    /// ([`beamest::guard`]), and the pair leaving the guard's delay line
+    /// (faulty ones as NaN, which the estimators reject) goes to every
+    /// estimator. Returns what the guard saw in this sample at once.
     #[inline]
-    pub fn step(&mut self, u: f64, y: f64) {
-        let (u, y) = (T::from_f64(u), T::from_f64(y));
-        for r in &mut self.runs {
-            r.step(u, y);
+    pub fn step(&mut self, u: f64, y: f64) -> Screening {
+        if let Some(g) = self.guard.push(u, y) {
+            let (u, y) = g.for_estimator();
+            let (u, y) = (T::from_f64(u), T::from_f64(y));
+            for r in &mut self.runs {
+                r.step(u, y);
+            }
         }
+        self.guard.last_screening()
+    }
+
+    /// The guard's counters so far.
+    pub fn guard_counts(&self) -> GuardCounts {
+        self.guard.counts()
+    }
+
+    /// The supervisor's state of estimator `i` now, if it is supervised.
+    pub fn supervision(&self, i: usize) -> Option<SupervisionReport> {
+        let run = &self.runs[i];
+        let est = run.estimator()?;
+        // A robust estimator's count starts at its replayed record's first
+        // sample, the paper's laws' at their build.
+        let first = run
+            .builds()
+            .last()
+            .map_or(0, |b| b.sample.saturating_sub(b.replayed_samples));
+        est.supervision()
+            .map(|s| SupervisionReport::new(&s, self.ts_s, first))
     }
 
     /// Number of estimators.
@@ -168,15 +345,14 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     /// sample, so the drift does not depend on the evaluation rate).
     pub fn evaluate(&mut self, i: usize, t_s: f64, record: bool) -> Eval<NP> {
         let run = &self.runs[i];
-        let (theta, modal) = match run.estimate() {
+        let (theta, modal, validity) = match run.estimate() {
             Some(est) => {
                 let th = est.theta().map(|v| v.to_f64());
-                let m = modal_from_tf(&est.transfer_function(), &self.weights)
-                    .ok()
-                    .map(|m| to_f64_modal(&m));
-                (th, m)
+                let r = modal_from_tf(&est.transfer_function(), &self.weights);
+                let v = Validity::of_result(&r, self.weights.len());
+                (th, r.ok().map(|m| to_f64_modal(&m)), v)
             }
-            None => ([f64::NAN; NP], None),
+            None => ([f64::NAN; NP], None, Validity::NOT_RECOVERED),
         };
         if record {
             self.history[i].push(t_s, modal.as_ref());
@@ -185,6 +361,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             theta,
             modal,
             lambda_rad_s: run.lambda_rad_s(),
+            validity: validity.0,
         }
     }
 
@@ -210,19 +387,20 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();
-        let (estimate, exc, ok) = match run.estimate() {
+        let (estimate, exc, ok, validity) = match run.estimate() {
             Some(est) => {
                 let tf = est.transfer_function();
-                let modal = modal_from_tf(&tf, &self.weights)
-                    .ok()
-                    .map(|m| to_f64_modal(&m));
+                let recovered = modal_from_tf(&tf, &self.weights);
+                let validity = Validity::of_result(&recovered, n);
+                let modal = recovered.ok().map(|m| to_f64_modal(&m));
                 (
                     ModalSummary::new(modal.as_ref(), &to_f64_tf(&tf)),
                     est.excitation_level().map(|v| v.to_f64()),
                     est.health().state_ok,
+                    validity,
                 )
             }
-            None => (ModalSummary::empty(n), None, true),
+            None => (ModalSummary::empty(n), None, true, Validity::NOT_RECOVERED),
         };
         let totals = run.totals();
         Outcome {
@@ -238,6 +416,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             fit_percent: fit.map(|f| f.percent),
             drift_last_10pct: self.history[i].drift(end_s),
             robust: run.robust_status(),
+            supervision: self.supervision(i),
+            validity: validity.names().collect(),
+            guard: self.guard.counts().into(),
         }
     }
 }

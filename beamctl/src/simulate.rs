@@ -23,7 +23,7 @@ use crate::report;
 use crate::settings::{self, EstimatorPlan};
 use crate::SimulateArgs;
 use beamctl::fit::{self, Model};
-use beamctl::runner::{rig, run_many, samples};
+use beamctl::runner::{run_many, samples, scenario_rig};
 use beamctl::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
 use serde::Serialize;
@@ -132,6 +132,20 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
 
     let (plant, modes, plant_label) = crate::plant::resolve(&args.plant, ts)?;
     let est = settings::plan(&args.est, modes)?;
+    let range = crate::events_cli::range(&args.guard)?;
+    let events = crate::events_cli::events(
+        &args.scenario,
+        args.duration,
+        &plant,
+        range,
+        args.est.beam.as_deref(),
+    )?;
+    if !events.is_empty() && args.model_set.is_some() {
+        return Err(CliError::usage(
+            "--model-set",
+            "the Cramér–Rao bound is not computed with a scenario (plant step, excitation pause, fault, extra modes): the experiment is not the stationary one it describes",
+        ));
+    }
     let base = RunConfig {
         plant,
         precision: est.precision,
@@ -140,7 +154,8 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         lambda: est.lambda,
         snr_db: args.snr_db,
         noise_sd: args.noise_sd,
-        crlb: noisy.then(|| args.model_set.unwrap_or(crate::ModelSetChoice::Tf).set()),
+        crlb: (noisy && events.is_empty())
+            .then(|| args.model_set.unwrap_or(crate::ModelSetChoice::Tf).set()),
         seed: args.seed,
         // Modal recovery costs ~4–7 µs: at 1 kHz it would dominate an hour
         // of simulation, so long runs without --csv evaluate at 100 Hz
@@ -150,6 +165,9 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         } else {
             base_default.eval_every
         },
+        events,
+        range,
+        level_correction: args.guard.level_correction,
         ..base_default
     };
     Ok(Plan {
@@ -204,6 +222,12 @@ impl Observer for SimObserver<'_> {
         if index == 0 {
             let done = ((t.t_s / self.ts_s).round() as u64 + 1).min(self.total);
             self.progress.set_position(done);
+        }
+    }
+
+    fn screening(&mut self, _k: u64, s: &beamest::guard::Screening) {
+        if let Some(c) = self.csv.as_deref_mut() {
+            c.screening(s);
         }
     }
 
@@ -308,7 +332,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, CliError> {
     let n = samples(cfg);
     let keep = n.saturating_sub((0.5 / cfg.ts_s).round() as u64)..n;
-    let start = rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
+    let start = scenario_rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
     let record = || {
         let mut r = start.clone();
         (0..n).map(move |_| {
@@ -459,6 +483,9 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
     if let Some(b) = &first.crlb {
         out.push_str(&bound_line(b, n));
     }
+    if let Some(sc) = &first.scenario {
+        out.push_str(&scenario_lines(sc));
+    }
     out.push('\n');
     let columns: Vec<report::Column<'_>> = reports
         .iter()
@@ -483,6 +510,14 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
             sigma_source: None,
             ratio: r.error_over_crlb.as_ref(),
             robust: r.robust,
+            supervision: r.supervision,
+            validity: &r.validity,
+            guard: r.guard,
+            tracking: r
+                .scenario
+                .as_ref()
+                .filter(|s| s.step_at_s.is_some())
+                .map(|s| (s.tracking_1pct_s, s.tracking_0p1pct_s)),
         })
         .collect();
     out.push_str(&report::table(
@@ -493,6 +528,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
     ));
     out.push_str(report::FOOTNOTE_TRUTH);
     out.push_str(report::FOOTNOTE);
+    out.push_str(report::FOOTNOTE_GUARD);
     if reports.iter().any(|r| r.robust.is_some()) {
         out.push_str(report::FOOTNOTE_ROBUST);
     }
@@ -500,6 +536,31 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         out.push_str(report::FOOTNOTE_CRB);
     }
     out
+}
+
+/// The "events:" heading lines of a run with a scenario.
+pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
+    let mut parts = Vec::new();
+    if let Some(at) = sc.step_at_s {
+        parts.push(format!(
+            "plant step at {at} s (truth and errors: the new plant's)"
+        ));
+    }
+    if let Some([a, b]) = sc.excitation_off_s {
+        parts.push(format!("excitation off {a}–{b} s"));
+    }
+    if let (Some(f), Some([a, b])) = (sc.fault, sc.fault_window_s) {
+        let detected = match (sc.fault_detection_latency_s, sc.fault_detected_as) {
+            (Some(l), Some(w)) => format!(
+                "flagged as {w} after {} ms",
+                crate::table::short(l * 1e3, 4)
+            ),
+            _ => "not flagged by the guard".to_string(),
+        };
+        parts.push(format!("sensor fault {f} {a}–{b} s, {detected}"));
+    }
+    parts.push(format!("simulated beam: {} modes", sc.truth_modes));
+    format!("events: {}\n", parts.join("; "))
 }
 
 /// The "run:" heading line.

@@ -27,7 +27,18 @@
 //! arrived than its record holds, a rebuild could no longer see the start,
 //! so the rule stops re-centring it (`tuning: "record_full"`); its
 //! output-error estimate does not depend on λ (λ sets only the start-up
-//! law and the coordinates), so nothing is lost. docs/SETTINGS.md has the
+//! law and the coordinates), so nothing is lost.
+//!
+//! λ does decide whether the start-up law gives the output-error
+//! refinement a usable first model: at 20 dB the data's λ0 can be far
+//! below the band (docs/SETTINGS.md, "Failure modes"), and then the start-up
+//! law never yields a stable model or the refinement ends in a wrong one.
+//! So when the record is about to be dropped and the estimate is not
+//! usable (still in start-up, or not a set of stable oscillatory modes),
+//! the driver restarts the robust estimator from sample 0 at λ·
+//! [`RESTART_FACTORS`] and keeps the usable one with the smallest
+//! output-error residual — the largest likelihood among the starts, a
+//! truth-free choice (`tuning: "restarted"`). docs/SETTINGS.md has the
 //! measurements.
 
 use crate::gains::{build_estimator, build_robust, EstimatorKind, Gains, HostRobust};
@@ -35,7 +46,10 @@ use crate::runner::RunError;
 use beamest::estimator::robust::{Phase as RobustPhase, DEFAULT_RECORD};
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::filter_bank::FilterConfig;
-use beamest::tuning::{carry_over, AutoTune, Phase, Settled, TuningConfig};
+use beamest::modal::modes_from_denominator;
+use beamest::tuning::{
+    carry_over, AutoTune, Phase, Settled, TuningConfig, MAX_LAMBDA_TS, MIN_LAMBDA_TS,
+};
 use beamest::Real;
 use serde::Serialize;
 
@@ -134,7 +148,13 @@ pub struct Tuned<T: Real, const D: usize, const NP: usize, const NS: usize> {
     covers_record: bool,
     /// Re-centring stopped because the robust estimator's record is full.
     record_stop: bool,
+    /// The end-of-record restart chose another λ.
+    restarted: bool,
 }
+
+/// λ multipliers of the robust estimator's restarts when its estimate is
+/// not usable at the end of its record (see the module docs).
+pub const RESTART_FACTORS: [f64; 6] = [0.5, 0.707, 1.414, 2.0, 2.828, 4.0];
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, NS> {
     /// A new driver; builds at once if the settings are all known.
@@ -155,6 +175,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
             history_complete: kind == EstimatorKind::Robust,
             covers_record: false,
             record_stop: false,
+            restarted: false,
         };
         if let Some(filter) = t.tune.immediate() {
             t.install(&filter, None, false)?;
@@ -254,6 +275,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         if status == StepStatus::Updated {
             self.updates += 1;
         }
+        if self.history_complete && self.history.len() == DEFAULT_RECORD {
+            // The last sample the history can replay: the last chance to
+            // restart from sample 0. (Re-centring stops after it.)
+            self.restart_if_unusable();
+            return Some(status);
+        }
         if self.record_stop {
             return Some(status);
         }
@@ -272,6 +299,70 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
             }
         }
         Some(status)
+    }
+
+    /// The robust estimator's output-error residual RMS if its estimate is
+    /// usable: refined (past start-up) and a set of stable oscillatory
+    /// modes.
+    fn usable(r: &HostRobust<T, D, NP, NS>) -> Option<f64> {
+        if r.phase() == RobustPhase::Startup {
+            return None;
+        }
+        let tf = r.transfer_function();
+        let modes = modes_from_denominator(&tf.a[..D]).ok()?;
+        if !modes.is_stable() || modes.any_real_poles() {
+            return None;
+        }
+        r.noise_rms().map(|v| v.to_f64()).filter(|v| v.is_finite())
+    }
+
+    /// See the module docs: restart an unusable robust estimator from
+    /// sample 0 at other λ and keep the most likely usable one.
+    fn restart_if_unusable(&mut self) {
+        let Some(Current::Robust(r)) = &self.est else {
+            return;
+        };
+        if Self::usable(r).is_some() {
+            return;
+        }
+        // The rule's current configuration is the current build's.
+        let Some(base) = self.tune.filter() else {
+            return;
+        };
+        let ts = base.ts_s;
+        let mut best: Option<(f64, FilterConfig, Box<HostRobust<T, D, NP, NS>>, u64)> = None;
+        for f in RESTART_FACTORS {
+            let filter = FilterConfig {
+                lambda_rad_s: (base.lambda_rad_s * f).clamp(MIN_LAMBDA_TS / ts, MAX_LAMBDA_TS / ts),
+                ..base
+            };
+            let Ok(mut est) = build_robust::<T, D, NP, NS>(self.gains, &filter) else {
+                continue;
+            };
+            let mut updates = 0;
+            for &(u, y) in &self.history {
+                if est.step(u, y) == StepStatus::Updated {
+                    updates += 1;
+                }
+            }
+            if let Some(score) = Self::usable(&est) {
+                if best.as_ref().is_none_or(|b| score < b.0) {
+                    best = Some((score, filter, est, updates));
+                }
+            }
+        }
+        if let Some((_, filter, est, updates)) = best {
+            self.est = Some(Current::Robust(est));
+            self.updates = updates;
+            self.restarted = true;
+            self.builds.push(Build {
+                sample: self.samples,
+                lambda_rad_s: filter.lambda_rad_s,
+                u_scale: filter.scales.u_scale,
+                y_scale: filter.scales.y_scale,
+                replayed_samples: self.history.len() as u64,
+            });
+        }
     }
 
     /// The current estimator (`None` during the start-up window).
@@ -348,10 +439,13 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
     }
 
     /// A short description of where the rule ended (see [`phase_label`];
-    /// also `"record_full"` when re-centring of a robust estimator stopped
-    /// because its record was full).
+    /// for a robust estimator also `"restarted"` when its end-of-record
+    /// restart chose another λ, and `"record_full"` when re-centring
+    /// stopped because its record was full).
     pub fn phase_label(&self) -> &'static str {
-        if self.record_stop {
+        if self.restarted {
+            "restarted"
+        } else if self.record_stop {
             "record_full"
         } else {
             phase_label(self.tune.phase())

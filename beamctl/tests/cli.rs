@@ -194,23 +194,34 @@ fn csv_has_every_sample_and_estimates_at_1khz() {
     let mut lines = text.lines();
     assert_eq!(
         lines.next(),
-        Some("t_s,u,y,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s")
+        Some("t_s,u,y,guard,theta_0,theta_1,theta_2,theta_3,theta_4,theta_5,theta_6,omega_1,omega_2,zeta_1,zeta_2,lambda_rad_s,excited,excitation_reason,changes,validity")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 10_000, "one row per sample");
     let last: Vec<&str> = rows.last().unwrap().split(',').collect();
-    assert_eq!(last.len(), 15);
+    assert_eq!(last.len(), 20);
     let t: f64 = last[0].parse().unwrap();
     assert!((t - 0.9999).abs() < 1e-12, "last t = {t}");
-    let w1: f64 = last[10].parse().unwrap(); // omega_1
+    assert_eq!(last[3], "", "no guard flag");
+    let w1: f64 = last[11].parse().unwrap(); // omega_1
     assert!((w1 / 39.1533 - 1.0).abs() < 1e-3);
-    // Estimates on every 10th row only; none in the start-up window.
-    let filled = rows.iter().filter(|r| !r.ends_with(",,")).count();
+    assert_eq!(
+        &last[16..],
+        ["1", "excited", "0", "0"],
+        "supervisor, validity"
+    );
+    // Estimates on every 10th row only; none in the start-up window (nor
+    // in the sensor guard's 2.6 ms delay line after it).
+    let omega = |r: &&str| r.split(',').nth(11).is_some_and(|v| !v.is_empty());
+    let filled = rows.iter().filter(|r| omega(r)).count();
     assert!(
-        (380..=1000).contains(&filled),
+        (360..=1000).contains(&filled),
         "{filled} rows with estimates"
     );
-    assert!(rows[..1999].iter().all(|r| r.ends_with(",,,,,,,,,,,,")));
+    assert!(!rows[..1999].iter().any(omega));
+    // Evaluation rows carry the validity (not_recovered = 1 before the
+    // first estimate), the other rows nothing.
+    assert!(rows[9].ends_with(",1") && rows[8].ends_with(",,,,"));
 }
 
 #[test]
@@ -232,10 +243,15 @@ fn csv_with_all_has_prefixed_columns() {
     let header = text.lines().next().unwrap();
     assert_eq!(
         header,
-        "t_s,u,y,adaptive_theta_0,adaptive_theta_1,adaptive_theta_2,adaptive_omega_1,adaptive_zeta_1,adaptive_lambda_rad_s,\
+        "t_s,u,y,guard,\
+adaptive_theta_0,adaptive_theta_1,adaptive_theta_2,adaptive_omega_1,adaptive_zeta_1,adaptive_lambda_rad_s,\
+adaptive_excited,adaptive_excitation_reason,adaptive_changes,adaptive_validity,\
 gradient_theta_0,gradient_theta_1,gradient_theta_2,gradient_omega_1,gradient_zeta_1,gradient_lambda_rad_s,\
+gradient_excited,gradient_excitation_reason,gradient_changes,gradient_validity,\
 ls_theta_0,ls_theta_1,ls_theta_2,ls_omega_1,ls_zeta_1,ls_lambda_rad_s,\
-robust_theta_0,robust_theta_1,robust_theta_2,robust_omega_1,robust_zeta_1,robust_lambda_rad_s"
+ls_excited,ls_excitation_reason,ls_changes,ls_validity,\
+robust_theta_0,robust_theta_1,robust_theta_2,robust_omega_1,robust_zeta_1,robust_lambda_rad_s,\
+robust_excited,robust_excitation_reason,robust_changes,robust_validity"
     );
     assert_eq!(text.lines().count() - 1, 10_000);
 }
@@ -462,6 +478,17 @@ fn help_documents_every_flag() {
         "--csv",
         "--plot",
         "--json",
+        "--step-at",
+        "--step-omega",
+        "--step-zeta",
+        "--excitation-off",
+        "--fault",
+        "--fault-at",
+        "--fault-for",
+        "--fault-level",
+        "--truth-modes",
+        "--range",
+        "--level-correction",
     ] {
         assert!(h.contains(flag), "{flag} missing from help");
     }

@@ -153,7 +153,7 @@ fn replay_writes_csv_and_plot() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
-    assert!(text.starts_with("t_s,u,y,adaptive_theta_0,"));
+    assert!(text.starts_with("t_s,u,y,guard,adaptive_theta_0,"));
     assert_eq!(text.lines().count(), 1 + 2000, "one row per ms of record");
     let bytes = std::fs::read(&png).unwrap();
     assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"));

@@ -482,3 +482,32 @@ fn help_documents_the_new_flags() {
         assert!(h.contains(flag), "{flag} missing from crlb help");
     }
 }
+
+/// docs/SETTINGS.md, "Failure modes": at 20 dB the data's λ0 leaves the
+/// robust estimator of seed 4 without a usable model at the end of its 2 s
+/// record; the driver restarts it at other λ and keeps the most likely
+/// usable start (before that policy this run had no estimate).
+#[test]
+fn an_unusable_robust_start_is_restarted() {
+    let r = json(&beamctl(&[
+        "simulate",
+        "--json",
+        "--estimator",
+        "robust",
+        "--snr-db",
+        "20",
+        "--seed",
+        "4",
+        "--duration",
+        "3",
+    ]));
+    assert_eq!(r["tuning"], "restarted", "{}", r["builds"]);
+    assert_eq!(r["validity"], Value::Array(vec![]));
+    let last = r["builds"].as_array().unwrap().last().unwrap().clone();
+    assert_eq!(last["replayed_samples"], 20_000, "{last}");
+    for k in ["omega", "zeta"] {
+        for e in r["rel_error"][k].as_array().unwrap() {
+            assert!(num(e) < 0.1, "{k}: {}", r["rel_error"]);
+        }
+    }
+}
