@@ -11,7 +11,7 @@ use beamest::protocol::{
 use std::fmt::Write as _;
 
 /// Every defined status flag with its name (`docs/PROTOCOL.md` §4.1).
-pub const FLAG_NAMES: [(StatusFlags, &str); 10] = [
+pub const FLAG_NAMES: [(StatusFlags, &str); 13] = [
     (StatusFlags::EXCITED, "EXCITED"),
     (StatusFlags::FROZEN_BY_COMMAND, "FROZEN_BY_COMMAND"),
     (StatusFlags::FROZEN_AUTO, "FROZEN_AUTO"),
@@ -22,6 +22,9 @@ pub const FLAG_NAMES: [(StatusFlags, &str); 10] = [
     (StatusFlags::DAC_SATURATED, "DAC_SATURATED"),
     (StatusFlags::TELEMETRY_DROPPED, "TELEMETRY_DROPPED"),
     (StatusFlags::STATE_DEGRADED, "STATE_DEGRADED"),
+    (StatusFlags::INPUT_GONE, "INPUT_GONE"),
+    (StatusFlags::CHANGE_DETECTED, "CHANGE_DETECTED"),
+    (StatusFlags::SENSOR_LEVEL, "SENSOR_LEVEL"),
 ];
 
 /// The names of the flags set, in bit order (reserved bits are ignored, as
@@ -253,7 +256,13 @@ mod tests {
         assert_eq!(flag_names(f), ["EXCITED", "CONVERGED", "PHYSICALLY_VALID"]);
         assert_eq!(flags_text(StatusFlags(0), ","), "-");
         // Reserved bits are ignored.
-        assert_eq!(flags_text(StatusFlags(0xFC00), ","), "-");
+        assert_eq!(flags_text(StatusFlags(0xE000), ","), "-");
+        // Every defined bit (0–12) has a name.
+        assert_eq!(flag_names(StatusFlags(0x1FFF)).len(), 13);
+        assert_eq!(
+            flags_text(StatusFlags(0x1C00), ","),
+            "INPUT_GONE,CHANGE_DETECTED,SENSOR_LEVEL"
+        );
     }
 
     #[test]

@@ -175,7 +175,13 @@ fn flag_style(f: StatusFlags) -> Style {
         StatusFlags::TELEMETRY_DROPPED,
         StatusFlags::STATE_DEGRADED,
     ];
-    let held = [StatusFlags::FROZEN_BY_COMMAND, StatusFlags::FROZEN_AUTO];
+    let held = [
+        StatusFlags::FROZEN_BY_COMMAND,
+        StatusFlags::FROZEN_AUTO,
+        StatusFlags::INPUT_GONE,
+        StatusFlags::CHANGE_DETECTED,
+        StatusFlags::SENSOR_LEVEL,
+    ];
     if bad.contains(&f) {
         Style::new().fg(Color::Red).bold()
     } else if held.contains(&f) {
