@@ -69,6 +69,33 @@ impl<T: Copy> DelayLine<T> {
         flipped
     }
 
+    /// Subtract `dy` from the y of the entries still inside whose index is
+    /// `from` or later (an offset step found after it entered).
+    pub(crate) fn shift_from(&mut self, from: u64, dy: T)
+    where
+        T: core::ops::SubAssign,
+    {
+        for back in 1..=self.filled.min(self.delay) {
+            let i = (self.head + RING - back) % RING;
+            if let Some(e) = self.buf.get_mut(i) {
+                if e.3 >= from {
+                    e.1 -= dy;
+                }
+            }
+        }
+    }
+
+    /// Lengthen the delay to `delay` (≤ [`MAX_DELAY`]; never shortened):
+    /// the next pushes return nothing until the oldest entry not yet
+    /// returned is `delay` pushes old; no entry is lost.
+    pub(crate) fn lengthen(&mut self, delay: usize) {
+        let delay = delay.min(MAX_DELAY);
+        if delay > self.delay {
+            self.filled = self.filled.min(self.delay);
+            self.delay = delay;
+        }
+    }
+
     /// The delay (samples).
     pub(crate) fn delay(&self) -> usize {
         self.delay
