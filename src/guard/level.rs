@@ -18,6 +18,11 @@ impl<T: Real> SensorGuard<T> {
         self.offset += step.size;
         self.delay.shift_from(step.index, step.size);
         self.counts.offset = self.counts.offset.saturating_add(1);
+        // What is left of the step (its estimate's error, ~σ·0.82 for
+        // white noise σ) becomes the high-pass's transient: a slow error
+        // the estimator would fit. Hold it over the transient as after a
+        // gap (the samples from the step on are still in the delay line).
+        self.hold_pending = self.hold_pending.max(self.gap_hold);
         Some(LevelEvent::Offset)
     }
 
