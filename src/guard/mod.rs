@@ -12,7 +12,7 @@
 //! | [`SampleFault::Open`] | y *jumps* to a rail from more than half of full scale away and stays there | at once |
 //! | [`SampleFault::Stuck`] | y repeats exactly `stuck_after` more times (2.5 ms at the default 25) | after the run; the run's earlier samples are caught in the delay line |
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
-//! | [`LevelEvent::Offset`] | a step of y: its second difference beyond [`JUMP_FACTOR`] × its running RMS | at once; the step is subtracted from then on |
+//! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to [`STEP_BEFORE`] + [`STEP_AFTER`] samples) beyond [`STEP_FACTOR`] × d̂'s running RMS | 1.4–2.2 ms (≤ [`STEP_LATENCY`] samples); the step is subtracted from its first sample on (inside the delay line) |
 //! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
 //!
 //! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
@@ -35,11 +35,17 @@
 //! open rail as an offset step first).
 //!
 //! # Offsets and drift do not bias
-//! * **Offset steps** are removed where they happen: a step d of y makes
-//!   its second difference jump by d at that sample while a smooth signal
-//!   sampled at 10 kHz changes it by ~(ωTs)²·|y|; the jump is estimated as
-//!   the second difference itself and subtracted from every later sample,
-//!   so the estimator never sees the step (no transient, no hold).
+//! * **Offset steps** are removed where they happen: for each sample
+//!   [`STEP_AFTER`] − 1 back, the least-squares size d̂ of a step there is
+//!   fitted with a quadratic to the window around it (module `step`: the
+//!   step averaged over both sides, white noise σ entering as 0.82σ); a
+//!   d̂ beyond [`STEP_FACTOR`] × its running RMS is followed to its peak
+//!   (the step's sample) and subtracted from that sample on — the samples
+//!   since are still in the delay line and are corrected there. With the
+//!   high-pass on, the estimate's error (the residual offset, ~σ) would
+//!   become the filter's transient, so the estimator is held over it as
+//!   after a gap ([`SensorGuard::take_hold`]). Noise-free the residual is
+//!   ~1e-4 of the step.
 //! * **Slow offsets and drift** are removed by a second-order high-pass
 //!   applied identically to u and y ([`HighPass`], on by default at
 //!   [`DEFAULT_HIGHPASS_RAD_S`]): identical filtering commutes with the
@@ -59,8 +65,9 @@
 //! estimator's own quarantine covers its filter bank).
 //!
 //! # Order
-//! Classification at entry; a delay line of `stuck_after + 1` samples
-//! (the estimate lags by 2.6 ms at the default); then the high-pass, fed
+//! Classification at entry; a delay line of `stuck_after + 1` samples,
+//! and at least [`STEP_LATENCY`] + 1 with offset-step removal on (the
+//! estimate lags by 2.6 ms at the default); then the high-pass, fed
 //! only good samples (a faulty sample leaves its states as they were: they
 //! hold the slow level, which a millisecond's gap does not move).
 #![deny(
@@ -573,8 +580,10 @@ impl<T: Real> SensorGuard<T> {
 
     /// Samples the estimator fed by this guard should hold for now
     /// ([`crate::estimator::Estimator::hold`]), once: nonzero at the first
-    /// good sample after a gap when the high-pass is on (see
-    /// [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise. Call after each push.
+    /// good sample after a gap, and at the push that finds an offset step
+    /// (whose first sample is then still in the delay line), when the
+    /// high-pass is on (see [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise.
+    /// Call after each push.
     #[inline]
     pub fn take_hold(&mut self) -> u32 {
         core::mem::take(&mut self.hold_pending)
