@@ -90,8 +90,9 @@ struct Pending<T> {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct StepDetector<T> {
     w: [T; N],
-    /// Recent offset-free good y, oldest first once full (a ring).
-    ring: [T; N],
+    /// Recent offset-free good y: a ring of N written twice (at i and
+    /// i + N), so the window, oldest first, is the slice from `head` on.
+    ring: [T; 2 * N],
     head: usize,
     len: usize,
     ms: T,
@@ -112,7 +113,7 @@ impl<T: Real> StepDetector<T> {
         w.iter_mut().zip(wf).for_each(|(a, b)| *a = T::from_f64(b));
         Self {
             w,
-            ring: [T::ZERO; N],
+            ring: [T::ZERO; 2 * N],
             head: 0,
             len: 0,
             ms: T::ZERO,
@@ -141,8 +142,10 @@ impl<T: Real> StepDetector<T> {
     /// the test (a repeated reading). Returns a step to remove.
     #[inline]
     pub(crate) fn push(&mut self, y: T, index: u64, test: bool) -> Option<Step<T>> {
-        if let Some(slot) = self.ring.get_mut(self.head) {
-            *slot = y;
+        for i in [self.head, self.head + N] {
+            if let Some(slot) = self.ring.get_mut(i) {
+                *slot = y;
+            }
         }
         self.head = (self.head + 1) % N;
         if self.len < N {
@@ -155,11 +158,11 @@ impl<T: Real> StepDetector<T> {
             return None;
         }
         // The oldest sample sits at `head`.
-        let (new, old) = self.ring.split_at(self.head);
+        let window = self.ring.get(self.head..self.head + N)?;
         let d = self
             .w
             .iter()
-            .zip(old.iter().chain(new.iter()))
+            .zip(window)
             .fold(T::ZERO, |a, (w, y)| a + *w * *y);
         let at = index.wrapping_sub(STEP_AFTER as u64 - 1);
         let e2 = d * d;
@@ -207,8 +210,11 @@ impl<T: Real> StepDetector<T> {
             .saturating_add(1)
             .min(N);
         for back in 1..=n {
-            if let Some(v) = self.ring.get_mut((self.head + N - back) % N) {
-                *v -= size;
+            let i = (self.head + N - back) % N;
+            for j in [i, i + N] {
+                if let Some(v) = self.ring.get_mut(j) {
+                    *v -= size;
+                }
             }
         }
     }
