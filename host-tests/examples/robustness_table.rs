@@ -517,6 +517,31 @@ fn faults_at_40db() {
         }
     }
     println!();
+    println!("### Offset steps of other sizes at 40 dB (f64, seed 1; 5.0 s to 5.5 s)\n");
+    println!("| step (Y0) | estimator | offset flags after their steps (ms) | offset left (Y0) | err 0–1 s after (ref) | err 1–10 s after (ref) | dev 0–1 s after | dev 1–10 s after | changes detected |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for step in [0.05, 0.1, 0.15, 0.2, 0.3] {
+        let kind = FaultKind::Offset { step: step * y0 };
+        let (_, until) = fault_window(kind);
+        let t_off = until as f64 * TS_S;
+        for (robust, r) in [false, true].into_iter().zip(&refs) {
+            let (tr, feed, flags) = run_40db(fault_scenario(kind), 1, robust, until + 100_000, y0);
+            println!(
+                "| {step} | {} | {} | {:+.4} | {:.1e} ({:.1e}) | {:.1e} ({:.1e}) | {:.1e} | {:.1e} | {} |",
+                name_of(robust),
+                flag_delays(&flags, &steps_of(kind)),
+                feed.guard.offset() / y0,
+                tr.max_err(t_off, t_off + 1.0),
+                r.max_err(t_off, t_off + 1.0),
+                tr.max_err(t_off + 1.0, t_off + 10.0),
+                r.max_err(t_off + 1.0, t_off + 10.0),
+                tr.max_dev_from(r, t_off, t_off + 1.0),
+                tr.max_dev_from(r, t_off + 1.0, t_off + 10.0),
+                tr.changes(),
+            );
+        }
+    }
+    println!();
 }
 
 fn main() {

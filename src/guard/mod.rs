@@ -118,8 +118,9 @@ pub const DEFAULT_STUCK_AFTER: u16 = 25;
 /// r/(e·ω_c) of a ramp r — and the hold after a gap (12/ω_c) against the
 /// excitation it removes below ω_c. Measured on the paper's plant at
 /// 0.02·Y0/s (`robustness_table`, docs/ROBUSTNESS.md §1): at 3 rad/s the
-/// drift left 0.70% error (0.44% after it), at 6 rad/s 0.14% (0.05%), at
-/// 10 rad/s 0.057% (0.011%), at 20 rad/s 0.028%; the estimate after a gap
+/// drift left 0.70% error (0.18% from 1 s after its end, which is an
+/// offset step and held over), at 6 rad/s 0.14% (0.021%), at 10 rad/s
+/// 0.057% (0.0036%), at 20 rad/s 0.028%; the estimate after a gap
 /// was within 2.6e-5, 4.7e-5, 8.2e-5, 1.5e-4. A beam whose first mode
 /// (or drive) is below ~40 rad/s wants a lower corner.
 pub const DEFAULT_HIGHPASS_RAD_S: f64 = 10.0;
