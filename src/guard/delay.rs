@@ -133,6 +133,19 @@ mod tests {
             Some(SampleFault::Stuck)
         );
         assert_eq!(d.push((9.0, 0.0, None, 9)).unwrap().2, None);
+        // 7, 8, 9 are inside: shift from 8 on; lengthen to 5 (two pushes
+        // without output, then 7 onwards, nothing lost).
+        d.shift_from(8, 0.5);
+        d.lengthen(5);
+        assert_eq!(d.push((10.0, 0.0, None, 10)), None);
+        assert_eq!(d.push((11.0, 0.0, None, 11)), None);
+        let e: Vec<_> = (12..15u64)
+            .map(|k| d.push((k as f64, 0.0, None, k)).unwrap())
+            .map(|e| (e.3, e.1))
+            .collect();
+        assert_eq!(e, [(7, 0.0), (8, -0.5), (9, -0.5)]);
+        d.lengthen(2);
+        assert_eq!(d.delay(), 5);
         d.clear();
         assert_eq!(d.push((1.0, 0.0, None, 10)), None);
         assert_eq!(DelayLine::new(99, 0.0f32).delay, MAX_DELAY);
