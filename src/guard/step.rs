@@ -7,15 +7,17 @@
 //! The step's least-squares estimate under that model is a fixed linear
 //! combination d̂ = Σ wᵢ·yᵢ of the window (w = h⊥/‖h⊥‖², h the step's
 //! indicator, h⊥ its part orthogonal to 1, t, t²): it is the step averaged
-//! over both sides, with the noise of white σ reduced to σ·‖w‖ (‖w‖ ≈ 0.68
+//! over both sides, with the noise of white σ reduced to σ·‖w‖ (‖w‖ = 0.82
 //! at 12 + 12 samples; the second difference of the previous detector had
 //! √6·σ ≈ 2.45σ). d̂ is tested against [`STEP_FACTOR`] × its own running
-//! RMS (which holds the noise and what the quadratic leaves of the signal);
-//! consecutive positions over the threshold are followed to their peak
-//! (the step's sample) before the step is removed, at most
-//! [`STEP_PEAK_WAIT`] samples later. The guard's delay line supplies the
-//! look-ahead: the samples from the step on are still inside it when the
-//! step is found, and are corrected there.
+//! RMS (which holds the noise and what the quadratic leaves of the signal).
+//! A step entering the window shows side lobes first (−0.34 of it 8
+//! positions early), so after the first position over the threshold all
+//! positions the step can be at are seen, and the largest |d̂| (the step's
+//! sample) must stay the largest for [`STEP_PEAK_WAIT`] positions, before
+//! the step is removed — at most [`STEP_LATENCY`] samples after it. The
+//! guard's delay line supplies the look-ahead: the samples from the step
+//! on are still inside it when the step is found, and are corrected there.
 
 use crate::scalar::Real;
 
@@ -238,6 +240,19 @@ mod tests {
         let step = |t: f64| if t >= STEP_BEFORE as f64 { 1.0 } else { 0.0 };
         assert!((fit(&step) - 1.0).abs() < 1e-12);
         let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-        assert!((0.5..0.9).contains(&norm), "{norm}");
+        assert!((norm - 0.8186).abs() < 1e-3, "{norm}");
+        // The side lobes: a step 8 positions after the tested one gives
+        // −0.34 of itself; one position off, 0.69.
+        let lobe = |k: f64| {
+            fit(&|t| {
+                if t >= STEP_BEFORE as f64 + k {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+        };
+        assert!((lobe(8.0) + 0.338).abs() < 1e-3, "{}", lobe(8.0));
+        assert!((lobe(1.0) - 0.686).abs() < 1e-3, "{}", lobe(1.0));
     }
 }

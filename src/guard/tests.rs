@@ -95,7 +95,7 @@ fn stuck_runs_are_caught_from_their_first_sample() {
         .filter(|o| o.fault.is_some())
         .all(|o| o.fault == Some(SampleFault::Stuck)));
     assert_eq!(g.counts().stuck, 101);
-    // A freezing reading bends the second difference like a step: it is
+    // A freezing reading bends the signal like a step's onset: it is
     // not taken for an offset.
     assert_eq!((g.counts().offset, g.offset()), (0, 0.0));
     // A shorter repeat is not a fault.
@@ -211,7 +211,7 @@ fn offset_steps_are_removed_and_noise_never_looks_like_one() {
             g.offset()
         );
         // After the step the output is the signal again, to the estimate's
-        // accuracy (a second difference's worth).
+        // accuracy (0.82σ of the noise).
         let worst = out
             .iter()
             .filter(|o| o.index > 300_000)
