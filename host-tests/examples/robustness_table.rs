@@ -361,36 +361,119 @@ fn knob() {
 
 /// The fault runs at 40 dB: the adaptive law (biased by ~5% at that noise)
 /// and the robust estimator, behind the same guard.
+/// One run at 40 dB behind the fault guard: the trace, the feed, and the
+/// samples at which an offset step was found.
+fn run_40db(
+    sc: Scenario,
+    seed: u64,
+    robust: bool,
+    samples: u64,
+    y0: f64,
+) -> (RunTrace, GuardedFeed, Vec<u64>) {
+    let f = startup_filter(&paper_rig(Scenario::default(), Some(40.0), seed, None));
+    let mut rig = paper_rig(sc, Some(40.0), seed, None);
+    let mut feed = fault_guard(y0);
+    let mut flags = Vec::new();
+    let mut est: Box<dyn Estimator<f64, 7>> = if robust {
+        Box::new(Robust2::<f64>::new(&f, &RobustConfig::default()).expect("valid"))
+    } else {
+        Box::new(Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid"))
+    };
+    let tr = run_with(
+        &mut *est,
+        &mut rig,
+        samples,
+        100,
+        &mut |e: &mut (dyn Estimator<f64, 7> + 'static), k, s| {
+            let out = feed.feed(k, s);
+            if feed.guard.last_screening().level == Some(LevelEvent::Offset) {
+                flags.push(k);
+            }
+            let hold = feed.guard.take_hold();
+            if hold > 0 {
+                e.hold(hold);
+            }
+            out
+        },
+    );
+    (tr, feed, flags)
+}
+
+/// The steps of a fault (sample indices): the offset's two edges, the
+/// drift's end.
+fn steps_of(kind: FaultKind) -> Vec<u64> {
+    let (from, until) = fault_window(kind);
+    match kind {
+        FaultKind::Offset { .. } => vec![from, until],
+        FaultKind::Drift { .. } => vec![until],
+        _ => vec![],
+    }
+}
+
+/// "1.4, 1.4": each offset flag's delay after its step (ms).
+fn flag_delays(flags: &[u64], steps: &[u64]) -> String {
+    if flags.is_empty() {
+        return "-".into();
+    }
+    flags
+        .iter()
+        .map(|k| {
+            steps
+                .iter()
+                .filter(|s| *s <= k)
+                .max()
+                .map_or(format!("{k}?"), |s| {
+                    format!("{:.1}", (k - s) as f64 * TS_S * 1e3)
+                })
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn faults_at_40db() {
-    println!("## Sensor faults at 40 dB (f64; guard as above; errors before, during, 0–1 s and 1–10 s after the fault)\n");
-    println!("| fault | estimator | before | during | 0–1 s after | 1–10 s after | changes detected | guard counts nan/sat/stuck/open/offset/drift |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("## Sensor faults at 40 dB (f64, seed 1; guard as above; errors against the truth before, during, 0–1 s and 1–10 s after the fault, and deviation from the same run without the fault)\n");
+    println!("| fault | estimator | flagged after (ms) | offset flags after their steps (ms) | err before | err during | err 0–1 s after | err 1–10 s after | dev during | dev 0–1 s after | dev 1–10 s after | offset left (Y0) | changes detected | guard counts nan/sat/stuck/open/offset/drift |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let y0 = startup_filter(&paper_rig(Scenario::default(), None, 1, None))
         .scales
         .y_scale;
+    let longest = FAULT_AT + 100_000 + 100_000;
+    let name_of = |robust: bool| if robust { "robust" } else { "adaptive" };
+    let refs = [false, true].map(|robust| run_40db(Scenario::default(), 1, robust, longest, y0).0);
+    for (robust, r) in [false, true].into_iter().zip(&refs) {
+        let t_on = FAULT_AT as f64 * TS_S;
+        println!(
+            "| none | {} | - | - | {:.1e} | {:.1e} | {:.1e} | {:.1e} | - | - | - | - | {} | - |",
+            name_of(robust),
+            r.max_err(t_on - 1.0, t_on),
+            r.max_err(t_on, t_on + 0.5),
+            r.max_err(t_on + 0.5, t_on + 1.5),
+            r.max_err(t_on + 1.5, t_on + 10.5),
+            r.changes(),
+        );
+    }
     for (name, kind) in faults(y0) {
         let (from, until) = fault_window(kind);
-        for robust in [false, true] {
-            let mut rig = paper_rig(fault_scenario(kind), Some(40.0), 1, None);
-            let f = startup_filter(&paper_rig(Scenario::default(), Some(40.0), 1, None));
-            let mut feed = fault_guard(y0);
-            let tr = if robust {
-                let mut est =
-                    Box::new(Robust2::<f64>::new(&f, &RobustConfig::default()).expect("valid"));
-                run_guarded(&mut *est, &mut rig, until + 100_000, 100, &mut feed)
-            } else {
-                let mut est = Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid");
-                run_guarded(&mut est, &mut rig, until + 100_000, 100, &mut feed)
-            };
+        for (robust, r) in [false, true].into_iter().zip(&refs) {
+            let (tr, feed, flags) = run_40db(fault_scenario(kind), 1, robust, until + 100_000, y0);
             let (t_on, t_off) = (from as f64 * TS_S, until as f64 * TS_S);
             let c = feed.guard.counts();
             println!(
-                "| {name} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {} | {}/{}/{}/{}/{}/{} |",
-                if robust { "robust" } else { "adaptive" },
+                "| {name} | {} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:+.4} | {} | {}/{}/{}/{}/{}/{} |",
+                name_of(robust),
+                feed.first_flag.map_or("never".into(), |(k, _)| format!(
+                    "{:.1}",
+                    (k - FAULT_AT) as f64 * TS_S * 1e3
+                )),
+                flag_delays(&flags, &steps_of(kind)),
                 tr.max_err(t_on - 1.0, t_on),
                 tr.max_err(t_on, t_off),
                 tr.max_err(t_off, t_off + 1.0),
                 tr.max_err(t_off + 1.0, 1e9),
+                tr.max_dev_from(r, t_on, t_off),
+                tr.max_dev_from(r, t_off, t_off + 1.0),
+                tr.max_dev_from(r, t_off + 1.0, 1e9),
+                feed.guard.offset() / y0,
                 tr.changes(),
                 c.non_finite,
                 c.saturated,
@@ -398,6 +481,63 @@ fn faults_at_40db() {
                 c.open,
                 c.offset,
                 c.drift,
+            );
+        }
+    }
+    println!();
+    println!("### Offset step and drift end at 40 dB, seeds 1–5 (f64; err = against the truth, dev = against the same seed's run without the fault; \"ref\" = that run's err over the same window)\n");
+    println!("| fault | estimator | seed | offset flags after their steps (ms) | offset left (Y0) | err 0–1 s after (ref) | err 1–10 s after (ref) | dev 0–1 s after | dev 1–10 s after |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for seed in 1..=5u64 {
+        for robust in [false, true] {
+            let r = run_40db(Scenario::default(), seed, robust, longest, y0).0;
+            for (name, kind) in faults(y0) {
+                let size = match kind {
+                    FaultKind::Offset { .. } => 0.0,
+                    FaultKind::Drift { per_s } => -per_s * 10.0,
+                    _ => continue,
+                };
+                let (_, until) = fault_window(kind);
+                let t_off = until as f64 * TS_S;
+                let (tr, feed, flags) =
+                    run_40db(fault_scenario(kind), seed, robust, until + 100_000, y0);
+                println!(
+                    "| {name} | {} | {seed} | {} | {:+.4} | {:.1e} ({:.1e}) | {:.1e} ({:.1e}) | {:.1e} | {:.1e} |",
+                    name_of(robust),
+                    flag_delays(&flags, &steps_of(kind)),
+                    (feed.guard.offset() - size) / y0,
+                    tr.max_err(t_off, t_off + 1.0),
+                    r.max_err(t_off, t_off + 1.0),
+                    tr.max_err(t_off + 1.0, t_off + 10.0),
+                    r.max_err(t_off + 1.0, t_off + 10.0),
+                    tr.max_dev_from(&r, t_off, t_off + 1.0),
+                    tr.max_dev_from(&r, t_off + 1.0, t_off + 10.0),
+                );
+            }
+        }
+    }
+    println!();
+    println!("### Offset steps of other sizes at 40 dB (f64, seed 1; 5.0 s to 5.5 s)\n");
+    println!("| step (Y0) | estimator | offset flags after their steps (ms) | offset left (Y0) | err 0–1 s after (ref) | err 1–10 s after (ref) | dev 0–1 s after | dev 1–10 s after | changes detected |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for step in [0.05, 0.1, 0.15, 0.2, 0.3] {
+        let kind = FaultKind::Offset { step: step * y0 };
+        let (_, until) = fault_window(kind);
+        let t_off = until as f64 * TS_S;
+        for (robust, r) in [false, true].into_iter().zip(&refs) {
+            let (tr, feed, flags) = run_40db(fault_scenario(kind), 1, robust, until + 100_000, y0);
+            println!(
+                "| {step} | {} | {} | {:+.4} | {:.1e} ({:.1e}) | {:.1e} ({:.1e}) | {:.1e} | {:.1e} | {} |",
+                name_of(robust),
+                flag_delays(&flags, &steps_of(kind)),
+                feed.guard.offset() / y0,
+                tr.max_err(t_off, t_off + 1.0),
+                r.max_err(t_off, t_off + 1.0),
+                tr.max_err(t_off + 1.0, t_off + 10.0),
+                r.max_err(t_off + 1.0, t_off + 10.0),
+                tr.max_dev_from(r, t_off, t_off + 1.0),
+                tr.max_dev_from(r, t_off + 1.0, t_off + 10.0),
+                tr.changes(),
             );
         }
     }

@@ -163,6 +163,26 @@ impl RunTrace {
             .fold(0.0, f64::max)
     }
 
+    /// Largest relative deviation of ω/ζ from `other`'s estimate at the
+    /// same evaluation (the same run without a fault: what the fault alone
+    /// changed), over t in [from, to); ∞ where either is not recoverable.
+    pub fn max_dev_from(&self, other: &RunTrace, from: f64, to: f64) -> f64 {
+        self.t
+            .iter()
+            .zip(&self.est)
+            .zip(other.t.iter().zip(&other.est))
+            .filter(|((t, _), _)| **t >= from && **t < to)
+            .map(|((_, e), (_, r))| {
+                let d = max_rel_error(e, r);
+                if e.iter().chain(r).all(|v| v.is_finite()) && d.is_finite() {
+                    d
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// Changes detected by the end.
     pub fn changes(&self) -> u32 {
         self.sup

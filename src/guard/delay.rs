@@ -69,6 +69,33 @@ impl<T: Copy> DelayLine<T> {
         flipped
     }
 
+    /// Subtract `dy` from the y of the entries still inside whose index is
+    /// `from` or later (an offset step found after it entered).
+    pub(crate) fn shift_from(&mut self, from: u64, dy: T)
+    where
+        T: core::ops::SubAssign,
+    {
+        for back in 1..=self.filled.min(self.delay) {
+            let i = (self.head + RING - back) % RING;
+            if let Some(e) = self.buf.get_mut(i) {
+                if e.3 >= from {
+                    e.1 -= dy;
+                }
+            }
+        }
+    }
+
+    /// Lengthen the delay to `delay` (≤ [`MAX_DELAY`]; never shortened):
+    /// the next pushes return nothing until the oldest entry not yet
+    /// returned is `delay` pushes old; no entry is lost.
+    pub(crate) fn lengthen(&mut self, delay: usize) {
+        let delay = delay.min(MAX_DELAY);
+        if delay > self.delay {
+            self.filled = self.filled.min(self.delay);
+            self.delay = delay;
+        }
+    }
+
     /// The delay (samples).
     pub(crate) fn delay(&self) -> usize {
         self.delay
@@ -106,6 +133,19 @@ mod tests {
             Some(SampleFault::Stuck)
         );
         assert_eq!(d.push((9.0, 0.0, None, 9)).unwrap().2, None);
+        // 7, 8, 9 are inside: shift from 8 on; lengthen to 5 (two pushes
+        // without output, then 7 onwards, nothing lost).
+        d.shift_from(8, 0.5);
+        d.lengthen(5);
+        assert_eq!(d.push((10.0, 0.0, None, 10)), None);
+        assert_eq!(d.push((11.0, 0.0, None, 11)), None);
+        let e: Vec<_> = (12..15u64)
+            .map(|k| d.push((k as f64, 0.0, None, k)).unwrap())
+            .map(|e| (e.3, e.1))
+            .collect();
+        assert_eq!(e, [(7, 0.0), (8, -0.5), (9, -0.5)]);
+        d.lengthen(2);
+        assert_eq!(d.delay(), 5);
         d.clear();
         assert_eq!(d.push((1.0, 0.0, None, 10)), None);
         assert_eq!(DelayLine::new(99, 0.0f32).delay, MAX_DELAY);

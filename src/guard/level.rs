@@ -5,44 +5,25 @@ use super::{LevelEvent, SensorGuard};
 use crate::scalar::Real;
 
 impl<T: Real> SensorGuard<T> {
-    /// Offset-step test on an accepted y (see the module docs). A y that
-    /// repeats the previous one exactly is not tested (a sensor that
-    /// freezes bends its second difference like a step; it is the stuck
-    /// test's to judge).
+    /// Offset-step test on an accepted y (see the module docs and
+    /// [`super::step`]). A y that repeats the previous one exactly is not
+    /// tested (a sensor that freezes bends the signal like a step; it is
+    /// the stuck test's to judge). A step is found up to
+    /// [`super::STEP_LATENCY`] samples after it and removed from its
+    /// first sample on, in the delay line.
     #[inline]
-    pub(super) fn offset_step(&mut self, y: T, repeat: bool) -> Option<LevelEvent> {
+    pub(super) fn offset_step(&mut self, y: T, repeat: bool, index: u64) -> Option<LevelEvent> {
         let yc = y - self.offset;
-        let [y1, y2] = self.hist;
-        self.hist = [yc, y1];
-        if self.hist_len < 2 {
-            self.hist_len += 1;
-            return None;
-        }
-        if repeat {
-            return None;
-        }
-        let d2 = yc - (y1 + y1 - y2);
-        let e2 = d2 * d2;
-        if self.jump_learn > 0 {
-            self.jump_learn -= 1;
-            self.jump_ms += self.alpha_jump * (e2 - self.jump_ms);
-            return None;
-        }
-        if e2 > self.jump_factor2 * self.jump_ms && self.jump_ms > T::ZERO {
-            // Remove the step from here on: this sample's y becomes the
-            // extrapolation of the previous two.
-            self.offset += d2;
-            if let Some(first) = self.hist.first_mut() {
-                *first = yc - d2;
-            }
-            self.counts.offset = self.counts.offset.saturating_add(1);
-            return Some(LevelEvent::Offset);
-        }
-        // The reference takes values up to the threshold (a step does not
-        // raise its own yardstick).
-        let clipped = e2.min(self.jump_factor2 * self.jump_ms);
-        self.jump_ms += self.alpha_jump * (clipped - self.jump_ms);
-        None
+        let step = self.step.push(yc, index, !repeat)?;
+        self.offset += step.size;
+        self.delay.shift_from(step.index, step.size);
+        self.counts.offset = self.counts.offset.saturating_add(1);
+        // What is left of the step (its estimate's error, ~σ·0.82 for
+        // white noise σ) becomes the high-pass's transient: a slow error
+        // the estimator would fit. Hold it over the transient as after a
+        // gap (the samples from the step on are still in the delay line).
+        self.hold_pending = self.hold_pending.max(self.gap_hold);
+        Some(LevelEvent::Offset)
     }
 
     /// Drift test on a good, offset-free (and high-passed) output.

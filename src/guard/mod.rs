@@ -12,7 +12,7 @@
 //! | [`SampleFault::Open`] | y *jumps* to a rail from more than half of full scale away and stays there | at once |
 //! | [`SampleFault::Stuck`] | y repeats exactly `stuck_after` more times (2.5 ms at the default 25) | after the run; the run's earlier samples are caught in the delay line |
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
-//! | [`LevelEvent::Offset`] | a step of y: its second difference beyond [`JUMP_FACTOR`] × its running RMS | at once; the step is subtracted from then on |
+//! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to [`STEP_BEFORE`] + [`STEP_AFTER`] samples) beyond [`STEP_FACTOR`] × d̂'s running RMS | 1.4–2.2 ms (≤ [`STEP_LATENCY`] samples); the step is subtracted from its first sample on (inside the delay line) |
 //! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
 //!
 //! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
@@ -35,11 +35,17 @@
 //! open rail as an offset step first).
 //!
 //! # Offsets and drift do not bias
-//! * **Offset steps** are removed where they happen: a step d of y makes
-//!   its second difference jump by d at that sample while a smooth signal
-//!   sampled at 10 kHz changes it by ~(ωTs)²·|y|; the jump is estimated as
-//!   the second difference itself and subtracted from every later sample,
-//!   so the estimator never sees the step (no transient, no hold).
+//! * **Offset steps** are removed where they happen: for each sample
+//!   [`STEP_AFTER`] − 1 back, the least-squares size d̂ of a step there is
+//!   fitted with a quadratic to the window around it (module `step`: the
+//!   step averaged over both sides, white noise σ entering as 0.82σ); a
+//!   d̂ beyond [`STEP_FACTOR`] × its running RMS is followed to its peak
+//!   (the step's sample) and subtracted from that sample on — the samples
+//!   since are still in the delay line and are corrected there. With the
+//!   high-pass on, the estimate's error (the residual offset, ~σ) would
+//!   become the filter's transient, so the estimator is held over it as
+//!   after a gap ([`SensorGuard::take_hold`]). Noise-free the residual is
+//!   ~1e-4 of the step.
 //! * **Slow offsets and drift** are removed by a second-order high-pass
 //!   applied identically to u and y ([`HighPass`], on by default at
 //!   [`DEFAULT_HIGHPASS_RAD_S`]): identical filtering commutes with the
@@ -59,8 +65,9 @@
 //! estimator's own quarantine covers its filter bank).
 //!
 //! # Order
-//! Classification at entry; a delay line of `stuck_after + 1` samples
-//! (the estimate lags by 2.6 ms at the default); then the high-pass, fed
+//! Classification at entry; a delay line of `stuck_after + 1` samples,
+//! and at least [`STEP_LATENCY`] + 1 with offset-step removal on (the
+//! estimate lags by 2.6 ms at the default); then the high-pass, fed
 //! only good samples (a faulty sample leaves its states as they were: they
 //! hold the slow level, which a millisecond's gap does not move).
 #![deny(
@@ -73,12 +80,31 @@
 pub(crate) mod delay;
 pub mod highpass;
 mod level;
+mod step;
 
 pub use delay::MAX_DELAY;
 pub use highpass::HighPass;
+pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
 
 use crate::scalar::Real;
 use delay::DelayLine;
+use step::StepDetector;
+
+/// The delay line's length: the stuck run's (`stuck_after` + 1), and at
+/// least [`STEP_LATENCY`] + 1 with offset-step removal on (the step is
+/// found that many samples after it and corrected inside the line).
+fn line_delay(stuck_after: u16, offset_steps: bool) -> usize {
+    let stuck = if stuck_after > 0 {
+        usize::from(stuck_after) + 1
+    } else {
+        0
+    };
+    if offset_steps {
+        stuck.max(STEP_LATENCY + 1)
+    } else {
+        stuck
+    }
+}
 
 /// Default stuck run: 25 repeats (2.5 ms at 10 kHz; a live sensor's
 /// readings never repeat that often, a noise-free simulated beam's a few
@@ -92,16 +118,21 @@ pub const DEFAULT_STUCK_AFTER: u16 = 25;
 /// r/(e·ω_c) of a ramp r — and the hold after a gap (12/ω_c) against the
 /// excitation it removes below ω_c. Measured on the paper's plant at
 /// 0.02·Y0/s (`robustness_table`, docs/ROBUSTNESS.md §1): at 3 rad/s the
-/// drift left 0.70% error (0.44% after it), at 6 rad/s 0.14% (0.05%), at
-/// 10 rad/s 0.057% (0.011%), at 20 rad/s 0.028%; the estimate after a gap
+/// drift left 0.70% error (0.18% from 1 s after its end, which is an
+/// offset step and held over), at 6 rad/s 0.14% (0.021%), at 10 rad/s
+/// 0.057% (0.0036%), at 20 rad/s 0.028%; the estimate after a gap
 /// was within 2.6e-5, 4.7e-5, 8.2e-5, 1.5e-4. A beam whose first mode
 /// (or drive) is below ~40 rad/s wants a lower corner.
 pub const DEFAULT_HIGHPASS_RAD_S: f64 = 10.0;
-/// An offset step is a second difference beyond this many times its
-/// running RMS (with white noise σ: 16·√6·σ ≈ 39σ, never reached by chance).
-pub const JUMP_FACTOR: f64 = 16.0;
-/// Time constant of the second difference's running mean square (s).
-pub const JUMP_REFERENCE_S: f64 = 0.1;
+/// An offset step is a matched step estimate d̂ (module `step`: a
+/// least-squares fit of a quadratic plus a step to [`STEP_BEFORE`] +
+/// [`STEP_AFTER`] samples) beyond this many times d̂'s running RMS. With
+/// white noise alone d̂ is Gaussian: 8σ is exceeded with probability
+/// 1.2e-15 per sample.
+pub const STEP_FACTOR: f64 = 8.0;
+/// Time constant of d̂'s running mean square (s); also its learning time
+/// at the start.
+pub const STEP_REFERENCE_S: f64 = 0.1;
 /// A jump to a rail from more than this fraction of full scale (half the
 /// range's span) away is an open bridge, not an overload: an overload
 /// reaches the rail within one sample's motion of the signal, an open gauge
@@ -330,14 +361,7 @@ pub struct SensorGuard<T> {
     last_good_y: Option<T>,
     // Offset steps.
     offset: T,
-    /// The last two accepted offset-free y (most recent first) and how many.
-    hist: [T; 2],
-    hist_len: u8,
-    jump_ms: T,
-    jump_learn: u32,
-    jump_learn_len: u32,
-    alpha_jump: T,
-    jump_factor2: T,
+    step: StepDetector<T>,
     // Drift.
     alpha_level: T,
     level1: T,
@@ -387,14 +411,7 @@ impl<T: Real> SensorGuard<T> {
             stuck_after: cfg.stuck_after,
             offset_steps: cfg.offset_steps,
             // No stuck test, no delay.
-            delay: DelayLine::new(
-                if cfg.stuck_after > 0 {
-                    usize::from(cfg.stuck_after) + 1
-                } else {
-                    0
-                },
-                T::ZERO,
-            ),
+            delay: DelayLine::new(line_delay(cfg.stuck_after, cfg.offset_steps), T::ZERO),
             hp,
             gap_hold,
             in_gap: false,
@@ -408,13 +425,11 @@ impl<T: Real> SensorGuard<T> {
             open_rail: None,
             last_good_y: None,
             offset: T::ZERO,
-            hist: [T::ZERO; 2],
-            hist_len: 0,
-            jump_ms: T::ZERO,
-            jump_learn: samples(JUMP_REFERENCE_S),
-            jump_learn_len: samples(JUMP_REFERENCE_S),
-            alpha_jump: alpha(JUMP_REFERENCE_S),
-            jump_factor2: T::from_f64(JUMP_FACTOR * JUMP_FACTOR),
+            step: StepDetector::new(
+                alpha(STEP_REFERENCE_S),
+                samples(STEP_REFERENCE_S),
+                STEP_FACTOR,
+            ),
             alpha_level: alpha(LEVEL_S),
             level1: T::ZERO,
             level2: T::ZERO,
@@ -448,7 +463,7 @@ impl<T: Real> SensorGuard<T> {
     #[inline]
     pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
         self.index = index.wrapping_add(1);
-        let (fault, level, stuck_started) = self.classify(u, y, valid);
+        let (fault, level, stuck_started) = self.classify(u, y, valid, index);
         self.last = Screening { fault, level };
         if let Some(f) = fault {
             self.counts.bump(f, 1);
@@ -495,6 +510,7 @@ impl<T: Real> SensorGuard<T> {
         u: T,
         y: T,
         valid: bool,
+        index: u64,
     ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
         if !valid {
             self.interrupt();
@@ -539,12 +555,12 @@ impl<T: Real> SensorGuard<T> {
         }
         if self.stuck_after > 0 && self.repeats >= self.stuck_after {
             let started = self.repeats == self.stuck_after;
-            self.hist_len = 0;
+            self.step.interrupt();
             return (Some(SampleFault::Stuck), None, started);
         }
         self.last_good_y = Some(y);
         let level = if self.offset_steps {
-            self.offset_step(y, repeat)
+            self.offset_step(y, repeat, index)
         } else {
             None
         };
@@ -554,7 +570,7 @@ impl<T: Real> SensorGuard<T> {
     /// A faulty sample breaks the runs and the second-difference history.
     fn interrupt(&mut self) {
         self.repeats = 0;
-        self.hist_len = 0;
+        self.step.interrupt();
     }
 
     /// What the latest push saw at entry (flags for telemetry: these are
@@ -565,8 +581,10 @@ impl<T: Real> SensorGuard<T> {
 
     /// Samples the estimator fed by this guard should hold for now
     /// ([`crate::estimator::Estimator::hold`]), once: nonzero at the first
-    /// good sample after a gap when the high-pass is on (see
-    /// [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise. Call after each push.
+    /// good sample after a gap, and at the push that finds an offset step
+    /// (whose first sample is then still in the delay line), when the
+    /// high-pass is on (see [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise.
+    /// Call after each push.
     #[inline]
     pub fn take_hold(&mut self) -> u32 {
         core::mem::take(&mut self.hold_pending)
@@ -611,10 +629,12 @@ impl<T: Real> SensorGuard<T> {
             libm::ceil(GAP_SETTLE_TIME_CONSTANTS / (w * ts_s)).min(u32::MAX as f64) as u32
         });
         if offset_steps && !self.offset_steps {
-            // Learn the second difference's level afresh.
-            self.hist_len = 0;
-            self.jump_ms = T::ZERO;
-            self.jump_learn = self.jump_learn_len;
+            // Learn the step statistic's level afresh; the step is found
+            // up to STEP_LATENCY samples after it: the delay line must
+            // still hold it.
+            self.step.relearn();
+            self.delay
+                .lengthen(line_delay(self.stuck_after, offset_steps));
         }
         self.offset_steps = offset_steps;
         Ok(())
@@ -627,7 +647,7 @@ impl<T: Real> SensorGuard<T> {
     pub fn clear(&mut self) {
         self.delay.clear();
         self.repeats = 0;
-        self.hist_len = 0;
+        self.step.interrupt();
         self.open_rail = None;
         self.rail_switched = false;
         self.in_gap = false;

@@ -95,7 +95,7 @@ fn stuck_runs_are_caught_from_their_first_sample() {
         .filter(|o| o.fault.is_some())
         .all(|o| o.fault == Some(SampleFault::Stuck)));
     assert_eq!(g.counts().stuck, 101);
-    // A freezing reading bends the second difference like a step: it is
+    // A freezing reading bends the signal like a step's onset: it is
     // not taken for an offset.
     assert_eq!((g.counts().offset, g.offset()), (0, 0.0));
     // A shorter repeat is not a fault.
@@ -211,7 +211,7 @@ fn offset_steps_are_removed_and_noise_never_looks_like_one() {
             g.offset()
         );
         // After the step the output is the signal again, to the estimate's
-        // accuracy (a second difference's worth).
+        // accuracy (0.82σ of the noise).
         let worst = out
             .iter()
             .filter(|o| o.index > 300_000)
@@ -223,6 +223,59 @@ fn offset_steps_are_removed_and_noise_never_looks_like_one() {
     let mut g = guard(None, None);
     feed(&mut g, 0, 600_000, |k| signal(k) + noise[k as usize]);
     assert_eq!(g.counts().offset, 0);
+}
+
+/// Offset removal switched on at run time on a guard without a stuck test
+/// (no delay line, as the pipeline builds it): the line is lengthened to
+/// the step test's latency without losing a sample, every output from
+/// the step's own sample on is corrected, the step is found once (not on
+/// its side lobe) and a hold is asked for only with the high-pass.
+#[test]
+fn a_step_is_corrected_from_its_first_sample_when_switched_on_later() {
+    for highpass in [None, Some(DEFAULT_HIGHPASS_RAD_S)] {
+        let mut g = SensorGuard::<f64>::new(&GuardConfig {
+            stuck_after: 0,
+            highpass_rad_s: highpass,
+            offset_steps: false,
+            ..GuardConfig::new(TS)
+        })
+        .unwrap();
+        assert_eq!(g.delay_samples(), 0);
+        let mut out = feed(&mut g, 0, 1000, signal);
+        g.set_level_correction(highpass, true, TS).unwrap();
+        assert_eq!(g.delay_samples(), STEP_LATENCY + 1);
+        let step = 0.5;
+        let y = |k: u64| signal(k) + if k >= 5000 { step } else { 0.0 };
+        let mut holds = Vec::new();
+        for k in 1000..10_000 {
+            if let Some(o) = g.push(signal(k), y(k)) {
+                out.push(o);
+            }
+            let h = g.take_hold();
+            if h > 0 {
+                holds.push((k, h));
+            }
+            if g.last_screening().level == Some(LevelEvent::Offset) {
+                assert!(k - 5000 <= STEP_LATENCY as u64, "found at {k}");
+            }
+        }
+        // No sample lost or repeated.
+        let idx: Vec<u64> = out.iter().map(|o| o.index).collect();
+        assert_eq!(idx, (0..idx.len() as u64).collect::<Vec<_>>());
+        assert_eq!(g.counts().offset, 1);
+        assert!((g.offset() - step).abs() < 1e-3, "{}", g.offset());
+        if highpass.is_none() {
+            assert!(holds.is_empty());
+            let worst = out
+                .iter()
+                .filter(|o| o.index >= 5000)
+                .map(|o| (o.y - signal(o.index)).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-3, "{worst}");
+        } else {
+            assert_eq!(holds.len(), 1, "{holds:?}");
+        }
+    }
 }
 
 #[test]
