@@ -134,6 +134,7 @@
 //!   (a very short record, or a start quarantine longer than the record),
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
 
+mod catchup;
 mod law;
 mod oe;
 mod start;
@@ -149,6 +150,7 @@ use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
 use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+pub use catchup::APPLY_REPLAY_MAX;
 use law::OeLaw;
 use oe::{Filters, OeModel};
 use start::start_test;
@@ -217,6 +219,11 @@ pub enum UpdateError {
     RecordFull,
     /// The pending update was prepared for an earlier state.
     Stale,
+    /// More samples arrived since the update was prepared than the caller
+    /// allows to replay at the hand-over
+    /// ([`RobustEstimator::apply_bounded`]): catch it up first
+    /// ([`RobustEstimator::catch_up`]).
+    Behind,
 }
 
 impl core::fmt::Display for UpdateError {
@@ -226,6 +233,7 @@ impl core::fmt::Display for UpdateError {
             Self::NotConverged => "the start-up estimate is still moving",
             Self::RecordFull => "the start-up record is full; the model is final",
             Self::Stale => "the pending update was prepared for an earlier state",
+            Self::Behind => "the pending update is too many samples behind to apply now",
         })
     }
 }
@@ -287,6 +295,8 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     rec_u: [T; B],
     rec_y: [T; B],
     rec_len: usize,
+    /// Samples stepped since the record was full (not in it).
+    unrecorded: u32,
     phase: Phase,
     epoch: u32,
     candidate: Option<[T; D]>,
@@ -353,6 +363,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             rec_u: [T::ZERO; B],
             rec_y: [T::ZERO; B],
             rec_len: 0,
+            unrecorded: 0,
             phase: Phase::Startup,
             epoch: 0,
             candidate: None,
@@ -501,9 +512,27 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// [`UpdateError::NotConverged`] during start-up while the estimate
     /// still moves.
     pub fn apply(&mut self, mut p: Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
-        if p.epoch != self.epoch || p.replayed > self.rec_len {
+        self.check_fresh(&p)?;
+        self.admit(&p)?;
+        self.replay_into(&mut p, usize::MAX);
+        self.install(p.oe, p.law);
+        Ok(())
+    }
+
+    /// [`UpdateError::Stale`] unless `p` was prepared for the current
+    /// record and every sample since its preparation is still in it (a
+    /// sample that arrived after the record was full is not, so the
+    /// replayed model would lag the present by that many samples).
+    fn check_fresh(&self, p: &Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
+        if p.epoch != self.epoch || p.replayed > self.rec_len || self.unrecorded > 0 {
             return Err(UpdateError::Stale);
         }
+        Ok(())
+    }
+
+    /// The phase checks of an update about to be installed; at start-up,
+    /// stores the candidate when it still moves, else ends the start-up.
+    fn admit(&mut self, p: &Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
         if self.rec_len >= B && self.phase == Phase::Startup {
             return Err(UpdateError::RecordFull);
         }
@@ -527,19 +556,33 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             }
             self.phase = Phase::Refining;
         }
+        Ok(())
+    }
+
+    /// Replay into `p` at most `max` of the recorded samples it has not
+    /// seen yet, in record order; returns how many are still left.
+    fn replay_into(&self, p: &mut Pending<T, D, NP, NS>, max: usize) -> usize {
         let n = self.rec_len;
-        for (&u, &y) in self.rec_u[p.replayed..n]
-            .iter()
-            .zip(&self.rec_y[p.replayed..n])
-        {
+        let end = p.replayed.saturating_add(max).min(n);
+        let (u, y) = (
+            self.rec_u.get(p.replayed..end).unwrap_or(&[]),
+            self.rec_y.get(p.replayed..end).unwrap_or(&[]),
+        );
+        for (&u, &y) in u.iter().zip(y) {
             let s = p.oe.push(u, y);
+            // A failed step leaves θ̂ unchanged; the replay goes on.
             let _ = p.law.update(&s.psi, s.eps);
         }
-        self.oe = p.oe;
-        self.law = p.law;
+        p.replayed = p.replayed.max(end);
+        n.saturating_sub(p.replayed)
+    }
+
+    /// The caught-up model, its states and its law replace the current ones.
+    fn install(&mut self, oe: OeModel<T, D, NP>, law: OeLaw<T, NP, NS>) {
+        self.oe = oe;
+        self.law = law;
         self.epoch = self.epoch.wrapping_add(1);
         self.updates = self.updates.saturating_add(1);
-        Ok(())
     }
 
     fn auto_update(&mut self) {
@@ -599,6 +642,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 // A restarted start-up law must not take this sample either.
                 update &= !self.screen.in_quarantine();
             }
+        } else {
+            self.unrecorded = self.unrecorded.saturating_add(1);
         }
         match self.phase {
             Phase::Startup => {
@@ -642,6 +687,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         self.startup.reset();
         self.startup.set_theta_scaled(&start);
         self.rec_len = 0;
+        self.unrecorded = 0;
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
@@ -715,6 +761,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.startup.reset();
         self.screen.reset();
         self.rec_len = 0;
+        self.unrecorded = 0;
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
