@@ -13,11 +13,80 @@
 //! samples ([`APPLY_REPLAY_MAX`]) remain: the work inside the lock is
 //! bounded by that count, whatever the preparation took.
 //!
+//! The preparation itself can run the same way: [`RobustEstimator::update_seed`]
+//! copies the little it needs of the estimator (θ̂, the law, the record's
+//! length: a short lock), [`UpdateSeed::start`] builds the new model
+//! without the estimator (roots, matrix exponential), and `catch_up` then
+//! does the O(record) work — the initial-state fit when the beam was
+//! moving, the replay up to the preparation's record length, the
+//! refinement steps, then the samples recorded since — in chunks of
+//! `max_samples` units (a sample of the fit or of the replay, or one
+//! refinement step: each a few thousand instructions on the Cortex-M4F).
+//!
 //! The replayed samples, their order and the arithmetic are those of
-//! [`RobustEstimator::apply`]: the result is bit-identical (tests below).
+//! [`RobustEstimator::prepare_update`] and [`RobustEstimator::apply`]
+//! ([`RobustEstimator::prepare_update`] is built from these pieces): the
+//! result is bit-identical however it is chunked (tests below).
 
-use super::{Pending, RobustEstimator, UpdateError};
+use super::{
+    stable_candidate, Filters, InitialFit, OeLaw, OeModel, Pending, Phase, RobustEstimator,
+    UpdateError, REFINE_STEPS,
+};
+use crate::compensated::CompensatedArray;
+use crate::filter_bank::OutputHold;
 use crate::scalar::Real;
+
+/// What a model update needs of the estimator, copied out of it (~1 KB for
+/// two modes in `f32`): [`RobustEstimator::update_seed`], then
+/// [`UpdateSeed::start`] without the estimator.
+#[derive(Debug, Clone)]
+pub struct UpdateSeed<T, const D: usize, const NP: usize, const NS: usize> {
+    epoch: u32,
+    target: usize,
+    theta: CompensatedArray<T, NP>,
+    refining: bool,
+    fit: bool,
+    law: OeLaw<T, NP, NS>,
+    rho_ts: f64,
+    hold: OutputHold,
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D, NP, NS> {
+    /// The new model (stability check, exact discretization of its 1/Â:
+    /// roots and a matrix exponential, no O(record) work): a pending update
+    /// that has replayed nothing yet; [`RobustEstimator::catch_up`] does
+    /// the rest.
+    ///
+    /// # Errors
+    /// [`UpdateError::Unstable`].
+    pub fn start(self) -> Result<Pending<T, D, NP, NS>, UpdateError> {
+        // The linearization point: θ̂ if it is a stable model, else (an
+        // early replay on a short record can overshoot) the current one,
+        // replayed again on the longer record.
+        let (theta, c) = match stable_candidate::<T, D, NP>(&self.theta) {
+            Some(c) => (self.theta, c),
+            None if self.refining => {
+                let m = *self.law.model();
+                let c = stable_candidate::<T, D, NP>(&m).ok_or(UpdateError::Unstable)?;
+                (m, c)
+            }
+            None => return Err(UpdateError::Unstable),
+        };
+        let oe = OeModel::new(Filters::new(&c, self.rho_ts, self.hold), &theta);
+        let mut law = self.law;
+        law.restart(&theta);
+        Ok(Pending {
+            epoch: self.epoch,
+            replayed: 0,
+            target: self.target,
+            fit: self.fit.then(InitialFit::new),
+            refine_left: REFINE_STEPS,
+            candidate: c.map(T::from_f64),
+            oe,
+            law,
+        })
+    }
+}
 
 /// The most samples [`RobustEstimator::apply_bounded`] replays inside the
 /// lock when the firmware uses this bound: 32 samples are ~70,000
@@ -37,8 +106,37 @@ impl<T, const D: usize, const NP: usize, const NS: usize> Pending<T, D, NP, NS> 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     RobustEstimator<T, D, NP, NS, B>
 {
-    /// Samples recorded since `p` was prepared (or last caught up) that it
-    /// has not replayed yet.
+    /// The start of a model update (a short copy, inside the lock): see
+    /// [`UpdateSeed::start`].
+    ///
+    /// # Errors
+    /// [`UpdateError::RecordFull`]: the record is full, the model final.
+    pub fn update_seed(&self) -> Result<UpdateSeed<T, D, NP, NS>, UpdateError> {
+        // The replay must be able to catch up with the present.
+        if self.phase == Phase::Steady || self.rec_len >= B {
+            return Err(UpdateError::RecordFull);
+        }
+        Ok(UpdateSeed {
+            epoch: self.epoch,
+            target: self.rec_len,
+            theta: self.theta_abs(),
+            refining: self.phase == Phase::Refining,
+            fit: matches!(self.initial, Some((_, true))),
+            law: self.law.clone(),
+            rho_ts: self.filter.lambda_rad_s * self.filter.ts_s,
+            hold: self.filter.hold,
+        })
+    }
+
+    /// Samples recorded since the record was started (at most `B`).
+    pub fn recorded(&self) -> usize {
+        self.rec_len
+    }
+
+    /// The work `p` still has to do before it can be installed, in
+    /// [`RobustEstimator::catch_up`]'s units: samples of the initial-state
+    /// fit and of the replay, refinement steps, and the samples recorded
+    /// since it was prepared.
     ///
     /// # Errors
     /// [`UpdateError::Stale`] if `p` can no longer be applied (the
@@ -46,7 +144,68 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// record was full).
     pub fn behind(&self, p: &Pending<T, D, NP, NS>) -> Result<usize, UpdateError> {
         self.check_fresh(p)?;
-        Ok(self.rec_len - p.replayed)
+        Ok(self.work_left(p))
+    }
+
+    fn work_left(&self, p: &Pending<T, D, NP, NS>) -> usize {
+        let fit = p.fit.as_ref().map_or(0, |f| p.target.saturating_sub(f.pos));
+        fit + self.rec_len.saturating_sub(p.replayed) + p.refine_left as usize
+    }
+
+    /// Up to `max` units of `p`'s remaining work, in the order of the
+    /// one-shot preparation (fit, replay to the target, refinement, the
+    /// samples since); returns the work left.
+    pub(super) fn replay_into(&self, p: &mut Pending<T, D, NP, NS>, max: usize) -> usize {
+        let mut budget = max;
+        if let Some(fit) = p.fit.as_mut() {
+            let (from, to) = (fit.pos, fit.pos.saturating_add(budget).min(p.target));
+            if let (Some(u), Some(y)) = (self.rec_u.get(from..to), self.rec_y.get(from..to)) {
+                fit.push(&p.oe, u, y);
+            }
+            budget -= to - from;
+            if fit.pos < p.target {
+                return self.work_left(p);
+            }
+            if let Some(x0) = fit.solve() {
+                p.oe.start_at(&x0);
+            }
+            p.fit = None;
+        }
+        budget -= self.replay_samples(p, p.target, budget);
+        if p.replayed < p.target {
+            return self.work_left(p);
+        }
+        while p.refine_left > 0 && budget > 0 {
+            let k = p.refine_left.min(u32::try_from(budget).unwrap_or(u32::MAX));
+            // A failed step ends the refinement (θ̂ unchanged by it).
+            p.refine_left = if p.law.refine(k) {
+                p.refine_left - k
+            } else {
+                0
+            };
+            budget -= k as usize;
+        }
+        if p.refine_left == 0 {
+            self.replay_samples(p, self.rec_len, budget);
+        }
+        self.work_left(p)
+    }
+
+    /// Replay recorded samples into `p` up to index `to`, at most `max`;
+    /// returns how many.
+    fn replay_samples(&self, p: &mut Pending<T, D, NP, NS>, to: usize, max: usize) -> usize {
+        let from = p.replayed;
+        let to = from.saturating_add(max).min(to).max(from);
+        let (Some(u), Some(y)) = (self.rec_u.get(from..to), self.rec_y.get(from..to)) else {
+            return 0;
+        };
+        for (&u, &y) in u.iter().zip(y) {
+            let s = p.oe.push(u, y);
+            // A failed step leaves θ̂ unchanged; the replay goes on.
+            let _ = p.law.update(&s.psi, s.eps);
+        }
+        p.replayed = to;
+        to - from
     }
 
     /// Replay into `p` at most `max_samples` of the samples recorded since
@@ -94,7 +253,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
 #[cfg(test)]
 mod tests {
     use super::super::tests::{filter, Rig, Small};
-    use super::super::{Phase, RobustConfig, UpdateError};
+    use super::super::{InitialState, Phase, RobustConfig, UpdateError};
     use super::APPLY_REPLAY_MAX;
     use crate::estimator::Estimator;
     use crate::scalar::Real;
@@ -105,9 +264,15 @@ mod tests {
     /// catch-up (`chunk` samples at a time, between samples) and
     /// `apply_bounded`. Returns both estimators' θ̂ after `n` samples and the
     /// count of updates installed.
-    fn both_ways<T: Real>(n: usize, lag: usize, chunk: usize) -> ([T; 7], [T; 7], u32, u32) {
+    fn both_ways<T: Real>(
+        n: usize,
+        lag: usize,
+        chunk: usize,
+        initial_state: InitialState,
+    ) -> ([T; 7], [T; 7], u32, u32) {
         let cfg = RobustConfig {
             update_every: 0,
+            initial_state,
             ..RobustConfig::default()
         };
         let mut a = Small::<T>::new(&filter(), &cfg).unwrap();
@@ -126,10 +291,14 @@ mod tests {
             if k % 1_000 != 0 || a.phase() == Phase::Steady {
                 continue;
             }
-            let (Ok(pa), Ok(mut pb)) = (a.prepare_update(), b.prepare_update()) else {
+            // a: one-shot preparation; b: seed, then everything in chunks
+            // while the samples keep coming.
+            let (pa, seed) = (a.prepare_update(), b.update_seed());
+            let (Ok(pa), Ok(seed)) = (pa, seed) else {
                 continue;
             };
-            // Samples arrive while b catches up chunk by chunk.
+            // a's preparation succeeded: b's start (the same model) must.
+            let mut pb = seed.start().unwrap();
             for _ in 0..lag {
                 step(&mut k, &mut a, &mut b);
                 if b.catch_up(&mut pb, chunk).is_err() {
@@ -155,15 +324,19 @@ mod tests {
     fn chunked_catch_up_is_bit_identical_to_one_shot_apply() {
         // 0.45 s: start-up, refinement with updates, the full record and
         // steady state (the 0.3 s record fills at 3,000 samples).
-        for (lag, chunk) in [(0, 64), (150, 7), (551, 64), (40, 1)] {
-            let (a, b, ua, ub) = both_ways::<f64>(4_500, lag, chunk);
-            assert_eq!(a, b, "f64 lag {lag} chunk {chunk}");
-            assert_eq!(ua, ub);
-            assert!(ua >= 1, "f64 lag {lag}: no update installed");
-            let (a, b, ua, ub) = both_ways::<f32>(4_500, lag, chunk);
-            assert_eq!(a, b, "f32 lag {lag} chunk {chunk}");
-            assert_eq!(ua, ub);
-            assert!(ua >= 1, "f32 lag {lag}: no update installed");
+        // The fit of the initial state runs in chunks too (Estimate).
+        let cases = [(0, 64), (150, 7), (551, 64), (40, 1)];
+        for init in [InitialState::Auto, InitialState::Estimate] {
+            for (lag, chunk) in cases {
+                let (a, b, ua, ub) = both_ways::<f64>(4_500, lag, chunk, init);
+                assert_eq!(a, b, "f64 lag {lag} chunk {chunk} {init:?}");
+                assert_eq!(ua, ub);
+                assert!(ua >= 1, "f64 lag {lag} {init:?}: no update installed");
+                let (a, b, ua, ub) = both_ways::<f32>(4_500, lag, chunk, init);
+                assert_eq!(a, b, "f32 lag {lag} chunk {chunk} {init:?}");
+                assert_eq!(ua, ub);
+                assert!(ua >= 1, "f32 lag {lag} {init:?}: no update installed");
+            }
         }
     }
 

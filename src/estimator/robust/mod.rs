@@ -150,9 +150,9 @@ use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
 use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
-pub use catchup::APPLY_REPLAY_MAX;
+pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};
 use law::OeLaw;
-use oe::{Filters, OeModel};
+use oe::{Filters, InitialFit, OeModel};
 use start::start_test;
 pub use start::{InitialState, START_TEST_CHI2, START_TEST_NOISE_FLOOR, START_TEST_SAMPLES};
 
@@ -258,6 +258,13 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
     epoch: u32,
     /// Samples of the record replayed.
     replayed: usize,
+    /// The record's length when it was prepared: replayed up to there,
+    /// then refined, then caught up with the samples since.
+    target: usize,
+    /// The initial-state fit over the record up to `target`, while it runs.
+    fit: Option<InitialFit<T, D>>,
+    /// Refinement steps still to take (after the replay up to `target`).
+    refine_left: u32,
     candidate: [T; D],
     oe: OeModel<T, D, NP>,
     law: OeLaw<T, NP, NS>,
@@ -268,6 +275,22 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
 /// estimate becomes the next linearization point. 200 steps cost ~0.2 ms
 /// off the sample path (20 dB, f32, 20 seeds: ω2 3.5 → 3.2× the bound).
 const REFINE_STEPS: u32 = 200;
+
+/// The normalized denominator of `theta` (indexed by power) if it is a
+/// stable model.
+fn stable_candidate<T: Real, const D: usize, const NP: usize>(
+    theta: &CompensatedArray<T, NP>,
+) -> Option<[f64; D]> {
+    let th = theta.values();
+    // θ index D−1+j ↔ power D−1−j.
+    let c: [f64; D] = core::array::from_fn(|k| th[NP - 1 - k].to_f64());
+    let mut a = [0.0f64; MAX_ORDER];
+    for i in 0..D {
+        a[i] = c[D - 1 - i];
+    }
+    let modes = modes_from_denominator(&a[..D]).ok()?;
+    modes.is_stable().then_some(c)
+}
 
 /// Normalized Λ coefficients C(D, k), indexed by power.
 fn lambda_coeffs<const D: usize>() -> [f64; D] {
@@ -446,59 +469,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// # Errors
     /// [`UpdateError::Unstable`], [`UpdateError::RecordFull`].
     pub fn prepare_update(&self) -> Result<Pending<T, D, NP, NS>, UpdateError> {
-        // The replay must be able to catch up with the present.
-        if self.phase == Phase::Steady || self.rec_len >= B {
-            return Err(UpdateError::RecordFull);
-        }
-        // The linearization point: θ̂ if it is a stable model, else (an
-        // early replay on a short record can overshoot) the current one,
-        // replayed again on the longer record.
-        let (theta, c) = match self.stable_candidate(&self.theta_abs()) {
-            Some(c) => (self.theta_abs(), c),
-            None if self.phase == Phase::Refining => {
-                let m = *self.law.model();
-                (m, self.stable_candidate(&m).ok_or(UpdateError::Unstable)?)
-            }
-            None => return Err(UpdateError::Unstable),
-        };
-        let rho_ts = self.filter.lambda_rad_s * self.filter.ts_s;
-        let mut oe = OeModel::new(Filters::new(&c, rho_ts, self.filter.hold), &theta);
-        let n = self.rec_len;
-        let (u, y) = (&self.rec_u[..n], &self.rec_y[..n]);
-        if let Some((_, true)) = self.initial {
-            if let Some(x0) = oe.fit_initial_state(u, y) {
-                oe.start_at(&x0);
-            }
-        }
-        let mut law = self.law.clone();
-        law.restart(&theta);
-        for (&u, &y) in self.rec_u[..n].iter().zip(&self.rec_y[..n]) {
-            let s = oe.push(u, y);
-            // A failed step leaves θ̂ unchanged; the replay goes on.
-            let _ = law.update(&s.psi, s.eps);
-        }
-        law.refine(REFINE_STEPS);
-        Ok(Pending {
-            epoch: self.epoch,
-            replayed: n,
-            candidate: c.map(T::from_f64),
-            oe,
-            law,
-        })
-    }
-
-    /// The normalized denominator of `theta` (indexed by power) if it is a
-    /// stable model.
-    fn stable_candidate(&self, theta: &CompensatedArray<T, NP>) -> Option<[f64; D]> {
-        let th = theta.values();
-        // θ index D−1+j ↔ power D−1−j.
-        let c: [f64; D] = core::array::from_fn(|k| th[NP - 1 - k].to_f64());
-        let mut a = [0.0f64; MAX_ORDER];
-        for i in 0..D {
-            a[i] = c[D - 1 - i];
-        }
-        let modes = modes_from_denominator(&a[..D]).ok()?;
-        modes.is_stable().then_some(c)
+        let mut p = self.update_seed()?.start()?;
+        // Everything up to the present: the record as it is now, refined.
+        self.replay_into(&mut p, usize::MAX);
+        Ok(p)
     }
 
     /// Install a prepared update (at a sample boundary): the samples
@@ -557,24 +531,6 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             self.phase = Phase::Refining;
         }
         Ok(())
-    }
-
-    /// Replay into `p` at most `max` of the recorded samples it has not
-    /// seen yet, in record order; returns how many are still left.
-    fn replay_into(&self, p: &mut Pending<T, D, NP, NS>, max: usize) -> usize {
-        let n = self.rec_len;
-        let end = p.replayed.saturating_add(max).min(n);
-        let (u, y) = (
-            self.rec_u.get(p.replayed..end).unwrap_or(&[]),
-            self.rec_y.get(p.replayed..end).unwrap_or(&[]),
-        );
-        for (&u, &y) in u.iter().zip(y) {
-            let s = p.oe.push(u, y);
-            // A failed step leaves θ̂ unchanged; the replay goes on.
-            let _ = p.law.update(&s.psi, s.eps);
-        }
-        p.replayed = p.replayed.max(end);
-        n.saturating_sub(p.replayed)
     }
 
     /// The caught-up model, its states and its law replace the current ones.
