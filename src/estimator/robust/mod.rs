@@ -733,6 +733,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         Some(excitation_min_eig(&self.information()))
     }
 
+    fn information(&self) -> Option<[[T; NP]; NP]> {
+        Some(RobustEstimator::information(self))
+    }
+
     /// Also restarts the change test's learning
     /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
