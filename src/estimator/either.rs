@@ -106,7 +106,10 @@ mod tests {
         let mut right: Either<Adaptive2<f64>, _> = Either::Right(r);
         assert!(left.right().is_none() && right.right_mut().is_some());
         for k in 0..3_000 {
-            let (u, y) = (if k % 700 < 350 { 0.1 } else { -0.1 }, 1e-3 * (k as f64).sin());
+            let (u, y) = (
+                if k % 700 < 350 { 0.1 } else { -0.1 },
+                1e-3 * (k as f64).sin(),
+            );
             assert_eq!(left.step(u, y), plain.0.step(u, y));
             assert_eq!(right.step(u, y), plain.1.step(u, y));
         }
