@@ -129,7 +129,17 @@
 //!   calls it from a low-priority context (it borrows the estimator
 //!   immutably, so that context must own or lock it meanwhile) and
 //!   [`RobustEstimator::apply`]s the result at a sample boundary (apply
-//!   replays only the samples recorded meanwhile).
+//!   replays only the samples recorded meanwhile). A firmware whose sample
+//!   interrupt must never wait long uses the same work in bounded chunks
+//!   (`catchup.rs`: [`RobustEstimator::update_seed`],
+//!   [`UpdateSeed::start`], [`RobustEstimator::catch_up`],
+//!   [`RobustEstimator::apply_bounded`]), bit-identical. An update
+//!   prepared before the record filled but applied after it is refused
+//!   ([`UpdateError::Stale`]): the samples past the record are not in it.
+//! * It must start with the beam at rest: started on a moving beam (the
+//!   QEMU bench 0.5 s or 1 s into the paper's excitation, or after only 8 s
+//!   of ring-down) it diverges, `f32` and `f64` (BENCHMARKS.md, "The robust
+//!   estimator on the Cortex-M4F").
 //! * If the start-up estimate has not settled before the record is full
 //!   (a very short record, or a start quarantine longer than the record),
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
