@@ -88,12 +88,13 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
     }
 }
 
-/// The most samples [`RobustEstimator::apply_bounded`] replays inside the
-/// lock when the firmware uses this bound: 32 samples are ~70,000
-/// instructions on the Cortex-M4F in `f32` (2,200 per replayed sample,
-/// `cargo xtask robust-bench`), 0.7 ms, i.e. at most 7 sample periods
-/// delayed — not lost: the sample interrupt is pending meanwhile and the
-/// converters' data are read late (see BENCHMARKS.md).
+/// A bound for [`RobustEstimator::apply_bounded`]'s work inside the lock:
+/// 32 replayed samples are ≈ 70,000 instructions on the Cortex-M4F in
+/// `f32` (≈ 2,200 each, `cargo xtask robust-bench`), 70 µs at the QEMU
+/// image's one instruction per ns, under one 100 µs sample period; the
+/// sample interrupt is then delayed, not lost. The QEMU image uses 16
+/// (`src/bin/qemu-rig/robust.rs`; its longest lock: 86,919 instructions,
+/// BENCHMARKS.md).
 pub const APPLY_REPLAY_MAX: usize = 32;
 
 impl<T, const D: usize, const NP: usize, const NS: usize> Pending<T, D, NP, NS> {
