@@ -37,6 +37,7 @@
 //! forget the disturbance (the quarantine's).
 
 pub mod adaptive;
+mod either;
 pub mod gradient;
 pub mod least_squares;
 pub mod robust;
@@ -50,6 +51,7 @@ use crate::scalar::Real;
 use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
+pub use either::Either;
 pub use gradient::{GradientConfig, GradientLaw};
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};

@@ -15,13 +15,13 @@
 //! running generator inside the lock and written back only if every
 //! setter accepted it, so a refused change leaves the output untouched.
 
-use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
+use crate::estimator::{AdaptiveConfig, ConfigError, Estimator, RobustConfig};
 use crate::excitation::multisine::{MAX_PERIOD_LOG2, MIN_PERIOD_LOG2};
 use crate::excitation::{
     ChirpSpec, Excitation, ExcitationError, ExcitationKind, MultisineSpec, Phases, Shape, Sweep,
     Waveform,
 };
-use crate::filter_bank::{FilterConfig, FilterConfigError};
+use crate::filter_bank::{FilterConfig, FilterConfigError, OutputTiming};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::protocol::{self, EstimatorSettings, RejectReason};
@@ -155,6 +155,37 @@ pub fn estimator_configs<const NP: usize>(
         forgetting_h: f64::from(settings.forgetting_h),
         r0_diag: [1.0 / f64::from(settings.initial_gain); NP],
         ..AdaptiveConfig::default()
+    };
+    (filter, law)
+}
+
+/// The core's settings of the robust estimator
+/// ([`crate::estimator::robust`], `EstimatorKind::Robust`) for the
+/// protocol's: [`estimator_configs`]' filter bank with the converter timing
+/// left out (the output-error model simulates a held input only and
+/// refuses a timing model: on a board with converter latency the estimate
+/// carries its bias, docs/PROTOCOL.md §5.2), Γ = gain (eq. 41), l =
+/// forgetting_p (eq. 33; γ is tied to it, forgetting_h is unused),
+/// R(0) = I/initial_gain; its start-up law is the adaptive law of the same
+/// settings; model updates only when the caller applies them
+/// (`update_every = 0`: firmware prepares them off the sample path).
+pub fn robust_configs<const NP: usize>(
+    settings: &EstimatorSettings,
+    lambda_rad_s: f64,
+    base: &FilterConfig,
+) -> (FilterConfig, RobustConfig<NP>) {
+    let (filter, startup) = estimator_configs::<NP>(settings, lambda_rad_s, base);
+    let filter = FilterConfig {
+        timing: OutputTiming::IDEAL,
+        ..filter
+    };
+    let law = RobustConfig {
+        gain: f64::from(settings.gain),
+        forgetting: f64::from(settings.forgetting_p),
+        r0_diag: [1.0 / f64::from(settings.initial_gain); NP],
+        startup,
+        update_every: 0,
+        ..RobustConfig::default()
     };
     (filter, law)
 }

@@ -72,7 +72,9 @@ pub mod raw;
 pub mod tune;
 pub mod tx;
 
-pub use control::{estimator_configs, with_theta0, Control, Device, ExcitationPlan};
+pub use control::{
+    estimator_configs, robust_configs, with_theta0, Control, Device, ExcitationPlan,
+};
 pub use estimate::{Convergence, EstimateContext, FlagRules};
 pub use raw::RawAssembler;
 pub use tune::{BuildKind, Pending, StartupCollector, Tuner};

@@ -652,6 +652,12 @@ where
         &self.estimator
     }
 
+    /// The estimator, mutably (thread mode, inside the lock: e.g. to
+    /// install a model update prepared off the sample path).
+    pub fn estimator_mut(&mut self) -> &mut E {
+        &mut self.estimator
+    }
+
     /// The counters now.
     pub fn counters(&self) -> Counters {
         let g = self.guard.counts();

@@ -12,7 +12,9 @@
 //!   deterministic instruction counting; decode the serial-link frames it
 //!   sent on UART0 and check them; exit with QEMU's status (the
 //!   firmware's verdict). `--e2e`: the end-to-end test over a loopback
-//!   socket ([`e2e`]); `--monitor`: `beamctl monitor` attached ([`qemu`]).
+//!   socket ([`e2e`]); `--robust`: the device switched to the robust
+//!   estimator over the link ([`e2e_robust`]); `--monitor`: `beamctl
+//!   monitor` attached ([`qemu`]).
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -23,6 +25,7 @@
 
 mod callgraph;
 mod e2e;
+mod e2e_robust;
 mod e2e_tuning;
 mod image;
 mod m7;
@@ -152,6 +155,12 @@ usage: cargo xtask <command>
                            simulated beam's truth, the sequence numbers (nothing lost,
                            no CRC error), an accepted command taking effect and a refused
                            one changing nothing
+  qemu --robust [--timeout S]
+                           27 simulated s with the host on the link: excitation off at
+                           0.5 s (the beam comes to rest), the noise-robust estimator
+                           (SetEstimator kind Robust) and the excitation again at 20.5 s;
+                           checks its convergence, no overrun, its model updates' locks
+                           bounded (the firmware's verdict), the link clean
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor

@@ -17,7 +17,9 @@ use std::process::{Child, Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use crate::{build, e2e, require_tool, stream, workspace_root, IMAGES, QEMU, QEMU_IMAGE};
+use crate::{
+    build, e2e, e2e_robust, require_tool, stream, workspace_root, IMAGES, QEMU, QEMU_IMAGE,
+};
 
 /// Default wall-clock limit for one emulated run, s.
 const TIMEOUT_S: u64 = 300;
@@ -68,6 +70,7 @@ struct Options {
     uart0: PathBuf,
     seconds: Option<String>,
     e2e: bool,
+    robust: bool,
     monitor: bool,
     beamctl: Option<PathBuf>,
     monitor_args: Vec<String>,
@@ -79,6 +82,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         uart0: workspace_root().join("target/qemu/uart0.bin"),
         seconds: None,
         e2e: false,
+        robust: false,
         monitor: false,
         beamctl: None,
         monitor_args: Vec::new(),
@@ -108,6 +112,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
                 o.seconds = Some(v.clone());
             }
             "--e2e" => o.e2e = true,
+            "--robust" => o.robust = true,
             "--monitor" => o.monitor = true,
             "--beamctl" => {
                 o.beamctl = Some(PathBuf::from(it.next().ok_or("--beamctl needs a path")?))
@@ -122,6 +127,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
                 ))
             }
         }
+    }
+    if o.robust && (o.e2e || o.monitor || o.seconds.is_some()) {
+        return Err("qemu --robust runs alone (its own 27 s run on the link)".into());
     }
     if o.e2e && o.monitor {
         return Err("qemu: --e2e and --monitor exclude each other".into());
@@ -148,7 +156,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
         .find(|i| i.bin == QEMU_IMAGE)
         .ok_or("no QEMU image in the image table")?;
     let elf = build(image)?;
-    if o.e2e {
+    if o.robust {
+        e2e_robust::run(&elf, o.timeout)
+    } else if o.e2e {
         e2e::run(&elf, o.timeout)
     } else if o.monitor {
         monitor(&elf, &o)

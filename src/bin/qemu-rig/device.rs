@@ -6,8 +6,12 @@
 //! pipeline steps and a spare. A new estimator is built into the spare in
 //! thread mode, with the sample interrupt running (its matrix
 //! exponentials take ~10⁵ instructions), swapped in inside the lock, and
-//! the replaced one's slot becomes the spare. Every lock span is timed
-//! (SysTick): the longest is how long a command ever delayed a sample.
+//! the replaced one's slot becomes the spare. The robust estimator
+//! (`EstimatorKind::Robust`, `Robust2<f32>`, 162 KB each) has two slots of
+//! its own, used the same way (a robust estimator replaced by another one
+//! needs both). Every lock span is timed (SysTick): the longest is how
+//! long a command, a swap or a robust model update's chunk ever delayed
+//! a sample.
 
 #![deny(
     clippy::unwrap_used,
@@ -19,11 +23,11 @@
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::TimedEstimator;
 use beamest::board::qemu::{IsrOwned, Shared};
-use beamest::estimator::Adaptive2;
+use beamest::estimator::{Adaptive2, Either, Robust2};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
-use beamest::link::{estimator_configs, with_theta0, Device};
-use beamest::protocol::{EstimatorSettings, RejectReason};
+use beamest::link::{estimator_configs, robust_configs, with_theta0, Device};
+use beamest::protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};
 
@@ -31,21 +35,30 @@ use crate::sample::{Est, RigPipeline, SampleTask, NP};
 pub struct QemuDevice {
     task: &'static Shared<IsrOwned<&'static mut SampleTask>>,
     spare: Option<&'static mut Adaptive2<f32>>,
+    robust: [Option<&'static mut Robust2<f32>>; 2],
     locks: SpanSum,
 }
 
 impl QemuDevice {
     /// The device around the shared sample task, with the spare estimator
-    /// slot.
+    /// slot and the two robust estimators' slots.
     pub fn new(
         task: &'static Shared<IsrOwned<&'static mut SampleTask>>,
         spare: &'static mut Adaptive2<f32>,
+        robust: [&'static mut Robust2<f32>; 2],
     ) -> Self {
         Self {
             task,
             spare: Some(spare),
+            robust: robust.map(Some),
             locks: SpanSum::default(),
         }
+    }
+
+    /// Run `f` on the running robust estimator inside the lock (timed like
+    /// every lock); `None` if the pipeline runs another kind.
+    pub fn with_robust<R>(&mut self, f: impl FnOnce(&mut Robust2<f32>) -> R) -> Option<R> {
+        self.with_pipeline(|p| p.estimator_mut().inner_mut().right_mut().map(|r| f(r)))
     }
 
     /// Thread-mode lock spans so far (SysTick ticks).
@@ -76,6 +89,35 @@ impl Device for QemuDevice {
         filter: &FilterConfig,
         theta0: &[f64],
     ) -> Result<Est, RejectReason> {
+        match settings.kind {
+            EstimatorKind::Adaptive => self.build_adaptive(settings, filter, theta0),
+            EstimatorKind::Robust => self.build_robust(settings, filter, theta0),
+            EstimatorKind::Gradient | EstimatorKind::LeastSquares => {
+                Err(RejectReason::EstimatorUnavailable)
+            }
+        }
+    }
+
+    fn recycle_estimator(&mut self, old: Est) {
+        match old.into_inner() {
+            Either::Left(a) => self.spare = Some(a),
+            Either::Right(r) => {
+                if let Some(free) = self.robust.iter_mut().find(|s| s.is_none()) {
+                    *free = Some(r);
+                }
+            }
+        }
+    }
+}
+
+impl QemuDevice {
+    /// The paper's adaptive law into the spare slot.
+    fn build_adaptive(
+        &mut self,
+        settings: &EstimatorSettings,
+        filter: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<Est, RejectReason> {
         let (filter, law) = estimator_configs::<NP>(settings, filter.lambda_rad_s, filter);
         let Some(law) = with_theta0(law, theta0) else {
             return Err(RejectReason::EstimatorUnavailable);
@@ -86,7 +128,7 @@ impl Device for QemuDevice {
         match Adaptive2::<f32>::new(&filter, &law) {
             Ok(est) => {
                 *slot = est;
-                Ok(TimedEstimator::new(slot))
+                Ok(TimedEstimator::new(Either::Left(slot)))
             }
             Err(e) => {
                 self.spare = Some(slot);
@@ -95,7 +137,35 @@ impl Device for QemuDevice {
         }
     }
 
-    fn recycle_estimator(&mut self, old: Est) {
-        self.spare = Some(old.into_inner());
+    /// The robust estimator into a free robust slot (`theta0`: its start-up
+    /// law's θ(0)); model updates are then prepared in thread mode
+    /// ([`crate::robust::RobustUpdates`]).
+    fn build_robust(
+        &mut self,
+        settings: &EstimatorSettings,
+        filter: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<Est, RejectReason> {
+        let (filter, mut law) = robust_configs::<NP>(settings, filter.lambda_rad_s, filter);
+        let Some(startup) = with_theta0(law.startup, theta0) else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
+        law.startup = startup;
+        let Some(free) = self.robust.iter_mut().find(|s| s.is_some()) else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
+        let Some(slot) = free.take() else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
+        match Robust2::<f32>::new(&filter, &law) {
+            Ok(est) => {
+                *slot = est;
+                Ok(TimedEstimator::new(Either::Right(slot)))
+            }
+            Err(e) => {
+                *free = Some(slot);
+                Err(reject_config(e))
+            }
+        }
     }
 }

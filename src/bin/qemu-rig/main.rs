@@ -42,6 +42,7 @@
 mod device;
 mod numfmt;
 mod report;
+mod robust;
 mod sample;
 
 use beamest::board::qemu::cycles::{self, SpinDelay};
@@ -50,11 +51,11 @@ use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
-use beamest::estimator::{Adaptive2, AdaptiveConfig};
-use beamest::filter_bank::FilterConfig;
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2, RobustConfig};
+use beamest::filter_bank::{FilterConfig, OutputTiming};
 use beamest::link::{BuildKind, DeviceLink, Settings, Tuned};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
-use beamest::protocol::EstimatorSettings;
+use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::{bench, ConverterModels};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use cortex_m_rt::entry;
@@ -155,11 +156,10 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
-    let Ok(mut link) = DeviceLink::new(
-        bench::link_config(board::UART_BAUD),
-        default_settings(),
-        &tuning(),
-    ) else {
+    // The bench's link, with the robust estimator selectable too.
+    let mut link_config = bench::link_config(board::UART_BAUD);
+    link_config.limits.estimators |= EstimatorKind::Robust.bit();
+    let Ok(mut link) = DeviceLink::new(link_config, default_settings(), &tuning()) else {
         fail("tuning settings")
     };
     let config = PipelineConfig {
@@ -180,7 +180,7 @@ fn main() -> ! {
     // SAFETY: the chip models were created inside `build_sample_task` and
     // only the task (its rig and its drivers) refers to them.
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
-    let mut device = QemuDevice::new(&SAMPLE_TASK, spare);
+    let mut device = QemuDevice::new(&SAMPLE_TASK, spare, robust_slots());
     hprintln!(
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
@@ -252,6 +252,9 @@ fn main() -> ! {
                 &mut device,
                 &mut tx,
             );
+        }
+        if link.settings().estimator.kind == EstimatorKind::Robust {
+            run.robust.poll(&mut device);
         }
         match link.poll(&mut device) {
             Ok(Some(t)) => log_build(&t, &link, &mut run),
@@ -368,7 +371,7 @@ fn build_sample_task(
     };
     let Ok(pipeline) = Pipeline::new(
         config,
-        TimedEstimator::new(stand_in),
+        TimedEstimator::new(Either::Left(stand_in)),
         excitation,
         adc,
         dac,
@@ -389,6 +392,28 @@ fn build_sample_task(
         fail("sample task already placed")
     };
     (task, spare)
+}
+
+/// The robust estimator's two slots (162 KB each in .bss; placeholders
+/// until `SetEstimator` builds one, see [`device`]).
+fn robust_slots() -> [&'static mut Robust2<f32>; 2] {
+    let filter = FilterConfig {
+        timing: OutputTiming::IDEAL,
+        ..bench::filter_config(1.0)
+    };
+    let (Ok(a), Ok(b)) = (
+        Robust2::<f32>::new(&filter, &RobustConfig::default()),
+        Robust2::<f32>::new(&filter, &RobustConfig::default()),
+    ) else {
+        fail("robust estimator settings")
+    };
+    let (Some(a), Some(b)) = (
+        cortex_m::singleton!(: Robust2<f32> = a),
+        cortex_m::singleton!(: Robust2<f32> = b),
+    ) else {
+        fail("robust estimator slots already placed")
+    };
+    [a, b]
 }
 
 /// The bench's start-up settings with the estimator under the automatic

@@ -45,7 +45,7 @@ use beamest::board::qemu::{self as board, Handoff};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::drivers::Rail;
-use beamest::estimator::{Adaptive2, Estimator, StepStatus};
+use beamest::estimator::{Adaptive2, Either, Estimator, Robust2, StepStatus};
 use beamest::link::StartupCollector;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
@@ -71,8 +71,11 @@ pub const PERIOD_FROM: u32 = 10;
 /// See [`PERIOD_FROM`].
 pub const PERIODS: u32 = 6_000;
 
-/// The estimator the pipeline steps: static storage, timed.
-pub type Est = TimedEstimator<&'static mut Adaptive2<f32>>;
+/// The estimators this image runs (`EstimatorKind` Adaptive or Robust),
+/// each in static storage.
+pub type Choice = Either<&'static mut Adaptive2<f32>, &'static mut Robust2<f32>>;
+/// The estimator the pipeline steps: one of [`Choice`], timed.
+pub type Est = TimedEstimator<Choice>;
 /// The ADS131M02 driver on its model.
 pub type AdcDriver = Ads131m02<MeteredSpi<Shared<'static, Ads131m02Model>>>;
 /// The AD5761R driver on its model.

@@ -54,6 +54,11 @@ impl<E> TimedEstimator<E> {
         &self.inner
     }
 
+    /// The wrapped estimator, mutably.
+    pub fn inner_mut(&mut self) -> &mut E {
+        &mut self.inner
+    }
+
     /// Unwrap (e.g. to reuse a replaced estimator's storage).
     pub fn into_inner(self) -> E {
         self.inner

@@ -126,12 +126,15 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
     /// `steps` more implicit θ̂ steps on the information gathered so far (no
     /// new sample, no decay): converges θ̂ further towards W = 0 where the
     /// damped step is slow (weak directions in `f32`). Off the sample path.
-    pub fn refine(&mut self, steps: u32) {
+    /// Returns false if a step failed (θ̂ unchanged by it; the caller stops
+    /// refining).
+    pub fn refine(&mut self, steps: u32) -> bool {
         for _ in 0..steps {
             if self.step().is_err() {
-                return;
+                return false;
             }
         }
+        true
     }
 
     /// W/g = P̃·(θ̂ − θ_m) − q̃, a Dot2 product when `T::COMPENSATED`.

@@ -129,11 +129,22 @@
 //!   calls it from a low-priority context (it borrows the estimator
 //!   immutably, so that context must own or lock it meanwhile) and
 //!   [`RobustEstimator::apply`]s the result at a sample boundary (apply
-//!   replays only the samples recorded meanwhile).
+//!   replays only the samples recorded meanwhile). A firmware whose sample
+//!   interrupt must never wait long uses the same work in bounded chunks
+//!   (`catchup.rs`: [`RobustEstimator::update_seed`],
+//!   [`UpdateSeed::start`], [`RobustEstimator::catch_up`],
+//!   [`RobustEstimator::apply_bounded`]), bit-identical. An update
+//!   prepared before the record filled but applied after it is refused
+//!   ([`UpdateError::Stale`]): the samples past the record are not in it.
+//! * It must start with the beam at rest: started on a moving beam (the
+//!   QEMU bench 0.5 s or 1 s into the paper's excitation, or after only 8 s
+//!   of ring-down) it diverges, `f32` and `f64` (BENCHMARKS.md, "The robust
+//!   estimator on the Cortex-M4F").
 //! * If the start-up estimate has not settled before the record is full
 //!   (a very short record, or a start quarantine longer than the record),
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
 
+mod catchup;
 mod law;
 mod oe;
 mod start;
@@ -149,8 +160,9 @@ use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
 use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};
 use law::OeLaw;
-use oe::{Filters, OeModel};
+use oe::{Filters, InitialFit, OeModel};
 use start::start_test;
 pub use start::{InitialState, START_TEST_CHI2, START_TEST_NOISE_FLOOR, START_TEST_SAMPLES};
 
@@ -217,6 +229,11 @@ pub enum UpdateError {
     RecordFull,
     /// The pending update was prepared for an earlier state.
     Stale,
+    /// More samples arrived since the update was prepared than the caller
+    /// allows to replay at the hand-over
+    /// ([`RobustEstimator::apply_bounded`]): catch it up first
+    /// ([`RobustEstimator::catch_up`]).
+    Behind,
 }
 
 impl core::fmt::Display for UpdateError {
@@ -226,6 +243,7 @@ impl core::fmt::Display for UpdateError {
             Self::NotConverged => "the start-up estimate is still moving",
             Self::RecordFull => "the start-up record is full; the model is final",
             Self::Stale => "the pending update was prepared for an earlier state",
+            Self::Behind => "the pending update is too many samples behind to apply now",
         })
     }
 }
@@ -250,6 +268,13 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
     epoch: u32,
     /// Samples of the record replayed.
     replayed: usize,
+    /// The record's length when it was prepared: replayed up to there,
+    /// then refined, then caught up with the samples since.
+    target: usize,
+    /// The initial-state fit over the record up to `target`, while it runs.
+    fit: Option<InitialFit<T, D>>,
+    /// Refinement steps still to take (after the replay up to `target`).
+    refine_left: u32,
     candidate: [T; D],
     oe: OeModel<T, D, NP>,
     law: OeLaw<T, NP, NS>,
@@ -260,6 +285,22 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
 /// estimate becomes the next linearization point. 200 steps cost ~0.2 ms
 /// off the sample path (20 dB, f32, 20 seeds: ω2 3.5 → 3.2× the bound).
 const REFINE_STEPS: u32 = 200;
+
+/// The normalized denominator of `theta` (indexed by power) if it is a
+/// stable model.
+fn stable_candidate<T: Real, const D: usize, const NP: usize>(
+    theta: &CompensatedArray<T, NP>,
+) -> Option<[f64; D]> {
+    let th = theta.values();
+    // θ index D−1+j ↔ power D−1−j.
+    let c: [f64; D] = core::array::from_fn(|k| th[NP - 1 - k].to_f64());
+    let mut a = [0.0f64; MAX_ORDER];
+    for i in 0..D {
+        a[i] = c[D - 1 - i];
+    }
+    let modes = modes_from_denominator(&a[..D]).ok()?;
+    modes.is_stable().then_some(c)
+}
 
 /// Normalized Λ coefficients C(D, k), indexed by power.
 fn lambda_coeffs<const D: usize>() -> [f64; D] {
@@ -287,6 +328,8 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     rec_u: [T; B],
     rec_y: [T; B],
     rec_len: usize,
+    /// Samples stepped since the record was full (not in it).
+    unrecorded: u32,
     phase: Phase,
     epoch: u32,
     candidate: Option<[T; D]>,
@@ -353,6 +396,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             rec_u: [T::ZERO; B],
             rec_y: [T::ZERO; B],
             rec_len: 0,
+            unrecorded: 0,
             phase: Phase::Startup,
             epoch: 0,
             candidate: None,
@@ -435,59 +479,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// # Errors
     /// [`UpdateError::Unstable`], [`UpdateError::RecordFull`].
     pub fn prepare_update(&self) -> Result<Pending<T, D, NP, NS>, UpdateError> {
-        // The replay must be able to catch up with the present.
-        if self.phase == Phase::Steady || self.rec_len >= B {
-            return Err(UpdateError::RecordFull);
-        }
-        // The linearization point: θ̂ if it is a stable model, else (an
-        // early replay on a short record can overshoot) the current one,
-        // replayed again on the longer record.
-        let (theta, c) = match self.stable_candidate(&self.theta_abs()) {
-            Some(c) => (self.theta_abs(), c),
-            None if self.phase == Phase::Refining => {
-                let m = *self.law.model();
-                (m, self.stable_candidate(&m).ok_or(UpdateError::Unstable)?)
-            }
-            None => return Err(UpdateError::Unstable),
-        };
-        let rho_ts = self.filter.lambda_rad_s * self.filter.ts_s;
-        let mut oe = OeModel::new(Filters::new(&c, rho_ts, self.filter.hold), &theta);
-        let n = self.rec_len;
-        let (u, y) = (&self.rec_u[..n], &self.rec_y[..n]);
-        if let Some((_, true)) = self.initial {
-            if let Some(x0) = oe.fit_initial_state(u, y) {
-                oe.start_at(&x0);
-            }
-        }
-        let mut law = self.law.clone();
-        law.restart(&theta);
-        for (&u, &y) in self.rec_u[..n].iter().zip(&self.rec_y[..n]) {
-            let s = oe.push(u, y);
-            // A failed step leaves θ̂ unchanged; the replay goes on.
-            let _ = law.update(&s.psi, s.eps);
-        }
-        law.refine(REFINE_STEPS);
-        Ok(Pending {
-            epoch: self.epoch,
-            replayed: n,
-            candidate: c.map(T::from_f64),
-            oe,
-            law,
-        })
-    }
-
-    /// The normalized denominator of `theta` (indexed by power) if it is a
-    /// stable model.
-    fn stable_candidate(&self, theta: &CompensatedArray<T, NP>) -> Option<[f64; D]> {
-        let th = theta.values();
-        // θ index D−1+j ↔ power D−1−j.
-        let c: [f64; D] = core::array::from_fn(|k| th[NP - 1 - k].to_f64());
-        let mut a = [0.0f64; MAX_ORDER];
-        for i in 0..D {
-            a[i] = c[D - 1 - i];
-        }
-        let modes = modes_from_denominator(&a[..D]).ok()?;
-        modes.is_stable().then_some(c)
+        let mut p = self.update_seed()?.start()?;
+        // Everything up to the present: the record as it is now, refined.
+        self.replay_into(&mut p, usize::MAX);
+        Ok(p)
     }
 
     /// Install a prepared update (at a sample boundary): the samples
@@ -501,9 +496,27 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// [`UpdateError::NotConverged`] during start-up while the estimate
     /// still moves.
     pub fn apply(&mut self, mut p: Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
-        if p.epoch != self.epoch || p.replayed > self.rec_len {
+        self.check_fresh(&p)?;
+        self.admit(&p)?;
+        self.replay_into(&mut p, usize::MAX);
+        self.install(p.oe, p.law);
+        Ok(())
+    }
+
+    /// [`UpdateError::Stale`] unless `p` was prepared for the current
+    /// record and every sample since its preparation is still in it (a
+    /// sample that arrived after the record was full is not, so the
+    /// replayed model would lag the present by that many samples).
+    fn check_fresh(&self, p: &Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
+        if p.epoch != self.epoch || p.replayed > self.rec_len || self.unrecorded > 0 {
             return Err(UpdateError::Stale);
         }
+        Ok(())
+    }
+
+    /// The phase checks of an update about to be installed; at start-up,
+    /// stores the candidate when it still moves, else ends the start-up.
+    fn admit(&mut self, p: &Pending<T, D, NP, NS>) -> Result<(), UpdateError> {
         if self.rec_len >= B && self.phase == Phase::Startup {
             return Err(UpdateError::RecordFull);
         }
@@ -527,19 +540,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             }
             self.phase = Phase::Refining;
         }
-        let n = self.rec_len;
-        for (&u, &y) in self.rec_u[p.replayed..n]
-            .iter()
-            .zip(&self.rec_y[p.replayed..n])
-        {
-            let s = p.oe.push(u, y);
-            let _ = p.law.update(&s.psi, s.eps);
-        }
-        self.oe = p.oe;
-        self.law = p.law;
+        Ok(())
+    }
+
+    /// The caught-up model, its states and its law replace the current ones.
+    fn install(&mut self, oe: OeModel<T, D, NP>, law: OeLaw<T, NP, NS>) {
+        self.oe = oe;
+        self.law = law;
         self.epoch = self.epoch.wrapping_add(1);
         self.updates = self.updates.saturating_add(1);
-        Ok(())
     }
 
     fn auto_update(&mut self) {
@@ -599,6 +608,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 // A restarted start-up law must not take this sample either.
                 update &= !self.screen.in_quarantine();
             }
+        } else {
+            self.unrecorded = self.unrecorded.saturating_add(1);
         }
         match self.phase {
             Phase::Startup => {
@@ -642,6 +653,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         self.startup.reset();
         self.startup.set_theta_scaled(&start);
         self.rec_len = 0;
+        self.unrecorded = 0;
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
@@ -715,6 +727,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.startup.reset();
         self.screen.reset();
         self.rec_len = 0;
+        self.unrecorded = 0;
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
@@ -728,6 +741,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
 
     fn excitation_level(&self) -> Option<T> {
         Some(excitation_min_eig(&self.information()))
+    }
+
+    fn information(&self) -> Option<[[T; NP]; NP]> {
+        Some(RobustEstimator::information(self))
     }
 
     /// Also restarts the change test's learning

@@ -124,39 +124,6 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
         }
     }
 
-    /// The initial state x0 that best explains `y` given the model (least
-    /// squares over the record, the model's free responses as regressors):
-    /// ŷ_n = ŷ0_n + F_n·x0 with ŷ0 the response from rest and F_n =
-    /// ∂ŷ_n/∂ξ(t_0). `None` if the normal matrix is singular. Scaled `u`,
-    /// `y`, as recorded.
-    pub fn fit_initial_state(&self, u: &[T], y: &[T]) -> Option<[T; D]> {
-        let mut rest = CompensatedArray::<T, D>::default();
-        // Free responses from ξ(t_0) = e_k, k = 0..D−1.
-        let mut free: [CompensatedArray<T, D>; D] = core::array::from_fn(|k| {
-            let mut c = CompensatedArray::default();
-            c.set(k, T::ONE);
-            c
-        });
-        let mut g = [[T::ZERO; D]; D];
-        let mut h = [T::ZERO; D];
-        for (&uk, &yk) in u.iter().zip(y) {
-            let r = yk - self.output(&rest);
-            let f: [T; D] = core::array::from_fn(|k| self.output(&free[k]));
-            for a in 0..D {
-                h[a] += f[a] * r;
-                for b in 0..D {
-                    g[a][b] += f[a] * f[b];
-                }
-            }
-            Self::advance(&self.f, &mut rest, uk);
-            for fk in free.iter_mut() {
-                Self::advance(&self.f, fk, T::ZERO);
-            }
-        }
-        let x = crate::linalg::ldlt_solve_floored(&mut g, &h).ok()?;
-        crate::linalg::all_finite(&x).then_some(x)
-    }
-
     /// Push sample n (`u` held over [t_n, t_{n+1}), `y` sampled at t_n,
     /// both scaled); returns ψ and ε at t_{n−2}.
     #[inline]
@@ -267,5 +234,68 @@ mod tests {
                 "θ{j}: finite difference {fd}, gradient {g}"
             );
         }
+    }
+}
+
+/// The initial state x0 that best explains `y` given the model (least
+/// squares over the record, the model's free responses as regressors):
+/// ŷ_n = ŷ0_n + F_n·x0 with ŷ0 the response from rest and F_n =
+/// ∂ŷ_n/∂ξ(t_0). The normal equations are accumulated over consecutive
+/// slices of the record (scaled `u`, `y`, as recorded; bit-identical to one
+/// pass over the whole) and solved at the end.
+#[derive(Debug, Clone)]
+pub(crate) struct InitialFit<T, const D: usize> {
+    /// The response from rest.
+    rest: CompensatedArray<T, D>,
+    /// Free responses from ξ(t_0) = e_k, k = 0..D−1.
+    free: [CompensatedArray<T, D>; D],
+    g: [[T; D]; D],
+    h: [T; D],
+    /// Samples accumulated.
+    pub pos: usize,
+}
+
+impl<T: Real, const D: usize> InitialFit<T, D> {
+    /// Nothing accumulated.
+    pub fn new() -> Self {
+        Self {
+            rest: CompensatedArray::default(),
+            free: core::array::from_fn(|k| {
+                let mut c = CompensatedArray::default();
+                c.set(k, T::ONE);
+                c
+            }),
+            g: [[T::ZERO; D]; D],
+            h: [T::ZERO; D],
+            pos: 0,
+        }
+    }
+
+    /// Accumulate the next samples of the record (scaled `u`, `y`) through
+    /// the model `m`.
+    pub fn push<const NP: usize>(&mut self, m: &OeModel<T, D, NP>, u: &[T], y: &[T]) {
+        for (&uk, &yk) in u.iter().zip(y) {
+            let r = yk - m.output(&self.rest);
+            let f: [T; D] = core::array::from_fn(|k| m.output(&self.free[k]));
+            for a in 0..D {
+                self.h[a] += f[a] * r;
+                for b in 0..D {
+                    self.g[a][b] += f[a] * f[b];
+                }
+            }
+            OeModel::<T, D, NP>::advance(&m.f, &mut self.rest, uk);
+            for fk in self.free.iter_mut() {
+                OeModel::<T, D, NP>::advance(&m.f, fk, T::ZERO);
+            }
+            self.pos += 1;
+        }
+    }
+
+    /// The least-squares initial state; `None` if the normal matrix is
+    /// singular or the solution not finite.
+    pub fn solve(&self) -> Option<[T; D]> {
+        let mut g = self.g;
+        let x = crate::linalg::ldlt_solve_floored(&mut g, &self.h).ok()?;
+        crate::linalg::all_finite(&x).then_some(x)
     }
 }

@@ -7,9 +7,9 @@ use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use crate::plant::ModalPlant;
 
 /// A 0.3 s record keeps the tests quick.
-type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
+pub(super) type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
 
-fn filter() -> FilterConfig {
+pub(super) fn filter() -> FilterConfig {
     FilterConfig {
         scales: SignalScales {
             u_scale: 0.1,
@@ -20,13 +20,13 @@ fn filter() -> FilterConfig {
 }
 
 /// The paper's plant and excitation, continuing across calls.
-struct Rig {
+pub(super) struct Rig {
     plant: ModalPlant<f64>,
     sq: SquareWave<f64>,
 }
 
 impl Rig {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Self {
             plant: ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap(),
             sq: SquareWave::paper(),
@@ -34,13 +34,13 @@ impl Rig {
     }
 
     /// The next (u, y) sample.
-    fn sample(&mut self) -> (f64, f64) {
+    pub(super) fn sample(&mut self) -> (f64, f64) {
         let u = self.sq.next_sample();
         (u, self.plant.sample(u))
     }
 
     /// Feed `est` for `seconds`; largest relative ω/ζ error.
-    fn run<T: Real>(&mut self, est: &mut Small<T>, seconds: f64) -> f64 {
+    pub(super) fn run<T: Real>(&mut self, est: &mut Small<T>, seconds: f64) -> f64 {
         for _ in 0..(seconds * 1e4) as usize {
             let u = self.sq.next_sample();
             est.step(T::from_f64(u), T::from_f64(self.plant.sample(u)));

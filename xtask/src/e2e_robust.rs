@@ -1,0 +1,401 @@
+//! `cargo xtask qemu --robust`: the QEMU image with the host on UART0 (as
+//! `--e2e`) switching the device to the noise-robust estimator
+//! (`EstimatorKind::Robust`, `beamest::estimator::robust`) over the link,
+//! then checking:
+//!
+//! 1. the switch: at 0.5 s (device clock) the host asks for a Status, reads
+//!    the λ the device's automatic rule is using (device data, not the
+//!    truth) and switches the excitation off (`SetExcitation`, amplitude
+//!    0): the robust estimator must start with the beam at rest (its
+//!    replays simulate the record from rest; started on a moving beam it
+//!    diverges on this plant, f32 and f64 alike, and so it does after only
+//!    8 s of ring-down — mode 1 still at e^−6.5 ≈ 0.15 % of its amplitude,
+//!    which the start test accepts as rest — see BENCHMARKS.md). At
+//!    [`SWITCH_AT`] (20 s of ring-down: e^−16) it sends `SetEstimator {
+//!    kind: Robust, λ = that }` and then the paper's excitation again, both
+//!    accepted; the Status that follows reports kind Robust, and every
+//!    Estimate from the switch on carries estimator = Robust;
+//! 2. convergence, REPORTED, NOT ASSERTED: the last physically valid
+//!    estimate's ω1, ω2 against [`OMEGA_TOLERANCE`] and ζ1, ζ2 against
+//!    [`ZETA_TOLERANCE`] (ζ's bound wider: the robust estimator's
+//!    output-error model cannot include the converters' timing, ADS131M02
+//!    sinc3 group delay and AD5761R latency; it refuses
+//!    `FilterConfig::timing`; on the host, started from rest on that
+//!    timing, it ends within 8.6e-4 on ω and 3.3e-3 on ζ). On this bench it
+//!    does not converge (see BENCHMARKS.md, "The robust estimator on the
+//!    Cortex-M4F"): the line says so, and the test does not fail on it;
+//! 3. real time: the device's overrun counter (last Status) is 0 and the
+//!    link is clean (no gap, no CRC error, nothing dropped);
+//! 4. the firmware's own verdict is PASS: model updates installed and every
+//!    lock it took for them (seed, catch-up chunks, installation) no
+//!    longer than one sample period, no overrun; its log prints the robust
+//!    step's cost and the longest lock (`robust_lock_instructions:`).
+
+use std::io::{self, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::process::Stdio;
+use std::sync::mpsc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
+use beamest::protocol::{
+    encode, AckResult, Command, Decoder, Estimate, EstimatorKind, EstimatorSettings, Excitation,
+    Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
+};
+
+use crate::qemu::{command, wait, Serial};
+use crate::{stream, QEMU};
+
+/// Simulated run length (s): excitation off at 0.5 s, the switch at 20.5
+/// s, then the robust estimator's 2 s record, its model updates prepared in
+/// thread mode, and steady state.
+pub const SECONDS: &str = "27";
+/// Device sample index of the excitation switched off (0.5 s).
+const OFF_AT: u64 = 5_000;
+/// Device sample index of the switch to the robust estimator (20.5 s).
+const SWITCH_AT: u64 = 205_000;
+/// Bound on ω's relative error.
+const OMEGA_TOLERANCE: f64 = 1e-3;
+/// Bound on ζ's relative error (see the module doc).
+const ZETA_TOLERANCE: f64 = 1e-2;
+/// Wall time allowed for an acknowledgement.
+const ACK_TIMEOUT: Duration = Duration::from_secs(10);
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step {
+    Wait,
+    StatusAsked,
+    OffSent,
+    Resting,
+    Switched,
+    OnSent,
+    AfterAsked,
+    Done,
+}
+
+/// The bench's square wave (7 Hz) at `amplitude_v`.
+fn excitation(amplitude_v: f32) -> Excitation {
+    Excitation {
+        waveform: Waveform::Square { freq_hz: 7.0 },
+        amplitude_v,
+        offset_v: 0.0,
+    }
+}
+
+struct Host {
+    dec: Decoder,
+    seq: u32,
+    step: Step,
+    sent_at: Option<Instant>,
+    failures: Vec<String>,
+    estimates: Vec<Estimate>,
+    last_status: Option<Status>,
+    after_switch: Option<Status>,
+    status_acked: bool,
+    /// Device sample index of the acknowledged switch's Status.
+    switched_at: Option<u64>,
+    lambda: Option<f32>,
+    acks: Vec<(u32, AckResult)>,
+}
+
+impl Host {
+    fn send(&mut self, link: &mut TcpStream, c: Command) -> io::Result<()> {
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(&c, self.seq, &mut out)
+            .map_err(|e| io::Error::other(format!("encoding {c:?}: {e}")))?;
+        self.seq += 1;
+        self.sent_at = Some(Instant::now());
+        self.status_acked = false;
+        link.write_all(&out[..n])
+    }
+
+    fn fail(&mut self, msg: String) {
+        eprintln!("robust: FAIL: {msg}");
+        self.failures.push(msg);
+    }
+
+    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()> {
+        let frames: Vec<Frame> = self.dec.feed(bytes).flatten().collect();
+        for f in frames {
+            match f.message {
+                Message::Estimate(e) => {
+                    let now = e.sample_index;
+                    self.estimates.push(e);
+                    if self.step == Step::Wait && now >= OFF_AT {
+                        self.step = Step::StatusAsked;
+                        self.send(link, Command::RequestStatus)?;
+                    } else if self.step == Step::Resting && now >= SWITCH_AT {
+                        self.step = Step::Switched;
+                        let settings = EstimatorSettings {
+                            kind: EstimatorKind::Robust,
+                            // The paper's forgetting rate (robust default).
+                            forgetting_p: 0.01,
+                            forgetting_h: 0.01,
+                            lambda_rad_s: self.lambda,
+                            ..EstimatorSettings::default()
+                        };
+                        self.send(link, Command::SetEstimator(settings))?;
+                    }
+                }
+                Message::Status(s) => self.on_status(s, link)?,
+                Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
+                Message::RawSamples(_) => {}
+                Message::Command(_) => self.fail("the device sent a Command frame".into()),
+            }
+        }
+        if let Some(t) = self.sent_at {
+            if t.elapsed() > ACK_TIMEOUT && self.step != Step::Done {
+                self.fail(format!(
+                    "no answer within {ACK_TIMEOUT:?} at {:?}",
+                    self.step
+                ));
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+        }
+        Ok(())
+    }
+
+    fn on_status(&mut self, s: Status, link: &mut TcpStream) -> io::Result<()> {
+        match self.step {
+            Step::StatusAsked if self.status_acked => {
+                self.status_acked = false;
+                match s.estimator.lambda_rad_s {
+                    Some(l) => {
+                        self.lambda = Some(l);
+                        self.step = Step::OffSent;
+                        self.send(link, Command::SetExcitation(excitation(0.0)))?;
+                    }
+                    None => {
+                        self.fail("Status at 0.5 s reports no λ yet".into());
+                        self.step = Step::Done;
+                    }
+                }
+            }
+            Step::AfterAsked if self.status_acked => {
+                self.switched_at = Some(s.uptime_samples);
+                self.after_switch = Some(s.clone());
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+            _ => {}
+        }
+        self.last_status = Some(s);
+        Ok(())
+    }
+
+    fn on_ack(&mut self, seq: u32, result: AckResult, link: &mut TcpStream) -> io::Result<()> {
+        self.acks.push((seq, result));
+        match (self.step, result) {
+            (Step::StatusAsked | Step::AfterAsked, AckResult::Accepted) => self.status_acked = true,
+            (Step::OffSent, AckResult::Accepted) => {
+                self.step = Step::Resting;
+                self.sent_at = None;
+            }
+            (Step::Switched, AckResult::Accepted) => {
+                self.step = Step::OnSent;
+                self.send(link, Command::SetExcitation(excitation(0.1)))?;
+            }
+            (Step::OnSent, AckResult::Accepted) => {
+                self.step = Step::AfterAsked;
+                self.send(link, Command::RequestStatus)?;
+            }
+            (step, r) => {
+                self.fail(format!("command {seq} at {step:?} answered {r:?}"));
+                self.step = Step::Done;
+                self.sent_at = None;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Run the test (see the module doc).
+pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
+    let listener =
+        TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
+    let port = listener
+        .local_addr()
+        .map_err(|e| format!("listening on loopback: {e}"))?
+        .port();
+    let mut cmd = command(elf, &Serial::Connect(port), Some(SECONDS));
+    cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
+    println!("running: {cmd:?}");
+    let start = Instant::now();
+    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
+    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
+    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
+    let (tx, rx) = mpsc::channel();
+    thread::spawn(move || {
+        let _ = tx.send(listener.accept());
+    });
+    let mut link = loop {
+        if let Ok(r) = rx.recv_timeout(Duration::from_millis(50)) {
+            break r
+                .map_err(|e| format!("accepting QEMU's connection: {e}"))?
+                .0;
+        }
+        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+            return Err(format!("{QEMU} exited ({s}) before connecting to UART0"));
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            return Err(format!("{QEMU} did not connect to UART0 within 30 s"));
+        }
+    };
+    link.set_read_timeout(Some(Duration::from_millis(50)))
+        .map_err(|e| e.to_string())?;
+    link.set_nodelay(true).map_err(|e| e.to_string())?;
+    let mut writer = link.try_clone().map_err(|e| e.to_string())?;
+    let mut host = Host {
+        dec: Decoder::new(),
+        seq: 0,
+        step: Step::Wait,
+        sent_at: None,
+        failures: Vec::new(),
+        estimates: Vec::new(),
+        last_status: None,
+        after_switch: None,
+        status_acked: false,
+        switched_at: None,
+        lambda: None,
+        acks: Vec::new(),
+    };
+    let mut buf = [0u8; 4096];
+    loop {
+        match link.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => host
+                .receive(&buf[..n], &mut writer)
+                .map_err(|e| format!("writing a command: {e}"))?,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
+                host.receive(&[], &mut writer)
+                    .map_err(|e| format!("writing a command: {e}"))?;
+            }
+            Err(e) if e.kind() == io::ErrorKind::ConnectionReset => {
+                host.fail("QEMU exited with host bytes unread (connection reset)".into());
+                break;
+            }
+            Err(e) => return Err(format!("reading UART0's socket: {e}")),
+        }
+        if start.elapsed() > timeout {
+            break;
+        }
+    }
+    let status = wait(&mut child, timeout, start)?;
+    for t in [out, err].into_iter().flatten() {
+        let _ = t.join();
+    }
+    check(&mut host);
+    if !status.success() {
+        host.fail(format!("the firmware's own verdict is failure ({status})"));
+    }
+    if host.failures.is_empty() {
+        println!("robust: PASS");
+        Ok(())
+    } else {
+        Err(format!(
+            "robust estimator test failed:\n  {}",
+            host.failures.join("\n  ")
+        ))
+    }
+}
+
+fn check(h: &mut Host) {
+    let mut fails = Vec::new();
+    let pass = |what: String| println!("robust: ok: {what}");
+    let c = *h.dec.counters();
+    if c.errors() == 0 && c.lost == 0 && c.duplicates == 0 && c.out_of_order == 0 {
+        pass(format!(
+            "link clean: {} frames, no gap, no frame error",
+            c.frames_ok
+        ));
+    } else {
+        fails.push(format!("link not clean: {c:?}"));
+    }
+    match (&h.after_switch, h.lambda) {
+        (Some(s), Some(l))
+            if s.estimator.kind == EstimatorKind::Robust && s.excitation.amplitude_v == 0.1 =>
+        {
+            pass(format!(
+                "excitation off at 0.5 s, switched to the robust estimator at 20.5 s at λ = {l} \
+             rad/s (the device's own), excitation on again; Status at sample {} reports it",
+                s.uptime_samples
+            ))
+        }
+        (s, _) => fails.push(format!("no Status reporting the robust estimator: {s:?}")),
+    }
+    if let Some(at) = h.switched_at {
+        let wrong = h
+            .estimates
+            .iter()
+            .filter(|e| e.sample_index > at && e.estimator != EstimatorKind::Robust)
+            .count();
+        let n = h.estimates.iter().filter(|e| e.sample_index > at).count();
+        if wrong == 0 && n > 0 {
+            pass(format!(
+                "all {n} estimates since the switch from the robust estimator"
+            ));
+        } else {
+            fails.push(format!(
+                "{wrong} of {n} estimates since the switch not robust"
+            ));
+        }
+    }
+    match &h.last_status {
+        Some(s) if s.counters.overruns == 0 && s.counters.telemetry_dropped == 0 => pass(format!(
+            "device counters at sample {}: overruns 0, telemetry dropped 0",
+            s.uptime_samples
+        )),
+        s => fails.push(format!("device counters: {s:?}")),
+    }
+    let valid = |e: &&Estimate| e.flags.contains(StatusFlags::PHYSICALLY_VALID);
+    match h.estimates.iter().rev().find(valid) {
+        Some(e) if e.modes.len() == 2 => {
+            let (mut ew_max, mut ez_max) = (0.0f64, 0.0f64);
+            for (i, m) in e.modes.iter().enumerate() {
+                let ew = (f64::from(m.omega_rad_s) / PAPER_OMEGA[i] - 1.0).abs();
+                let ez = (f64::from(m.zeta) / PAPER_ZETA[i] - 1.0).abs();
+                println!(
+                    "robust: mode {}: omega = {:.5} rad/s (truth {}, rel. error {:+.1e}), \
+                     zeta = {:.7} (truth {}, rel. error {:+.1e})",
+                    i + 1,
+                    m.omega_rad_s,
+                    PAPER_OMEGA[i],
+                    f64::from(m.omega_rad_s) / PAPER_OMEGA[i] - 1.0,
+                    m.zeta,
+                    PAPER_ZETA[i],
+                    f64::from(m.zeta) / PAPER_ZETA[i] - 1.0
+                );
+                ew_max = ew_max.max(ew);
+                ez_max = ez_max.max(ez);
+            }
+            let t = e.sample_index as f64 * 1e-4;
+            let converged = ew_max <= OMEGA_TOLERANCE && ez_max <= ZETA_TOLERANCE;
+            println!(
+                "robust: {}: estimate at t = {t:.2} s: omega within {ew_max:.1e} (bound \
+                 {OMEGA_TOLERANCE:.0e}), zeta within {ez_max:.1e} (bound {ZETA_TOLERANCE:.0e}) \
+                 — reported, not asserted (module doc)",
+                if converged {
+                    "converged"
+                } else {
+                    "NOT CONVERGED"
+                }
+            );
+        }
+        _ => println!("robust: NOT CONVERGED: no physically valid two-mode estimate"),
+    }
+    if h.acks.len() != 5 {
+        fails.push(format!("acknowledgements: {:?}", h.acks));
+    }
+    for f in fails {
+        h.fail(f);
+    }
+}
