@@ -30,7 +30,7 @@ fn close(got: f64, want: f64, rel: f64) -> bool {
 
 #[test]
 fn bound_reproduces_the_figures_of_issue_9() {
-    // Issue 9 / DESIGN §3 (relative 1σ, 60 s, 40 dB): ω1 3.2e-6, ω2 3.9e-4,
+    // The figures of issue 9 (relative 1σ, 60 s, 40 dB): ω1 3.2e-6, ω2 3.9e-4,
     // ζ1 7.8e-5, ζ2 3.2e-3; ×10 at 20 dB; ζ2 0.53% over 20 s. These are the
     // modal set (ω, ζ, b̄ unknown, the velocity weights of eq. 46 known).
     let rec = Record::paper(60.0);
