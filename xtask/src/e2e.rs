@@ -385,15 +385,40 @@ fn estimator(lambda_rad_s: Option<f32>) -> EstimatorSettings {
     }
 }
 
-/// Run the test (see the module doc).
-pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
+impl LinkHost for Host {
+    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()> {
+        Host::receive(self, bytes, link)
+    }
+    fn fail(&mut self, msg: String) {
+        Host::fail(self, msg)
+    }
+}
+
+/// A host end of the link test: fed every byte read from UART0's socket
+/// (and an empty slice when a read times out, so it can send on time).
+pub(crate) trait LinkHost {
+    /// Decode `bytes`, answer on `link`.
+    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()>;
+    /// Record a failed check.
+    fn fail(&mut self, msg: String);
+}
+
+/// Boot the firmware in QEMU with UART0 connected to a loopback socket,
+/// pump UART0's bytes through `host` until QEMU exits (or `timeout`), and
+/// return QEMU's exit status and the wall time (s).
+pub(crate) fn session(
+    elf: &Path,
+    seconds: Option<&str>,
+    timeout: Duration,
+    host: &mut impl LinkHost,
+) -> Result<(std::process::ExitStatus, f64), String> {
     let listener =
         TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
     let port = listener
         .local_addr()
         .map_err(|e| format!("listening on loopback: {e}"))?
         .port();
-    let mut cmd = command(elf, &Serial::Connect(port), None);
+    let mut cmd = command(elf, &Serial::Connect(port), seconds);
     cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
     println!("running: {cmd:?}");
     let start = Instant::now();
@@ -428,7 +453,6 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     link.set_nodelay(true).map_err(|e| e.to_string())?;
     let mut writer = link.try_clone().map_err(|e| e.to_string())?;
-    let mut host = Host::new();
     let mut buf = [0u8; 4096];
     loop {
         match link.read(&mut buf) {
@@ -445,8 +469,8 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
                 host.receive(&[], &mut writer)
                     .map_err(|e| format!("writing a command: {e}"))?;
             }
-            // QEMU exited with bytes of ours unread: the checks below say
-            // which commands went unanswered.
+            // QEMU exited with bytes of ours unread: the checks say which
+            // commands went unanswered.
             Err(e) if e.kind() == io::ErrorKind::ConnectionReset => {
                 host.fail("QEMU exited with host bytes unread on UART0 (connection reset)".into());
                 break;
@@ -461,7 +485,13 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     for t in [out, err].into_iter().flatten() {
         let _ = t.join();
     }
-    let wall = start.elapsed().as_secs_f64();
+    Ok((status, start.elapsed().as_secs_f64()))
+}
+
+/// Run the test (see the module doc).
+pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
+    let mut host = Host::new();
+    let (status, wall) = session(elf, None, timeout, &mut host)?;
     let capture = Capture {
         counters: *host.dec.counters(),
         tally: host.tally,

@@ -31,12 +31,9 @@
 //!    longer than one sample period, no overrun; its log prints the robust
 //!    step's cost and the longest lock (`robust_lock_instructions:`).
 
-use std::io::{self, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::io::{self, Write};
+use std::net::TcpStream;
 use std::path::Path;
-use std::process::Stdio;
-use std::sync::mpsc;
-use std::thread;
 use std::time::{Duration, Instant};
 
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
@@ -45,8 +42,7 @@ use beamest::protocol::{
     Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
 };
 
-use crate::qemu::{command, wait, Serial};
-use crate::{stream, QEMU};
+use crate::e2e::{session, LinkHost};
 
 /// Simulated run length (s): excitation off at 0.5 s, the switch at 20.5
 /// s, then the robust estimator's 2 s record, its model updates prepared in
@@ -212,43 +208,17 @@ impl Host {
     }
 }
 
+impl LinkHost for Host {
+    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()> {
+        Host::receive(self, bytes, link)
+    }
+    fn fail(&mut self, msg: String) {
+        Host::fail(self, msg)
+    }
+}
+
 /// Run the test (see the module doc).
 pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
-    let listener =
-        TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
-    let port = listener
-        .local_addr()
-        .map_err(|e| format!("listening on loopback: {e}"))?
-        .port();
-    let mut cmd = command(elf, &Serial::Connect(port), Some(SECONDS));
-    cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
-    println!("running: {cmd:?}");
-    let start = Instant::now();
-    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
-    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
-    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
-    let (tx, rx) = mpsc::channel();
-    thread::spawn(move || {
-        let _ = tx.send(listener.accept());
-    });
-    let mut link = loop {
-        if let Ok(r) = rx.recv_timeout(Duration::from_millis(50)) {
-            break r
-                .map_err(|e| format!("accepting QEMU's connection: {e}"))?
-                .0;
-        }
-        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
-            return Err(format!("{QEMU} exited ({s}) before connecting to UART0"));
-        }
-        if start.elapsed() > Duration::from_secs(30) {
-            let _ = child.kill();
-            return Err(format!("{QEMU} did not connect to UART0 within 30 s"));
-        }
-    };
-    link.set_read_timeout(Some(Duration::from_millis(50)))
-        .map_err(|e| e.to_string())?;
-    link.set_nodelay(true).map_err(|e| e.to_string())?;
-    let mut writer = link.try_clone().map_err(|e| e.to_string())?;
     let mut host = Host {
         dec: Decoder::new(),
         seq: 0,
@@ -263,36 +233,7 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
         lambda: None,
         acks: Vec::new(),
     };
-    let mut buf = [0u8; 4096];
-    loop {
-        match link.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => host
-                .receive(&buf[..n], &mut writer)
-                .map_err(|e| format!("writing a command: {e}"))?,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                host.receive(&[], &mut writer)
-                    .map_err(|e| format!("writing a command: {e}"))?;
-            }
-            Err(e) if e.kind() == io::ErrorKind::ConnectionReset => {
-                host.fail("QEMU exited with host bytes unread (connection reset)".into());
-                break;
-            }
-            Err(e) => return Err(format!("reading UART0's socket: {e}")),
-        }
-        if start.elapsed() > timeout {
-            break;
-        }
-    }
-    let status = wait(&mut child, timeout, start)?;
-    for t in [out, err].into_iter().flatten() {
-        let _ = t.join();
-    }
+    let (status, _wall) = session(elf, Some(SECONDS), timeout, &mut host)?;
     check(&mut host);
     if !status.success() {
         host.fail(format!("the firmware's own verdict is failure ({status})"));
