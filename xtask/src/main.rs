@@ -102,6 +102,17 @@ const IMAGES: &[Image] = &[
         sample_isr: None,
     },
     Image {
+        board: "qemu mps2-an386 (Cortex-M4F) + the robust estimator",
+        feature: QEMU_ROBUST_FEATURE,
+        bin: "qemu-rig",
+        cpu: Cpu::Generic,
+        memory_x: "src/board/qemu/memory.x",
+        // Two static slots of the robust estimator's 2 s record (162 KB
+        // each): no 16 KiB budget; the board has 4 MiB.
+        budget: None,
+        sample_isr: None,
+    },
+    Image {
         board: "NUCLEO-H743ZI2 (Cortex-M7, f64)",
         feature: "board-nucleo",
         bin: m7::NUCLEO_IMAGE,
@@ -114,6 +125,9 @@ const IMAGES: &[Image] = &[
 
 /// QEMU's image for `cargo xtask qemu`.
 const QEMU_IMAGE: &str = "qemu-rig";
+/// The feature of the QEMU image that can run the robust estimator
+/// (`cargo xtask qemu --robust`).
+const QEMU_ROBUST_FEATURE: &str = "qemu-robust";
 const QEMU: &str = "qemu-system-arm";
 
 fn main() -> ExitCode {

@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use crate::{
     build, e2e, e2e_robust, require_tool, stream, workspace_root, IMAGES, QEMU, QEMU_IMAGE,
+    QEMU_ROBUST_FEATURE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
@@ -151,9 +152,16 @@ pub fn run(args: &[String]) -> Result<(), String> {
         &["--version"],
         "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
     )?;
+    // `--robust` needs the image with the robust estimator's slots; every
+    // other mode runs the default image.
+    let feature = if o.robust {
+        QEMU_ROBUST_FEATURE
+    } else {
+        "board-qemu"
+    };
     let image = IMAGES
         .iter()
-        .find(|i| i.bin == QEMU_IMAGE)
+        .find(|i| i.bin == QEMU_IMAGE && i.feature == feature)
         .ok_or("no QEMU image in the image table")?;
     let elf = build(image)?;
     if o.robust {

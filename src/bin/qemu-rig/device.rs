@@ -26,7 +26,7 @@ use beamest::board::qemu::{IsrOwned, Shared};
 use beamest::estimator::{Adaptive2, Either, Robust2};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
-use beamest::link::{estimator_configs, robust_configs, with_theta0, Device};
+use beamest::link::{estimator_configs, with_theta0, Device};
 use beamest::protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};
@@ -42,15 +42,17 @@ pub struct QemuDevice {
 impl QemuDevice {
     /// The device around the shared sample task, with the spare estimator
     /// slot and the two robust estimators' slots.
+    /// Without the `qemu-robust` feature there are no robust slots (`[None,
+    /// None]`) and the kind is refused.
     pub fn new(
         task: &'static Shared<IsrOwned<&'static mut SampleTask>>,
         spare: &'static mut Adaptive2<f32>,
-        robust: [&'static mut Robust2<f32>; 2],
+        robust: [Option<&'static mut Robust2<f32>>; 2],
     ) -> Self {
         Self {
             task,
             spare: Some(spare),
-            robust: robust.map(Some),
+            robust,
             locks: SpanSum::default(),
         }
     }
@@ -91,7 +93,10 @@ impl Device for QemuDevice {
     ) -> Result<Est, RejectReason> {
         match settings.kind {
             EstimatorKind::Adaptive => self.build_adaptive(settings, filter, theta0),
+            #[cfg(feature = "qemu-robust")]
             EstimatorKind::Robust => self.build_robust(settings, filter, theta0),
+            #[cfg(not(feature = "qemu-robust"))]
+            EstimatorKind::Robust => Err(RejectReason::EstimatorUnavailable),
             EstimatorKind::Gradient | EstimatorKind::LeastSquares => {
                 Err(RejectReason::EstimatorUnavailable)
             }
@@ -140,13 +145,15 @@ impl QemuDevice {
     /// The robust estimator into a free robust slot (`theta0`: its start-up
     /// law's θ(0)); model updates are then prepared in thread mode
     /// ([`crate::robust::RobustUpdates`]).
+    #[cfg(feature = "qemu-robust")]
     fn build_robust(
         &mut self,
         settings: &EstimatorSettings,
         filter: &FilterConfig,
         theta0: &[f64],
     ) -> Result<Est, RejectReason> {
-        let (filter, mut law) = robust_configs::<NP>(settings, filter.lambda_rad_s, filter);
+        let (filter, mut law) =
+            beamest::link::robust_configs::<NP>(settings, filter.lambda_rad_s, filter);
         let Some(startup) = with_theta0(law.startup, theta0) else {
             return Err(RejectReason::EstimatorUnavailable);
         };

@@ -51,8 +51,8 @@ use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2, RobustConfig};
-use beamest::filter_bank::{FilterConfig, OutputTiming};
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
+use beamest::filter_bank::FilterConfig;
 use beamest::link::{BuildKind, DeviceLink, Settings, Tuned};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::protocol::{EstimatorKind, EstimatorSettings};
@@ -68,8 +68,8 @@ use numfmt::{Fixed, Sci};
 use report::{finish, log, Run, LOG_EVERY, OUTPUT_WEIGHT};
 use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
 
-/// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 150 ms).
-const TELEMETRY_QUEUE: usize = 16;
+/// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 130 ms).
+const TELEMETRY_QUEUE: usize = 14;
 /// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
 const RAW_QUEUE: usize = 8;
 /// Start-up pair queue size (3 blocks of 32 pairs: 9.6 ms at 10 kHz; thread
@@ -156,9 +156,14 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
-    // The bench's link, with the robust estimator selectable too.
+    // The bench's link, with the robust estimator selectable too in the
+    // `qemu-robust` image.
+    #[cfg_attr(not(feature = "qemu-robust"), allow(unused_mut))]
     let mut link_config = bench::link_config(board::UART_BAUD);
-    link_config.limits.estimators |= EstimatorKind::Robust.bit();
+    #[cfg(feature = "qemu-robust")]
+    {
+        link_config.limits.estimators |= EstimatorKind::Robust.bit();
+    }
     let Ok(mut link) = DeviceLink::new(link_config, default_settings(), &tuning()) else {
         fail("tuning settings")
     };
@@ -394,16 +399,23 @@ fn build_sample_task(
     (task, spare)
 }
 
+/// Without the `qemu-robust` feature: no robust slots.
+#[cfg(not(feature = "qemu-robust"))]
+fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
+    [None, None]
+}
+
 /// The robust estimator's two slots (162 KB each in .bss; placeholders
 /// until `SetEstimator` builds one, see [`device`]).
-fn robust_slots() -> [&'static mut Robust2<f32>; 2] {
+#[cfg(feature = "qemu-robust")]
+fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
     let filter = FilterConfig {
-        timing: OutputTiming::IDEAL,
+        timing: beamest::filter_bank::OutputTiming::IDEAL,
         ..bench::filter_config(1.0)
     };
     let (Ok(a), Ok(b)) = (
-        Robust2::<f32>::new(&filter, &RobustConfig::default()),
-        Robust2::<f32>::new(&filter, &RobustConfig::default()),
+        Robust2::<f32>::new(&filter, &beamest::estimator::RobustConfig::default()),
+        Robust2::<f32>::new(&filter, &beamest::estimator::RobustConfig::default()),
     ) else {
         fail("robust estimator settings")
     };
@@ -413,7 +425,7 @@ fn robust_slots() -> [&'static mut Robust2<f32>; 2] {
     ) else {
         fail("robust estimator slots already placed")
     };
-    [a, b]
+    [Some(a), Some(b)]
 }
 
 /// The bench's start-up settings with the estimator under the automatic
