@@ -288,7 +288,16 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         }
     }
     if let Some(p) = &args.plot {
-        let truth = plan.base.plant.truth().modal;
+        // The truth in force: after a plant step, the new plant's.
+        let truths = beamctl::events::Truths::new(&plan.base)
+            .map_err(|e| CliError::failure(format!("simulation: {e}")))?;
+        let truth = plot::TruthLines {
+            before: &truths.before.modal,
+            after: truths
+                .after
+                .as_ref()
+                .map(|(at, t)| (*at as f64 * plan.base.ts_s, &t.modal)),
+        };
         let title = format!(
             "{} — {} s, {}{}",
             plan.plant_label,

@@ -186,12 +186,46 @@ fn color(name: &str, index: usize) -> RGBColor {
     }
 }
 
+/// The truth drawn as dashed lines: the plant from t = 0 and, after a
+/// plant step (`simulate --step-at`), the new plant from the step's time.
+#[derive(Debug, Clone, Copy)]
+pub struct TruthLines<'a> {
+    /// The plant from the start (throughout, without a step).
+    pub before: &'a ModalParams<f64>,
+    /// The step's time (s) and the plant after it.
+    pub after: Option<(f64, &'a ModalParams<f64>)>,
+}
+
+impl TruthLines<'_> {
+    /// The dashed line of one parameter (`value` picks it) over
+    /// `0..duration_s`: one segment, or two joined by a vertical at the step.
+    fn line(&self, value: impl Fn(&ModalParams<f64>) -> f64, duration_s: f64) -> Vec<(f64, f64)> {
+        let v0 = value(self.before);
+        match self.after {
+            Some((at, p)) if at > 0.0 && at < duration_s => {
+                let v1 = value(p);
+                vec![(0.0, v0), (at, v0), (at, v1), (duration_s, v1)]
+            }
+            Some((_, p)) if duration_s > 0.0 => {
+                let v1 = value(p);
+                vec![(0.0, v1), (duration_s, v1)]
+            }
+            _ => vec![(0.0, v0), (duration_s, v0)],
+        }
+    }
+
+    /// The plant the run ends with (the error panel's and the report's).
+    fn last(&self) -> &ModalParams<f64> {
+        self.after.map_or(self.before, |(_, p)| p)
+    }
+}
+
 /// Draw the plot. `truth` is `None` for recorded data. Returns whether
 /// text was drawn (a font was found).
 pub fn write(
     path: &Path,
     title: &str,
-    truth: Option<&ModalParams<f64>>,
+    truth: Option<&TruthLines<'_>>,
     series: &[Series],
     duration_s: f64,
     output: Option<&OutputPanel>,
@@ -199,7 +233,7 @@ pub fn write(
     let text = font::ensure_font();
     let n = series
         .first()
-        .map_or(truth.map_or(1, |t| t.modes), |s| s.modes)
+        .map_or(truth.map_or(1, |t| t.last().modes), |s| s.modes)
         .clamp(1, MAX_MODES);
     let bottom = truth.is_some() || output.is_some();
     let rows = n + usize::from(bottom);
@@ -237,7 +271,7 @@ pub fn write(
         panel(
             &panels[2 * i],
             &omega_label,
-            truth.map(|t| t.omega_rad_s[i]),
+            truth.map(|t| t.line(|p| p.omega_rad_s[i], duration_s)),
             &omega,
             duration_s,
             text,
@@ -247,7 +281,7 @@ pub fn write(
         panel(
             &panels[2 * i + 1],
             &zeta_label,
-            truth.map(|t| t.zeta[i]),
+            truth.map(|t| t.line(|p| p.zeta[i], duration_s)),
             &zeta,
             duration_s,
             text,
@@ -330,13 +364,20 @@ pub fn y_range(
 fn panel(
     area: &DrawingArea<BitMapBackend<'_>, Shift>,
     label: &str,
-    truth: Option<f64>,
+    truth: Option<Vec<(f64, f64)>>,
     lines: &[(&str, Vec<(f64, f64)>)],
     duration_s: f64,
     text: bool,
     legend: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let (lo, hi) = y_range(truth, lines, duration_s);
+    let reference = truth.as_ref().and_then(|t| t.last()).map(|p| p.1);
+    let (mut lo, mut hi) = y_range(reference, lines, duration_s);
+    // Before a plant step the truth had another value: keep it in view.
+    for &(_, v) in truth.iter().flatten() {
+        let margin = 0.05 * (hi - lo);
+        lo = lo.min(v - margin);
+        hi = hi.max(v + margin);
+    }
     let mut builder = ChartBuilder::on(area);
     builder.margin(12);
     if text {
@@ -404,12 +445,7 @@ fn panel(
     if let Some(truth) = truth {
         // The truth last, on top of converged estimates.
         chart
-            .draw_series(DashedLineSeries::new(
-                vec![(0.0, truth), (duration_s, truth)],
-                10,
-                6,
-                BLACK.stroke_width(2),
-            ))?
+            .draw_series(DashedLineSeries::new(truth, 10, 6, BLACK.stroke_width(2)))?
             .label("truth")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     }
@@ -617,6 +653,36 @@ mod tests {
         // Without the truth the reference is the median final estimate.
         let (lo, hi) = y_range(None, &[("a", pts)], 10.0);
         assert!(lo < 40.0 && hi > 40.0 && hi < 41.0, "{lo} {hi}");
+    }
+
+    #[test]
+    fn truth_line_follows_a_plant_step() {
+        let a = ModalParams::<f64> {
+            modes: 2,
+            omega_rad_s: [39.0, 245.0, 0.0],
+            zeta: [0.02, 0.13, 0.0],
+            bbar: [1.0, 1.0, 0.0],
+            output_weight: [1.0, 1.0, 0.0],
+        };
+        let mut b = a;
+        b.omega_rad_s[0] = 43.0;
+        let steady = TruthLines {
+            before: &a,
+            after: None,
+        };
+        assert_eq!(
+            steady.line(|p| p.omega_rad_s[0], 20.0),
+            vec![(0.0, 39.0), (20.0, 39.0)]
+        );
+        let stepped = TruthLines {
+            before: &a,
+            after: Some((10.0, &b)),
+        };
+        assert_eq!(
+            stepped.line(|p| p.omega_rad_s[0], 20.0),
+            vec![(0.0, 39.0), (10.0, 39.0), (10.0, 43.0), (20.0, 43.0)]
+        );
+        assert_eq!(stepped.last().omega_rad_s[0], 43.0);
     }
 
     #[test]
