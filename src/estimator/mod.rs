@@ -38,6 +38,7 @@
 
 pub mod adaptive;
 mod either;
+pub mod feedthrough;
 pub mod gradient;
 pub mod least_squares;
 pub mod robust;
@@ -52,6 +53,7 @@ use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use either::Either;
+pub use feedthrough::{Feedthrough, Feedthrough2};
 pub use gradient::{GradientConfig, GradientLaw};
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
