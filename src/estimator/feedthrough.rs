@@ -272,7 +272,84 @@ impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
         self.screen.hold(samples);
     }
 
+    fn feedthrough(&self) -> Option<T> {
+        Some(self.residual().feedthrough)
+    }
+
     fn settling_samples(&self) -> u32 {
         self.screen.quarantine_len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::excitation::SquareWave;
+    use crate::filter_bank::SignalScales;
+    use crate::modal::modal_from_tf;
+    use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+    use crate::rig::{ModalPlant, Rig};
+
+    fn filter() -> FilterConfig {
+        FilterConfig {
+            scales: SignalScales {
+                u_scale: 0.1,
+                y_scale: 1e-3,
+            },
+            ..FilterConfig::default()
+        }
+    }
+
+    #[test]
+    fn only_the_two_mode_theta_is_accepted() {
+        assert_eq!(
+            Feedthrough::<f64, 11>::with_default_gains(&filter()).err(),
+            Some(ConfigError::Dimensions)
+        );
+        let bad = FilterConfig {
+            lambda_rad_s: f64::NAN,
+            ..filter()
+        };
+        assert!(Feedthrough2::<f64>::with_default_gains(&bad).is_err());
+    }
+
+    /// On the paper's two-mode plant the extra term vanishes and the
+    /// reported model is the plant's (2 s; the 20 s figures are in
+    /// host-tests `robustness_modes`); Θ describes the same model as the
+    /// transfer function; a bad sample is rejected without harm.
+    #[test]
+    fn two_mode_plant_is_identified_with_a_vanishing_feedthrough() {
+        let mut est = Feedthrough2::<f64>::with_default_gains(&filter()).unwrap();
+        let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+        let mut rig = Rig::new(plant, SquareWave::paper());
+        for k in 0..20_000 {
+            let s = rig.tick();
+            let y = if k == 5_000 { f64::NAN } else { s.y };
+            est.step(s.u, y);
+        }
+        let h = est.health();
+        assert_eq!((h.samples, h.rejected, h.skipped), (20_000, 1, 0));
+        assert!(h.state_ok);
+        let tf = est.transfer_function();
+        let m = modal_from_tf(&tf, &[-2.0, 2.0]).unwrap();
+        for i in 0..2 {
+            let ew = (m.omega_rad_s[i] / PAPER_OMEGA[i] - 1.0).abs();
+            let ez = (m.zeta[i] / PAPER_ZETA[i] - 1.0).abs();
+            assert!(ew < 1e-5 && ez < 1e-4, "mode {i}: {ew:e} {ez:e}");
+        }
+        let d = est.feedthrough().unwrap();
+        // |D| against the plant's static gain |b0/a0| = 1.2e-2.
+        assert!(d.abs() < 1e-7, "D = {d:e}");
+        assert_eq!(d, est.residual().feedthrough);
+        let back = TransferFunction::from_theta(&est.theta(), est.lambda_rad_s()).unwrap();
+        for (x, y) in back.a[..4].iter().zip(&tf.a[..4]) {
+            assert!((x - y).abs() <= 1e-9 * y.abs(), "{x} {y}");
+        }
+        for (x, y) in back.b[..3].iter().zip(&tf.b[..3]) {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} {y}");
+        }
+        est.reset();
+        assert_eq!(est.health().samples, 0);
+        assert_eq!(est.coefficients(), ([0.0; 4], [0.0; 5]));
     }
 }
