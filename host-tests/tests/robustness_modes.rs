@@ -13,8 +13,8 @@
 //!   ω2 within 2e-4, ζ1, ζ2 within 1.5e-3). The tests assert both.
 //! * The two-mode estimator with a feedthrough (residual) term and a
 //!   sixth-order filter ([`Feedthrough2`], truth-free defaults, λ = 100
-//!   rad/s) meets the target in `f64` and `f32` (3 modes: ω1 4.2e-6, ω2
-//!   4.3e-3, ζ1 3.6e-4, ζ2 2.4e-2; 4 modes: ω2 3.3e-3, ζ2 2.1e-2) and stays
+//!   rad/s) meets the target in `f64` and `f32` (3 modes: ω1 4.3e-6, ω2
+//!   4.3e-3, ζ1 1.9e-4, ζ2 2.8e-2; 4 modes: ω2 3.2e-3, ζ2 2.5e-2) and stays
 //!   exact on the two-mode plant. Figures: `cargo run --release -p
 //!   host-tests --example extra_modes`.
 //! * An unphysical estimate is flagged (`modal::Validity`) and what is
@@ -133,9 +133,9 @@ fn feedthrough_estimator_meets_the_target_with_3_and_4_truth_modes() {
                 e[0] <= 1e-2 && e[1] <= 1e-2 && e[2] <= 5e-2 && e[3] <= 5e-2,
                 "{n} modes {ty}: {e:?}"
             );
-            // Measured: ω2 ≤ 4.3e-3, ζ2 ≤ 2.4e-2 (a 2× margin); ω1 ≤ 4.4e-6.
+            // Measured: ω2 ≤ 4.3e-3, ζ2 ≤ 2.8e-2 (a 1.8× margin); ω1 ≤ 4.4e-6.
             assert!(
-                e[0] <= 1e-4 && e[1] <= 6e-3 && e[3] <= 3e-2,
+                e[0] <= 1e-4 && e[1] <= 6e-3 && e[3] <= 3.5e-2,
                 "{n} {ty}: {e:?}"
             );
             let r = d / static_gain;

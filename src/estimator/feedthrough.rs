@@ -50,16 +50,23 @@
 //! of that two-mode model for Λ(s) = (s+λ)^4 (`NP` = 7), so that every
 //! consumer of a two-mode estimator reads it unchanged.
 //!
-//! Not supervised: the excitation monitor, anti-windup and change
-//! detector of [`crate::supervise`] run only inside
-//! [`super::Identifier`]; [`Estimator::excitation_level`] and
-//! [`Estimator::information`] are `None` (P is 9×9).
+//! Supervised as [`super::Identifier`] is ([`crate::supervise`]: input
+//! monitor and anti-windup, Lemma 1 in the loop, change detector every
+//! [`SUPERVISE_EVERY`] samples), by the `supervision` of its
+//! [`AdaptiveConfig`]. [`Estimator::excitation_level`] is λmin of the
+//! law's 9×9 P; [`Estimator::information`] is `None` (its type holds an
+//! `NP` × `NP` = 7×7 matrix).
 
 use super::screen::{InputScreen, Screened};
-use super::{AdaptiveConfig, AdaptiveLaw, ConfigError, Estimator, Health, StepStatus, UpdateLaw};
+use super::{
+    AdaptiveConfig, AdaptiveLaw, ConfigError, Estimator, Health, StepStatus, UpdateLaw,
+    SUPERVISE_EVERY,
+};
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor};
+use crate::modal::excitation_min_eig;
 use crate::model::{TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
+use crate::supervise::{Supervision, Supervisor, SupervisorConfig, DISCOUNT};
 
 /// Order of the filter Λ(s) = (s+λ)^6.
 pub const FILTER_ORDER: usize = 6;
@@ -97,6 +104,14 @@ pub struct Feedthrough<T, const NP: usize> {
     screen: InputScreen<T>,
     samples: u64,
     skipped: u32,
+    /// 1/U0, for the supervisor's input monitor.
+    inv_u_scale: T,
+    supervisor: Supervisor<T>,
+    supervised: bool,
+    /// A change was detected: discount the old data when the hold ends.
+    pending_discount: bool,
+    /// Samples since the change test last ran.
+    supervise_phase: u32,
 }
 
 /// The two-mode estimator with feedthrough, reporting the paper's Θ.
@@ -105,7 +120,7 @@ pub type Feedthrough2<T> = Feedthrough<T, TWO_MODE_NP>;
 impl<T: Real, const NP: usize> Feedthrough<T, NP> {
     /// Build from the truth-free filter settings (λ, U0, Y0, hold, timing
     /// as for the plain law; Λ's order is six here) and the proposed law's
-    /// gains for 9 parameters (their `supervision` is ignored).
+    /// gains and supervisor settings for 9 parameters.
     ///
     /// # Errors
     /// [`ConfigError::Dimensions`] unless `NP` = 7; otherwise as the
@@ -117,6 +132,7 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
         if NP != TWO_MODE_NP {
             return Err(ConfigError::Dimensions);
         }
+        let sup = law.supervision;
         let bank = FilterBank::new(filter)?;
         let law = AdaptiveLaw::new(law, filter.ts_s)?;
         let lam = filter.lambda_rad_s;
@@ -140,6 +156,13 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
             screen: InputScreen::new(filter),
             samples: 0,
             skipped: 0,
+            inv_u_scale: T::from_f64(1.0 / u0),
+            supervisor: Supervisor::new(&sup, filter.ts_s)
+                .with_lemma1()
+                .with_residual_every(SUPERVISE_EVERY, filter.ts_s),
+            supervised: sup != SupervisorConfig::OFF,
+            pending_discount: false,
+            supervise_phase: 0,
         })
     }
 
@@ -192,8 +215,30 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
         self.lambda_rad_s
     }
 
+    /// One good sample: as `Identifier`'s (`estimator::supervised`).
     fn learn(&mut self, u: T, y: T) -> StepStatus {
         let reg = Self::regressor(&self.bank.push(u, y));
+        if self.supervised {
+            if !self.supervisor.admit(u * self.inv_u_scale) {
+                return StepStatus::Frozen;
+            }
+            if self.pending_discount {
+                self.pending_discount = false;
+                self.law.discount(T::from_f64(DISCOUNT));
+            }
+            self.supervise_phase += 1;
+            if self.supervise_phase >= SUPERVISE_EVERY {
+                self.supervise_phase = 0;
+                let e = self.law.prediction_error(&reg);
+                if self.supervisor.residual(e, self.samples).is_some() {
+                    self.screen.hold(self.screen.quarantine_len());
+                    self.pending_discount = true;
+                    return StepStatus::Frozen;
+                }
+                let forgetting = self.supervisor.lemma1(self.law.lemma1());
+                self.law.set_forgetting(forgetting);
+            }
+        }
         match self.law.update(&reg) {
             Ok(()) => StepStatus::Updated,
             Err(_) => {
@@ -212,6 +257,9 @@ impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
             Screened::Good(u, y) => self.learn(u, y),
             Screened::Quarantined(u, y) => {
                 self.bank.push(u, y);
+                if self.supervised {
+                    self.supervisor.admit(u * self.inv_u_scale);
+                }
                 StepStatus::Frozen
             }
             Screened::Rejected(u, y) => {
@@ -251,12 +299,19 @@ impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
         self.bank.reset();
         self.law.reset();
         self.screen.reset();
+        self.supervisor.reset();
+        self.pending_discount = false;
+        self.supervise_phase = 0;
         self.samples = 0;
         self.skipped = 0;
     }
 
     fn excitation_level(&self) -> Option<T> {
-        None
+        self.law.information().map(|p| excitation_min_eig(&p))
+    }
+
+    fn supervision(&self) -> Option<Supervision<T>> {
+        self.supervised.then(|| self.supervisor.status())
     }
 
     fn health(&self) -> Health {
@@ -268,8 +323,10 @@ impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
         }
     }
 
+    /// Also restarts the change test's learning, as `Identifier`'s.
     fn hold(&mut self, samples: u32) {
         self.screen.hold(samples);
+        self.supervisor.restart_change();
     }
 
     fn feedthrough(&self) -> Option<T> {
@@ -351,5 +408,46 @@ mod tests {
         est.reset();
         assert_eq!(est.health().samples, 0);
         assert_eq!(est.coefficients(), ([0.0; 4], [0.0; 5]));
+    }
+
+    /// Supervised like `Identifier`: with the drive gone, adaptation
+    /// freezes (ω, ζ hold) and the status says why.
+    #[test]
+    fn adaptation_freezes_while_the_input_is_gone() {
+        let mut est = Feedthrough2::<f64>::with_default_gains(&filter()).unwrap();
+        let mut plant =
+            ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+        let mut sq = SquareWave::<f64>::paper();
+        let modes = |est: &Feedthrough2<f64>| {
+            let m = modal_from_tf(&est.transfer_function(), &[-2.0, 2.0]).unwrap();
+            [m.omega_rad_s[0], m.omega_rad_s[1], m.zeta[0], m.zeta[1]]
+        };
+        for _ in 0..30_000 {
+            let y = plant.output();
+            let u = sq.next_sample();
+            plant.advance(u);
+            est.step(u, y);
+        }
+        assert!(est.supervision().is_some_and(|s| !s.frozen));
+        let before = modes(&est);
+        // u = 0 from now on: the beam rings down.
+        let mut frozen = 0;
+        for _ in 0..10_000 {
+            let y = plant.output();
+            plant.advance(0.0);
+            if est.step(0.0, y) == StepStatus::Frozen {
+                frozen += 1;
+            }
+        }
+        let s = est.supervision().unwrap();
+        assert!(s.frozen && !s.excited(), "{s:?}");
+        assert!(frozen > 9_000, "{frozen}");
+        let moved = before
+            .iter()
+            .zip(modes(&est).iter())
+            .map(|(a, b)| ((a - b) / a).abs())
+            .fold(0.0, f64::max);
+        assert!(moved < 1e-4, "ω, ζ moved by {moved:e}");
+        assert!(est.excitation_level().is_some_and(|v| v > 0.0));
     }
 }
