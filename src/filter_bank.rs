@@ -551,6 +551,13 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
         d
     }
 
+    /// All D states of the input filter at t_{n−2} (z_0 … z_{D−1} of u/U0,
+    /// lowest power first; the regressor holds z_0 … z_{D−2}), e.g. for a
+    /// model with a numerator of full degree (`estimator::feedthrough`).
+    pub fn input_states(&self) -> [T; D] {
+        self.x_u.hi
+    }
+
     /// The current regressor (φ at t_{n−2} and y_{n−2}/Y0).
     pub fn regressor(&self) -> Regressor<T, NP> {
         let mut phi = [T::ZERO; NP];

@@ -12,7 +12,7 @@
 use crate::runner::RunError;
 use beamest::estimator::robust::DEFAULT_RECORD;
 use beamest::estimator::{
-    AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
+    AdaptiveConfig, AdaptiveEstimator, Estimator, Feedthrough, GradientConfig, GradientEstimator,
     LeastSquaresConfig, LeastSquaresEstimator, RobustConfig, RobustEstimator,
 };
 use beamest::filter_bank::{FilterConfig, Scaling};
@@ -33,14 +33,20 @@ pub enum EstimatorKind {
     /// The noise-robust output-error estimator
     /// ([`beamest::estimator::robust`]).
     Robust,
+    /// The proposed law on the two-mode model with a feedthrough
+    /// (residual) term and a sixth-order filter, for a beam with modes
+    /// above the model ([`beamest::estimator::feedthrough`]); two modes,
+    /// default gains only.
+    Feedthrough,
 }
 
 impl EstimatorKind {
     /// The paper's three laws, in report order.
     pub const PAPER_LAWS: [EstimatorKind; 3] = [Self::Adaptive, Self::Gradient, Self::LeastSquares];
 
-    /// Every estimator, in report order (`--estimator all`): the paper's
-    /// three laws, then the robust estimator.
+    /// The estimators of `--estimator all`, in report order: the paper's
+    /// three laws, then the robust estimator ([`Self::Feedthrough`] runs
+    /// on request only: it is a different model, two modes only).
     pub const ALL: [EstimatorKind; 4] = [
         Self::Adaptive,
         Self::Gradient,
@@ -55,6 +61,7 @@ impl EstimatorKind {
             Self::Gradient => "gradient",
             Self::LeastSquares => "ls",
             Self::Robust => "robust",
+            Self::Feedthrough => "feedthrough",
         }
     }
 }
@@ -138,8 +145,8 @@ pub fn build_robust<T: Real, const D: usize, const NP: usize, const NS: usize>(
 
 /// Build the configured estimator for `D`, `NP` (`NS = NP(NP+1)/2`) as a
 /// boxed trait object, starting from the scaled estimate `theta0` (zero if
-/// `None`; the robust estimator ignores it and starts its start-up law from
-/// zero).
+/// `None`; the robust and the feedthrough estimators ignore it and start
+/// from zero).
 pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize>(
     kind: EstimatorKind,
     gains: Gains,
@@ -151,6 +158,19 @@ pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize
     let err = |e| RunError::Estimator(format!("{e}"));
     Ok(match kind {
         EstimatorKind::Robust => build_robust::<T, D, NP, NS>(gains, filter)?,
+        EstimatorKind::Feedthrough => {
+            if NP != 7 {
+                return Err(RunError::Estimator(
+                    "the feedthrough estimator is defined for 2 modes only".into(),
+                ));
+            }
+            if gains != Gains::Default {
+                return Err(RunError::Estimator(
+                    "the feedthrough estimator has no published gains: default gains only".into(),
+                ));
+            }
+            Box::new(Feedthrough::<T, NP>::new(filter, &AdaptiveConfig::default()).map_err(err)?)
+        }
         EstimatorKind::Adaptive => {
             let cfg = adaptive_config(gains, &scaling)?;
             Box::new(

@@ -210,6 +210,11 @@ pub enum EstimatorChoice {
     /// a simulated model, refined over a 2 s start-up record (near the
     /// Cramér–Rao bound under white noise on y).
     Robust,
+    /// The proposed law on the two-mode model plus a feedthrough
+    /// (residual) term, filter (s+λ)^6: for a beam whose modes above the
+    /// model's two act on the band (see docs/ROBUSTNESS.md §5). Two modes,
+    /// default gains only.
+    Feedthrough,
     /// All four (adaptive, gradient, ls, robust), side by side.
     All,
 }

@@ -478,6 +478,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
             name: r.estimator.name(),
             estimate: &r.outcome.estimate,
             excitation_min_eig: r.outcome.excitation_min_eig,
+            feedthrough: r.outcome.feedthrough,
             samples: r.samples,
             rejected: r.outcome.rejected_samples,
             skipped: r.outcome.skipped_updates,

@@ -30,6 +30,8 @@ pub struct Column<'a> {
     pub estimate: &'a ModalSummary,
     /// λmin(P), adaptive law only.
     pub excitation_min_eig: Option<f64>,
+    /// Feedthrough D, `--estimator feedthrough` only.
+    pub feedthrough: Option<f64>,
     /// Samples read.
     pub samples: u64,
     /// Rejected samples.
@@ -186,6 +188,11 @@ pub fn table(
         c.excitation_min_eig
             .map_or("n/a".to_string(), |v| sig(v, 4))
     });
+    if cols.iter().any(|c| c.feedthrough.is_some()) {
+        metric(&mut t, "feedthrough D (y per u)", &|c| {
+            c.feedthrough.map_or("n/a".to_string(), |v| sig(v, 4))
+        });
+    }
     if cols.iter().any(|c| c.robust.is_some()) {
         metric(&mut t, "robust phase", &|c| {
             c.robust.map_or("n/a".to_string(), |r| {

@@ -250,6 +250,10 @@ pub struct RunReport {
     pub time_to_0p1pct_s: Option<f64>,
     /// λmin of the scaled P at the end (Lemma 1), None for the baselines.
     pub excitation_min_eig: Option<f64>,
+    /// The feedthrough D (see [`Outcome::feedthrough`]); absent for the
+    /// estimators without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub feedthrough: Option<f64>,
     /// Largest relative ω/ζ error seen after the first second (None if the
     /// run is shorter).
     pub max_error_after_1s: Option<f64>,
@@ -656,6 +660,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             max_error_after_1s: score.max_after_1s,
             estimate: o.estimate,
             excitation_min_eig: o.excitation_min_eig,
+            feedthrough: o.feedthrough,
             rejected_samples: o.rejected_samples,
             skipped_updates: o.skipped_updates,
             law_updates: o.law_updates,

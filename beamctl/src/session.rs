@@ -42,6 +42,11 @@ pub struct Outcome {
     pub estimate: ModalSummary,
     /// λmin of the scaled P at the end (Lemma 1), None for the baselines.
     pub excitation_min_eig: Option<f64>,
+    /// The feedthrough D of a model with a residual term
+    /// (`--estimator feedthrough`), units of y per unit of u; absent for
+    /// the other estimators.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub feedthrough: Option<f64>,
     /// Samples rejected as non-finite or out of range (start-up window
     /// included).
     pub rejected_samples: u64,
@@ -387,7 +392,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();
-        let (estimate, exc, ok, validity) = match run.estimate() {
+        let (estimate, exc, ok, validity, feedthrough) = match run.estimate() {
             Some(est) => {
                 let tf = est.transfer_function();
                 let recovered = modal_from_tf(&tf, &self.weights);
@@ -398,14 +403,22 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
                     est.excitation_level().map(|v| v.to_f64()),
                     est.health().state_ok,
                     validity,
+                    est.feedthrough().map(|v| v.to_f64()),
                 )
             }
-            None => (ModalSummary::empty(n), None, true, Validity::NOT_RECOVERED),
+            None => (
+                ModalSummary::empty(n),
+                None,
+                true,
+                Validity::NOT_RECOVERED,
+                None,
+            ),
         };
         let totals = run.totals();
         Outcome {
             estimate,
             excitation_min_eig: exc,
+            feedthrough,
             rejected_samples: totals.rejected,
             skipped_updates: totals.skipped,
             law_updates: totals.updates,

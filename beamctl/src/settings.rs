@@ -33,8 +33,24 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
         EstimatorChoice::Gradient => vec![EstimatorKind::Gradient],
         EstimatorChoice::Ls => vec![EstimatorKind::LeastSquares],
         EstimatorChoice::Robust => vec![EstimatorKind::Robust],
+        EstimatorChoice::Feedthrough => vec![EstimatorKind::Feedthrough],
         EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
     };
+    if args.estimator == EstimatorChoice::Feedthrough && modes != 2 {
+        return Err(CliError::usage(
+            "--estimator feedthrough",
+            format!(
+                "the feedthrough estimator is defined for 2 modes only (this model has {modes})"
+            ),
+        ));
+    }
+    if args.estimator == EstimatorChoice::Feedthrough && (args.paper_gains || args.paper_exp_gains)
+    {
+        return Err(CliError::usage(
+            "--estimator feedthrough",
+            "the feedthrough estimator has no published gains: drop --paper-gains/--paper-exp-gains",
+        ));
+    }
     let precision = match args.precision {
         PrecisionChoice::F64 => Precision::F64,
         PrecisionChoice::F32 => Precision::F32,

@@ -502,6 +502,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
             name: r.estimator.name(),
             estimate: &r.estimate,
             excitation_min_eig: r.excitation_min_eig,
+            feedthrough: r.feedthrough,
             samples: r.samples,
             rejected: r.rejected_samples,
             skipped: r.skipped_updates,

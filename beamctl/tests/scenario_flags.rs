@@ -66,6 +66,14 @@ const BAD: &[(&[&str], &str)] = &[
     (&["--truth-modes", "5"], "--truth-modes"),
     (&["--modes", "3", "--truth-modes", "2"], "--truth-modes"),
     (
+        &["--modes", "3", "--estimator", "feedthrough"],
+        "--estimator feedthrough",
+    ),
+    (
+        &["--estimator", "feedthrough", "--paper-gains"],
+        "--estimator feedthrough",
+    ),
+    (
         &[
             "--snr-db",
             "40",

@@ -20,6 +20,12 @@ fn main() {
     row!("adaptive", 1, Adaptive1<f32>, Adaptive1<f64>);
     row!("adaptive", 2, Adaptive2<f32>, Adaptive2<f64>);
     row!("adaptive", 3, Adaptive3<f32>, Adaptive3<f64>);
+    row!(
+        "feedthrough (2 modes + D)",
+        2,
+        Feedthrough2<f32>,
+        Feedthrough2<f64>
+    );
     row!("gradient", 1, GradientEstimator<f32, 2, 3>, GradientEstimator<f64, 2, 3>);
     row!("gradient", 2, GradientEstimator<f32, 4, 7>, GradientEstimator<f64, 4, 7>);
     row!("gradient", 3, GradientEstimator<f32, 6, 11>, GradientEstimator<f64, 6, 11>);

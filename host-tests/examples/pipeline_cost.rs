@@ -9,7 +9,7 @@
 //!
 //! ```sh
 //! cargo build --release -p host-tests --example pipeline_cost
-//! for m in none bare tick tick_prefilter; do for t in f32 f64; do
+//! for m in none bare bare_feedthrough bare_three tick tick_prefilter; do for t in f32 f64; do
 //!   valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
 //!     target/release/examples/pipeline_cost $m $t 2>&1 | grep 'I *refs'
 //! done; done
@@ -19,7 +19,7 @@
 
 use std::hint::black_box;
 
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Feedthrough2};
 use beamest::excitation::{
     ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
 };
@@ -117,8 +117,15 @@ fn run<T: Real>(mode: &str) {
         AdaptiveConfig::default()
     };
     let mut est = Adaptive2::<T>::new(&filter, &law).expect("estimator");
+    // `bare_feedthrough`: the two-mode estimator with a feedthrough term
+    // (issue 9, modes beyond the model), built and warmed up in every mode.
+    // `bare_three`: the three-mode law on the same data, for comparison.
+    let mut ft = Feedthrough2::<T>::with_default_gains(&filter).expect("estimator");
+    let mut three = Adaptive3::<T>::new(&filter, &AdaptiveConfig::default()).expect("estimator");
     for &(u, y) in &pairs[..WARMUP] {
         est.step(u, y);
+        ft.step(u, y);
+        three.step(u, y);
     }
     let pcfg = PipelineConfig {
         conversion: cfg,
@@ -230,6 +237,16 @@ fn run<T: Real>(mode: &str) {
                 black_box(est.step(black_box(u), black_box(y)));
             }
         }
+        "bare_feedthrough" => {
+            for &(u, y) in &pairs[WARMUP..] {
+                black_box(ft.step(black_box(u), black_box(y)));
+            }
+        }
+        "bare_three" => {
+            for &(u, y) in &pairs[WARMUP..] {
+                black_box(three.step(black_box(u), black_box(y)));
+            }
+        }
         "tick" | "tick_prefilter" => {
             for _ in 0..N {
                 black_box(p.tick());
@@ -256,7 +273,7 @@ fn run<T: Real>(mode: &str) {
             }
         }
     }
-    black_box((&est, &p, &gens));
+    black_box((&est, &ft, &three, &p, &gens));
 }
 
 fn main() {

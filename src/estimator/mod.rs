@@ -38,6 +38,7 @@
 
 pub mod adaptive;
 mod either;
+pub mod feedthrough;
 pub mod gradient;
 pub mod least_squares;
 pub mod robust;
@@ -52,6 +53,7 @@ use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use either::Either;
+pub use feedthrough::{Feedthrough, Feedthrough2};
 pub use gradient::{GradientConfig, GradientLaw};
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
@@ -251,6 +253,12 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn supervision(&self) -> Option<Supervision<T>> {
         None
     }
+    /// The feedthrough D (units of y per unit of u) of a model with a
+    /// residual term ([`feedthrough::Feedthrough`]); `None` for the models
+    /// without one. Not part of [`Estimator::transfer_function`].
+    fn feedthrough(&self) -> Option<T> {
+        None
+    }
     /// Hold the law for the filters' settling time
     /// ([`Estimator::settling_samples`], without counting a rejection): for
     /// an estimator that joins a signal already in motion, whose filters
@@ -294,6 +302,9 @@ impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> fo
     }
     fn supervision(&self) -> Option<Supervision<T>> {
         (**self).supervision()
+    }
+    fn feedthrough(&self) -> Option<T> {
+        (**self).feedthrough()
     }
 }
 
