@@ -80,10 +80,12 @@
 pub(crate) mod delay;
 pub mod highpass;
 mod level;
+pub mod residual;
 mod step;
 
 pub use delay::MAX_DELAY;
 pub use highpass::HighPass;
+pub use residual::{ResidualFilter, RESIDUAL_LAG};
 pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
 
 use crate::scalar::Real;
