@@ -14,7 +14,7 @@
 //! here, offline, so that their variants can be compared on the same data.
 
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
-use beamest::guard::{ResidualFilter, RESIDUAL_LAG};
+use beamest::guard::{GuardCounts, LevelEvent, ResidualFilter, RESIDUAL_LAG};
 use beamest::rig::{FaultKind, Scenario, SensorFault, Window};
 use beamest::Real;
 use host_tests::scenario_run::*;
@@ -155,6 +155,41 @@ fn weights(h: &[f64], deg: usize) -> Vec<f64> {
     w.iter().map(|a| a / hw).collect()
 }
 
+/// ‖window − its least-squares fit by the polynomials of degree < `deg`
+/// and the template `h`‖ over the fitted template part's norm: ≈ 0 when the
+/// window is a polynomial plus the template's shape.
+fn fit_ratio(win: &[f64], h: &[f64], deg: usize) -> f64 {
+    let n = win.len();
+    let mut q: Vec<Vec<f64>> = Vec::new();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let cols: Vec<Vec<f64>> = (0..deg)
+        .map(|j| {
+            (0..n)
+                .map(|i| ((i as f64 - (n as f64 - 1.0) / 2.0) / n as f64).powi(j as i32))
+                .collect()
+        })
+        .chain(std::iter::once(h.to_vec()))
+        .collect();
+    for mut v in cols {
+        for qi in &q {
+            let c = dot(&v, qi);
+            v.iter_mut().zip(qi).for_each(|(a, b)| *a -= c * b);
+        }
+        let nn = dot(&v, &v).sqrt();
+        q.push(v.iter().map(|a| a / nn).collect());
+    }
+    let mut r = win.to_vec();
+    let mut part = 0.0;
+    for (j, qi) in q.iter().enumerate() {
+        let c = dot(&r, qi);
+        if j == deg {
+            part = c.abs();
+        }
+        r.iter_mut().zip(qi).for_each(|(a, b)| *a -= c * b);
+    }
+    dot(&r, &r).sqrt() / part
+}
+
 /// A matched step test on ε: window `nb` + `na`, polynomial degree < `deg`,
 /// threshold `factor` × the running RMS of d̂ (0.1 s, clipped at the
 /// threshold, learnt over its first 0.1 s), never below `floor` (Y0).
@@ -171,7 +206,7 @@ struct StepTest {
 
 /// Alarms: (index of the step's sample, d̂ at the peak); after an alarm the
 /// window restarts past it.
-fn step_alarms(eps: &[f64], theta: &[f64; 7], t: StepTest) -> (Vec<(usize, f64)>, f64) {
+fn step_alarms(eps: &[f64], theta: &[f64; 7], t: StepTest) -> (Vec<(usize, f64, f64)>, f64) {
     let n = t.nb + t.na;
     let mut g = template(theta, t.na);
     if t.ramp {
@@ -215,7 +250,11 @@ fn step_alarms(eps: &[f64], theta: &[f64; 7], t: StepTest) -> (Vec<(usize, f64)>
                     best = (j, dj);
                 }
             }
-            alarms.push((best.0 - t.na, best.1));
+            // The best fit over the positions around the peak.
+            let ratio = (best.0.saturating_sub(t.na).max(n)..(best.0 + t.na).min(eps.len()))
+                .map(|j| fit_ratio(&eps[j - n..j], &h, t.deg))
+                .fold(f64::INFINITY, f64::min);
+            alarms.push((best.0 - t.na, best.1, ratio));
             k = best.0 + n;
             continue;
         }
@@ -245,7 +284,10 @@ const fn st(nb: usize, na: usize, deg: usize, factor: f64) -> StepTest {
     }
 }
 
-const TESTS: [(&str, StepTest); 6] = [
+const TESTS: [(&str, StepTest); 9] = [
+    ("24+12 linear ×6", st(24, 12, 2, 6.0)),
+    ("36+12 linear ×6", st(36, 12, 2, 6.0)),
+    ("12+12 quadratic ×6", st(12, 12, 3, 6.0)),
     ("12+12 quadratic ×8", st(12, 12, 3, 8.0)),
     ("12+12 linear ×8", st(12, 12, 2, 8.0)),
     ("24+24 linear ×8", st(24, 24, 2, 8.0)),
@@ -289,14 +331,14 @@ fn steps() {
                                 record::<f32>(offset_scenario(size * y0), snr, seed, 52_000)
                             };
                             let (al, _) = step_alarms(&r.eps, &r.theta, t);
-                            let hit = al.iter().find(|(i, _)| *i + 30 >= FAULT_AT as usize);
+                            let hit = al.iter().find(|(i, _, _)| *i + 30 >= FAULT_AT as usize);
                             let early = al
                                 .iter()
-                                .filter(|(i, _)| *i + 30 < FAULT_AT as usize)
+                                .filter(|(i, _, _)| *i + 30 < FAULT_AT as usize)
                                 .count();
                             match hit {
-                                Some((i, d)) => format!(
-                                    "{:.1} ms, {:.3}{}",
+                                Some((i, d, q)) => format!(
+                                    "{:.1} ms, {:.3}, fit {q:.1e}{}",
                                     (*i as f64 + t.na as f64 + RESIDUAL_LAG as f64
                                         - FAULT_AT as f64)
                                         * 1e-4
@@ -375,7 +417,7 @@ fn plant() {
                     let (al, dmax) = step_alarms(&e, &r.theta, t);
                     let at: Vec<String> = al
                         .iter()
-                        .map(|(i, _)| format!("{:.1}", (*i as f64 - 1e5) * 0.1))
+                        .map(|(i, _, q)| format!("{:.1} (fit {q:.1e})", (*i as f64 - 1e5) * 0.1))
                         .collect();
                     println!(
                         "| {sname} | {} | {ty} | {name} | {} | {dmax:.2} |",
@@ -456,17 +498,17 @@ fn drift() {
                             let (al, _) = step_alarms(&r.eps, &r.theta, t);
                             let early = al
                                 .iter()
-                                .filter(|(i, _)| *i + 60 < FAULT_AT as usize)
+                                .filter(|(i, _, _)| *i + 60 < FAULT_AT as usize)
                                 .count();
-                            let hit = al.iter().find(|(i, _)| *i + 60 >= FAULT_AT as usize);
+                            let hit = al.iter().find(|(i, _, _)| *i + 60 >= FAULT_AT as usize);
                             let fa = if early > 0 {
                                 format!(" ({early} false before)")
                             } else {
                                 String::new()
                             };
                             match hit {
-                                Some((i, d)) => format!(
-                                    "{:.1} ms, {:.2}{fa}",
+                                Some((i, d, q)) => format!(
+                                    "{:.1} ms, {:.2}, fit {q:.1e}{fa}",
                                     (*i as f64 + t.na as f64 + RESIDUAL_LAG as f64
                                         - FAULT_AT as f64)
                                         * 0.1,
@@ -482,6 +524,175 @@ fn drift() {
                         cells.join(" | ")
                     );
                 }
+            }
+        }
+    }
+    println!();
+}
+
+/// A run through the guard with (or without) the monitor in front of the
+/// 2-mode adaptive law: the trace, the level flags (sample, kind), the
+/// counts and the offset removed (units of Y0).
+fn guarded<T: Real>(
+    sc: Scenario,
+    snr: Option<f64>,
+    seed: u64,
+    samples: u64,
+    monitored: bool,
+) -> (RunTrace, Vec<(u64, LevelEvent)>, GuardCounts, f64) {
+    let y0 = y0();
+    let f = startup_filter(&paper_rig(Scenario::default(), snr, seed, None));
+    let mut rig = paper_rig(sc, snr, seed, None);
+    let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    let mut feed = fault_guard(y0);
+    if monitored {
+        feed = feed.with_monitor(&f);
+    }
+    let mut flags = Vec::new();
+    let tr = run_with(
+        &mut est,
+        &mut rig,
+        samples,
+        100,
+        &mut |e: &mut Adaptive2<T>, k, s| {
+            feed.follow(&*e, k);
+            let out = feed.feed(k, s);
+            if let Some(l) = feed.guard.last_screening().level {
+                flags.push((k, l));
+            }
+            let hold = feed.guard.take_hold();
+            if hold > 0 {
+                e.hold(hold);
+            }
+            out
+        },
+    );
+    let c = feed.guard.counts();
+    (tr, flags, c, feed.guard.offset() / y0)
+}
+
+fn flags_after(flags: &[(u64, LevelEvent)], from: u64) -> String {
+    let v: Vec<String> = flags
+        .iter()
+        .filter(|(k, _)| *k >= from)
+        .take(4)
+        .map(|(k, l)| format!("{:?} {:.1}", l, (*k as f64 - from as f64) * 0.1))
+        .collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+/// (name, scenario, SNR, seed, type, samples).
+type Case = (String, Scenario, Option<f64>, u64, &'static str, u64);
+
+fn guard_table() {
+    let y0 = y0();
+    println!("## The guard with the residual monitor (defaults, range ±10·Y0) in front of the adaptive law: flags (kind, ms after the fault's start; first 4), counts offset/drift, offset left (Y0), max error 1–5 s after the fault's start vs the same run without the monitor\n");
+    println!("| fault | SNR | type | seed | flags with the monitor | without | offset/drift counts | offset left | err after (with / without) |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let mut cases: Vec<Case> = Vec::new();
+    for rate in [0.02, 0.002] {
+        for ty in ["f64", "f32"] {
+            cases.push((
+                format!("drift {rate}·Y0/s"),
+                drift_scenario(rate * y0),
+                None,
+                1,
+                ty,
+                60_000,
+            ));
+        }
+    }
+    for size in [0.01, 0.05] {
+        for ty in ["f64", "f32"] {
+            cases.push((
+                format!("offset {size}·Y0"),
+                offset_scenario(size * y0),
+                None,
+                1,
+                ty,
+                60_000,
+            ));
+        }
+    }
+    for size in [0.1, 0.2] {
+        for seed in 1..=5 {
+            cases.push((
+                format!("offset {size}·Y0"),
+                offset_scenario(size * y0),
+                Some(40.0),
+                seed,
+                "f64",
+                60_000,
+            ));
+        }
+    }
+    for (name, sc, snr, seed, ty, n) in cases {
+        let run = |m: bool| {
+            if ty == "f64" {
+                guarded::<f64>(sc, snr, seed, n, m)
+            } else {
+                guarded::<f32>(sc, snr, seed, n, m)
+            }
+        };
+        let (tr, fl, c, off) = run(true);
+        let (tr0, fl0, _, _) = run(false);
+        println!(
+            "| {name} | {} | {ty} | {seed} | {} | {} | {}/{} | {off:+.4} | {:.1e} / {:.1e} |",
+            snr.map_or("none".into(), |s| format!("{s} dB")),
+            flags_after(&fl, FAULT_AT),
+            flags_after(&fl0, FAULT_AT),
+            c.offset,
+            c.drift,
+            tr.max_err(5.0, 1e9),
+            tr0.max_err(5.0, 1e9)
+        );
+    }
+    println!();
+}
+
+fn guard_clean() {
+    println!("## The guard with the monitor on clean data and across plant steps: level flags (kind, ms after 10 s for the steps)\n");
+    println!("| data | SNR | type | seed | flags | offset/drift counts | max err 13–16 s (with / without the monitor) |");
+    println!("|---|---|---|---|---|---|---|");
+    for snr in [40.0, 20.0] {
+        for seed in 1..=5 {
+            let (_, fl, c, _) = guarded::<f64>(Scenario::default(), Some(snr), seed, 600_000, true);
+            println!(
+                "| clean 60 s | {snr} dB | f64 | {seed} | {} | {}/{} | - |",
+                flags_after(&fl, 0),
+                c.offset,
+                c.drift
+            );
+        }
+    }
+    for (sname, sc) in [
+        ("ω1 +10%", step_scenario(1.1, 1.0)),
+        ("ζ1 +50%", step_scenario(1.0, 1.5)),
+    ] {
+        for snr in [None, Some(40.0)] {
+            for ty in ["f64", "f32"] {
+                let run = |m: bool| {
+                    if ty == "f64" {
+                        guarded::<f64>(sc, snr, 1, 160_000, m)
+                    } else {
+                        guarded::<f32>(sc, snr, 1, 160_000, m)
+                    }
+                };
+                let (tr, fl, c, _) = run(true);
+                let (tr0, _, _, _) = run(false);
+                println!(
+                    "| {sname} | {} | {ty} | 1 | {} | {}/{} | {:.1e} / {:.1e} |",
+                    snr.map_or("none".into(), |s| format!("{s} dB")),
+                    flags_after(&fl, 100_000),
+                    c.offset,
+                    c.drift,
+                    tr.max_err(13.0, 1e9),
+                    tr0.max_err(13.0, 1e9)
+                );
             }
         }
     }
@@ -510,6 +721,12 @@ fn main() {
     }
     if all || what == "clean" {
         clean();
+    }
+    if all || what == "guard" {
+        guard_table();
+    }
+    if all || what == "guardclean" {
+        guard_clean();
     }
     if all || what == "drift" {
         drift();

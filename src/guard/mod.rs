@@ -80,11 +80,13 @@
 pub(crate) mod delay;
 pub mod highpass;
 mod level;
+pub mod monitor;
 pub mod residual;
 mod step;
 
 pub use delay::MAX_DELAY;
 pub use highpass::HighPass;
+pub use monitor::{model_for_monitor, MonitorEvent, ResidualMonitor};
 pub use residual::{ResidualFilter, RESIDUAL_LAG};
 pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
 
@@ -464,8 +466,27 @@ impl<T: Real> SensorGuard<T> {
     /// default index follows it.
     #[inline]
     pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
+        self.push_monitored(u, y, valid, index, None)
+    }
+
+    /// [`SensorGuard::push_at`] with the tests on the model's residual
+    /// ([`ResidualMonitor`], given the estimator's Θ̂ by the caller): an
+    /// offset step it finds is removed as the raw test's are, a drift's
+    /// onset is flagged ([`LevelEvent::Drift`]). `None`: as
+    /// [`SensorGuard::push_at`]. The monitor costs a second filter bank and
+    /// two matched tests per sample (docs/ROBUSTNESS.md §1): the firmware's
+    /// pipeline runs without it.
+    #[inline]
+    pub fn push_monitored(
+        &mut self,
+        u: T,
+        y: T,
+        valid: bool,
+        index: u64,
+        monitor: Option<&mut ResidualMonitor<T>>,
+    ) -> Option<Guarded<T>> {
         self.index = index.wrapping_add(1);
-        let (fault, level, stuck_started) = self.classify(u, y, valid, index);
+        let (fault, level, stuck_started) = self.classify(u, y, valid, index, monitor);
         self.last = Screening { fault, level };
         if let Some(f) = fault {
             self.counts.bump(f, 1);
@@ -513,7 +534,12 @@ impl<T: Real> SensorGuard<T> {
         y: T,
         valid: bool,
         index: u64,
+        mut monitor: Option<&mut ResidualMonitor<T>>,
     ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
+        let ok = valid && u.is_finite() && y.is_finite() && !self.at_rail(y);
+        if let (false, Some(m)) = (ok, monitor.as_deref_mut()) {
+            m.interrupt();
+        }
         if !valid {
             self.interrupt();
             return (Some(SampleFault::Upstream), None, false);
@@ -558,6 +584,9 @@ impl<T: Real> SensorGuard<T> {
         if self.stuck_after > 0 && self.repeats >= self.stuck_after {
             let started = self.repeats == self.stuck_after;
             self.step.interrupt();
+            if let Some(m) = monitor {
+                m.interrupt();
+            }
             return (Some(SampleFault::Stuck), None, started);
         }
         self.last_good_y = Some(y);
@@ -565,6 +594,10 @@ impl<T: Real> SensorGuard<T> {
             self.offset_step(y, repeat, index)
         } else {
             None
+        };
+        let level = match monitor {
+            Some(m) => self.monitored(m, u, y, repeat, index, level),
+            None => level,
         };
         (None, level, false)
     }
