@@ -467,3 +467,112 @@ fn matched<const N: usize>(h: &[f64; N]) -> ([f64; N], [f64; N]) {
     }
     (p.map(|a| a / hp), p.map(|a| a / norm))
 }
+
+#[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+mod tests {
+    use super::*;
+    use crate::excitation::SquareWave;
+    use crate::filter_bank::SignalScales;
+    use crate::guard::{GuardConfig, LevelEvent, SensorGuard};
+    use crate::model::{lambda_poly, paper_plant_tf, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+    use crate::plant::ModalPlant;
+    use crate::rig::Rig;
+
+    const TS: f64 = 1e-4;
+
+    fn setup() -> (FilterConfig, [f64; 7], Rig<f64>) {
+        let cfg = FilterConfig {
+            ts_s: TS,
+            lambda_rad_s: 100.0,
+            scales: SignalScales {
+                u_scale: 0.1,
+                y_scale: 1e-3,
+            },
+            ..FilterConfig::default()
+        };
+        let tf = paper_plant_tf();
+        let k = lambda_poly(4, 100.0);
+        let theta = core::array::from_fn(|j| {
+            if j < 3 {
+                tf.b[j]
+            } else {
+                k[j - 3] - tf.a[j - 3]
+            }
+        });
+        let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, TS).unwrap();
+        (cfg, theta, Rig::new(plant, SquareWave::paper()))
+    }
+
+    #[test]
+    fn the_true_model_leaves_no_residual_and_a_step_is_found_with_its_size() {
+        let (cfg, theta, mut rig) = setup();
+        let mut f = ResidualFilter::<f64, 4, 7>::new(&cfg).unwrap();
+        assert!(f.set_theta(&theta));
+        let mut m = ResidualMonitor::<f64>::new(&cfg).unwrap();
+        m.set_theta(Some(&theta));
+        assert!(m.armed());
+        let size = 2e-5; // 0.02 of the 1e-3 scale
+        let mut found = None;
+        for k in 0..30_000u64 {
+            let s = rig.tick();
+            let e = f.push(s.u, s.y);
+            if (10_000..25_000).contains(&k) {
+                // Units of Y0 (here 1e-3): the interpolation floor.
+                assert!(e.abs() < 1e-7, "{k}: ε = {e:e}");
+            }
+            // As the guard does: a found step is subtracted from then on.
+            let removed = if found.is_some() { size } else { 0.0 };
+            let y = s.y + if k >= 25_000 { size } else { 0.0 } - removed;
+            if let Some(ev) = m.push(s.u, y, k, true) {
+                assert!(found.is_none(), "{ev:?} after {found:?}");
+                found = Some((k, ev));
+                m.corrected();
+            }
+        }
+        let (k, ev) = found.expect("found");
+        let MonitorEvent::Step { index, size: d } = ev else {
+            panic!("{ev:?}");
+        };
+        assert_eq!(index, 25_000);
+        assert!(
+            k - index <= (2 * (EPS_STEP_AFTER - 1) + RESIDUAL_LAG) as u64,
+            "{k}"
+        );
+        assert!((d - size).abs() < 1e-3 * size, "{d:e}");
+        // Dropping the model stops the tests.
+        m.set_theta(None);
+        assert!(!m.armed());
+    }
+
+    #[test]
+    fn the_guard_flags_a_drift_within_ten_ms_of_its_onset() {
+        let (cfg, theta, mut rig) = setup();
+        let mut g = SensorGuard::<f64>::new(&GuardConfig::new(TS)).unwrap();
+        let mut m = ResidualMonitor::<f64>::new(&cfg).unwrap();
+        let rate = 0.02 * 1e-3; // 0.02·Y0/s
+        let mut flags = Vec::new();
+        for k in 0..40_000u64 {
+            if k == 10_000 {
+                m.set_theta(Some(&theta));
+            }
+            let s = rig.tick();
+            let t = (k as f64 - 30_000.0).max(0.0) * TS;
+            g.push_monitored(s.u, s.y + rate * t, true, k, Some(&mut m));
+            if let Some(l) = g.last_screening().level {
+                flags.push((k, l));
+            }
+        }
+        assert_eq!(flags.len(), 1, "{flags:?}");
+        let (k, l) = flags[0];
+        assert_eq!(l, LevelEvent::Drift);
+        assert!((30_000..=30_100).contains(&k), "{k}");
+        assert_eq!(g.counts().drift, 1);
+        assert_eq!(g.counts().offset, 0);
+    }
+}
