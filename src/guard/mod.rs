@@ -14,6 +14,7 @@
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
 //! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to [`STEP_BEFORE`] + [`STEP_AFTER`] samples) beyond [`STEP_FACTOR`] × d̂'s running RMS | 1.4–2.2 ms (≤ [`STEP_LATENCY`] samples); the step is subtracted from its first sample on (inside the delay line) |
 //! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
+//! | [`LevelEvent::Offset`], [`LevelEvent::Drift`] (opt-in: [`SensorGuard::push_monitored`]) | a step, or a ramp's onset, in the model's equation error ε ([`ResidualMonitor`], fed the estimator's Θ̂) | a step as above, down to 0.1·Y0 at 40 dB; a drift's onset after 5 ms noise-free |
 //!
 //! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
 //! u kept when finite), which the estimators reject and follow with their

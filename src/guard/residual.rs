@@ -11,9 +11,7 @@
 //! adds to y enters ε through Â(s)/Λ(s): an offset step δ as δ·g(t), with
 //! g the step response of Â/Λ (g(0) = 1, g(∞) = Â(0)/Λ(0) ≈ 0.9 on the
 //! paper's plant at λ = 100 rad/s), and white noise σ with gain ≈ 1.
-//!
-//! This module only computes ε; the tests on it are in
-//! `super::residual_test`.
+//! This module only computes ε; the tests on it are [`super::monitor`]'s.
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
 use crate::scalar::Real;
@@ -93,8 +91,7 @@ impl<T: Real, const D: usize, const NP: usize> ResidualFilter<T, D, NP> {
         r.y - p
     }
 
-    /// Back to rest (the states and the model are kept apart: the model
-    /// stays).
+    /// The bank back to rest (the model stays).
     pub fn reset(&mut self) {
         self.bank.reset();
     }
