@@ -13,7 +13,7 @@
 //! detected plant change. ε is recorded and the tests are evaluated on it
 //! here, offline, so that their variants can be compared on the same data.
 
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, Robust2, RobustConfig};
 use beamest::guard::{GuardCounts, LevelEvent, ResidualFilter, RESIDUAL_LAG};
 use beamest::rig::{FaultKind, Scenario, SensorFault, Window};
 use beamest::Real;
@@ -475,7 +475,7 @@ fn drift() {
     println!("## Drift onset at 5 s on ε: a matched ramp-onset test (the response of ε to a unit ramp of y, made orthogonal to 1 and t over the window); latency from the onset to the flag at the guard's entry, estimated rate / true rate; '-' = not within 1 s\n");
     println!("| rate (Y0/s) | SNR | type | test | seed 1 | 2 | 3 |");
     println!("|---|---|---|---|---|---|---|");
-    for rate in [0.02, 0.002] {
+    for rate in [0.02, 0.002, 0.001, 0.0005] {
         for snr in [None, Some(40.0)] {
             for ty in ["f64", "f32"] {
                 if snr.is_some() && ty == "f32" {
@@ -540,33 +540,40 @@ fn guarded<T: Real>(
     samples: u64,
     monitored: bool,
 ) -> (RunTrace, Vec<(u64, LevelEvent)>, GuardCounts, f64) {
+    let f = startup_filter(&paper_rig(Scenario::default(), snr, seed, None));
+    let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
+    guarded_with(&mut est, sc, snr, seed, samples, monitored)
+}
+
+/// [`guarded`] with a given estimator.
+fn guarded_with<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    sc: Scenario,
+    snr: Option<f64>,
+    seed: u64,
+    samples: u64,
+    monitored: bool,
+) -> (RunTrace, Vec<(u64, LevelEvent)>, GuardCounts, f64) {
     let y0 = y0();
     let f = startup_filter(&paper_rig(Scenario::default(), snr, seed, None));
     let mut rig = paper_rig(sc, snr, seed, None);
-    let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
     let mut feed = fault_guard(y0);
     if monitored {
         feed = feed.with_monitor(&f);
     }
     let mut flags = Vec::new();
-    let tr = run_with(
-        &mut est,
-        &mut rig,
-        samples,
-        100,
-        &mut |e: &mut Adaptive2<T>, k, s| {
-            feed.follow(&*e, k);
-            let out = feed.feed(k, s);
-            if let Some(l) = feed.guard.last_screening().level {
-                flags.push((k, l));
-            }
-            let hold = feed.guard.take_hold();
-            if hold > 0 {
-                e.hold(hold);
-            }
-            out
-        },
-    );
+    let tr = run_with(est, &mut rig, samples, 100, &mut |e: &mut E, k, s| {
+        feed.follow(&*e, k);
+        let out = feed.feed(k, s);
+        if let Some(l) = feed.guard.last_screening().level {
+            flags.push((k, l));
+        }
+        let hold = feed.guard.take_hold();
+        if hold > 0 {
+            e.hold(hold);
+        }
+        out
+    });
     let c = feed.guard.counts();
     (tr, flags, c, feed.guard.offset() / y0)
 }
@@ -654,6 +661,39 @@ fn guard_table() {
     println!();
 }
 
+fn guard_robust() {
+    let y0 = y0();
+    println!("## As `guard`, the robust estimator (`Robust2`, f64) giving Θ̂ and behind the guard: offset steps at 40 dB\n");
+    println!("| fault | seed | flags with the monitor | without | offset left | max err 1–5 s after the fault's start (with / without) | same run without the fault |");
+    println!("|---|---|---|---|---|---|---|");
+    for size in [0.05, 0.1] {
+        for seed in 1..=5 {
+            let f = startup_filter(&paper_rig(Scenario::default(), Some(40.0), seed, None));
+            let mk = || Robust2::<f64>::new(&f, &RobustConfig::default()).expect("valid");
+            let sc = offset_scenario(size * y0);
+            let (tr, fl, _, off) = guarded_with(&mut mk(), sc, Some(40.0), seed, 100_000, true);
+            let (tr0, fl0, _, _) = guarded_with(&mut mk(), sc, Some(40.0), seed, 100_000, false);
+            let (trr, _, _, _) = guarded_with(
+                &mut mk(),
+                Scenario::default(),
+                Some(40.0),
+                seed,
+                100_000,
+                true,
+            );
+            println!(
+                "| offset {size}·Y0 | {seed} | {} | {} | {off:+.4} | {:.1e} / {:.1e} | {:.1e} |",
+                flags_after(&fl, FAULT_AT),
+                flags_after(&fl0, FAULT_AT),
+                tr.max_err(5.0, 1e9),
+                tr0.max_err(5.0, 1e9),
+                trr.max_err(5.0, 1e9)
+            );
+        }
+    }
+    println!();
+}
+
 fn guard_clean() {
     println!("## The guard with the monitor on clean data and across plant steps: level flags (kind, ms after 10 s for the steps)\n");
     println!("| data | SNR | type | seed | flags | offset/drift counts | max err 13–16 s (with / without the monitor) |");
@@ -724,6 +764,9 @@ fn main() {
     }
     if all || what == "guard" {
         guard_table();
+    }
+    if all || what == "guardrobust" {
+        guard_robust();
     }
     if all || what == "guardclean" {
         guard_clean();
