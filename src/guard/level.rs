@@ -1,6 +1,7 @@
 //! The sensor guard's level tests: offset steps of y (removed) and drift
 //! (flagged); see the parent module's docs.
 
+use super::monitor::MONITOR_STEP_LATENCY;
 use super::{LevelEvent, MonitorEvent, ResidualMonitor, SensorGuard};
 use crate::scalar::Real;
 
@@ -45,6 +46,12 @@ impl<T: Real> SensorGuard<T> {
         index: u64,
         level: Option<LevelEvent>,
     ) -> Option<LevelEvent> {
+        if self.offset_steps && self.delay.delay() < MONITOR_STEP_LATENCY + 1 {
+            // A step on ε is found up to MONITOR_STEP_LATENCY samples
+            // after it (the raw test's latency and ε's lag): the line must
+            // still hold it (only without the stuck test is it shorter).
+            self.delay.lengthen(MONITOR_STEP_LATENCY + 1);
+        }
         let test = !repeat && level.is_none();
         let ev = m.push(u, y - self.offset, index, test);
         if level.is_some() {

@@ -87,7 +87,7 @@ mod step;
 
 pub use delay::MAX_DELAY;
 pub use highpass::HighPass;
-pub use monitor::{model_for_monitor, MonitorEvent, ResidualMonitor};
+pub use monitor::{model_for_monitor, MonitorEvent, ResidualMonitor, MONITOR_STEP_LATENCY};
 pub use residual::{ResidualFilter, RESIDUAL_LAG};
 pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
 
@@ -537,9 +537,10 @@ impl<T: Real> SensorGuard<T> {
         index: u64,
         mut monitor: Option<&mut ResidualMonitor<T>>,
     ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
-        let ok = valid && u.is_finite() && y.is_finite() && !self.at_rail(y);
-        if let (false, Some(m)) = (ok, monitor.as_deref_mut()) {
-            m.interrupt();
+        if let Some(m) = monitor.as_deref_mut() {
+            if !(valid && u.is_finite() && y.is_finite() && !self.at_rail(y)) {
+                m.interrupt();
+            }
         }
         if !valid {
             self.interrupt();
