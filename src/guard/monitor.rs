@@ -106,10 +106,10 @@ pub enum MonitorEvent<T> {
 /// excited, has run [`MODEL_AFTER_S`] and has not detected a plant change
 /// within [`CHANGE_QUIET_S`]; `None` otherwise (the monitor then rests).
 /// `ts_s` is the sample period.
-pub fn model_for_monitor<T: Real, E: Estimator<T, 7> + ?Sized>(
+pub fn model_for_monitor<T: Real, const NP: usize, E: Estimator<T, NP> + ?Sized>(
     est: &E,
     ts_s: f64,
-) -> Option<[T; 7]> {
+) -> Option<[T; NP]> {
     let sup = est.supervision()?;
     let n = est.health().samples;
     let quiet = (CHANGE_QUIET_S / ts_s) as u64;
