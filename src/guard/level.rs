@@ -27,12 +27,6 @@ impl<T: Real> SensorGuard<T> {
         Some(LevelEvent::Offset)
     }
 
-    /// Whether y reads at or beyond a rail of the range.
-    #[inline]
-    pub(super) fn at_rail(&self, y: T) -> bool {
-        self.range.is_some_and(|(lo, hi)| y <= lo || y >= hi)
-    }
-
     /// The residual monitor's tests on an accepted y (after the raw step
     /// test, whose event `level` is): a step it finds is removed as the raw
     /// test's are, a drift's onset flagged.

@@ -467,7 +467,7 @@ impl<T: Real> SensorGuard<T> {
     /// default index follows it.
     #[inline]
     pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
-        self.push_monitored(u, y, valid, index, None)
+        self.push_inner(u, y, valid, index, None)
     }
 
     /// [`SensorGuard::push_at`] with the tests on the model's residual
@@ -486,8 +486,33 @@ impl<T: Real> SensorGuard<T> {
         index: u64,
         monitor: Option<&mut ResidualMonitor<T>>,
     ) -> Option<Guarded<T>> {
+        self.push_inner(u, y, valid, index, monitor)
+    }
+
+    /// Both pushes (inlined into each: without a monitor the code is the
+    /// guard's alone).
+    #[inline(always)]
+    fn push_inner(
+        &mut self,
+        u: T,
+        y: T,
+        valid: bool,
+        index: u64,
+        monitor: Option<&mut ResidualMonitor<T>>,
+    ) -> Option<Guarded<T>> {
         self.index = index.wrapping_add(1);
-        let (fault, level, stuck_started) = self.classify(u, y, valid, index, monitor);
+        let (fault, mut level, stuck_started) = self.classify(u, y, valid, index);
+        if let Some(m) = monitor {
+            level = match fault {
+                // A faulty sample is not pushed: the monitor rests.
+                Some(_) => {
+                    m.interrupt();
+                    level
+                }
+                // `repeats` > 0: this reading repeats the previous one.
+                None => self.monitored(m, u, y, self.repeats > 0, index, level),
+            };
+        }
         self.last = Screening { fault, level };
         if let Some(f) = fault {
             self.counts.bump(f, 1);
@@ -535,13 +560,7 @@ impl<T: Real> SensorGuard<T> {
         y: T,
         valid: bool,
         index: u64,
-        mut monitor: Option<&mut ResidualMonitor<T>>,
     ) -> (Option<SampleFault>, Option<LevelEvent>, bool) {
-        if let Some(m) = monitor.as_deref_mut() {
-            if !(valid && u.is_finite() && y.is_finite() && !self.at_rail(y)) {
-                m.interrupt();
-            }
-        }
         if !valid {
             self.interrupt();
             return (Some(SampleFault::Upstream), None, false);
@@ -586,9 +605,6 @@ impl<T: Real> SensorGuard<T> {
         if self.stuck_after > 0 && self.repeats >= self.stuck_after {
             let started = self.repeats == self.stuck_after;
             self.step.interrupt();
-            if let Some(m) = monitor {
-                m.interrupt();
-            }
             return (Some(SampleFault::Stuck), None, started);
         }
         self.last_good_y = Some(y);
@@ -596,10 +612,6 @@ impl<T: Real> SensorGuard<T> {
             self.offset_step(y, repeat, index)
         } else {
             None
-        };
-        let level = match monitor {
-            Some(m) => self.monitored(m, u, y, repeat, index, level),
-            None => level,
         };
         (None, level, false)
     }
