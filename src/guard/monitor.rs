@@ -19,7 +19,7 @@
 //!   A plant change (the beam's ω or ζ moves) also bends ε at once, but as
 //!   Δθᵀφ, the filtered signals, not as a ramp: measured noise-free on the
 //!   paper's plant, a 10% step of ω1 or a 50% step of ζ1 crossed the
-//!   ramp's threshold within 1 ms (200–2200× over it) with a fit ratio of
+//!   ramp's threshold within 1 ms (330–2,200× over it) with a fit ratio of
 //!   0.37–0.51, a drift of 0.002–0.02·Y0/s with 1e-4 (`f64`) to 4.5e-2
 //!   (`f32`). That is how the two are told apart before the estimator's
 //!   own change test fires (12–19 ms later); after it fires, the caller
