@@ -626,15 +626,17 @@ fn guard_table() {
         }
     }
     for size in [0.1, 0.2] {
-        for seed in 1..=5 {
-            cases.push((
-                format!("offset {size}·Y0"),
-                offset_scenario(size * y0),
-                Some(40.0),
-                seed,
-                "f64",
-                60_000,
-            ));
+        for ty in ["f64", "f32"] {
+            for seed in 1..=5 {
+                cases.push((
+                    format!("offset {size}·Y0"),
+                    offset_scenario(size * y0),
+                    Some(40.0),
+                    seed,
+                    ty,
+                    60_000,
+                ));
+            }
         }
     }
     for (name, sc, snr, seed, ty, n) in cases {

@@ -515,37 +515,47 @@ mod tests {
 
     #[test]
     fn the_true_model_leaves_no_residual_and_a_step_is_found_with_its_size() {
+        // ε's floor in units of Y0 (the interpolation's in f64, rounding
+        // in f32), the step's size to this fraction of itself.
+        step_found::<f64>(1e-7, 1e-3);
+        step_found::<f32>(2e-6, 2e-3);
+    }
+
+    /// A step of 0.02·Y0 at 2.5 s, in `T`.
+    fn step_found<T: Real>(floor: f64, tol: f64) {
+        let ty = T::NAME;
         let (cfg, theta, mut rig) = setup();
-        let mut f = ResidualFilter::<f64, 4, 7>::new(&cfg).unwrap();
+        let theta = theta.map(T::from_f64);
+        let mut f = ResidualFilter::<T, 4, 7>::new(&cfg).unwrap();
         assert!(f.set_theta(&theta));
-        let mut m = ResidualMonitor::<f64>::new(&cfg).unwrap();
+        let mut m = ResidualMonitor::<T>::new(&cfg).unwrap();
         m.set_theta(Some(&theta));
         assert!(m.armed());
         let size = 2e-5; // 0.02 of the 1e-3 scale
         let mut found = None;
         for k in 0..30_000u64 {
             let s = rig.tick();
-            let e = f.push(s.u, s.y);
+            let e = f.push(T::from_f64(s.u), T::from_f64(s.y)).to_f64();
             if (10_000..25_000).contains(&k) {
-                // Units of Y0 (here 1e-3): the interpolation floor.
-                assert!(e.abs() < 1e-7, "{k}: ε = {e:e}");
+                assert!(e.abs() < floor, "{ty} {k}: ε = {e:e}");
             }
             // As the guard does: a found step is subtracted from then on.
             let removed = if found.is_some() { size } else { 0.0 };
             let y = s.y + if k >= 25_000 { size } else { 0.0 } - removed;
-            if let Some(ev) = m.push(s.u, y, k, true) {
-                assert!(found.is_none(), "{ev:?} after {found:?}");
+            if let Some(ev) = m.push(T::from_f64(s.u), T::from_f64(y), k, true) {
+                assert!(found.is_none(), "{ty}: {ev:?} after {found:?}");
                 found = Some((k, ev));
                 m.corrected();
             }
         }
         let (k, ev) = found.expect("found");
         let MonitorEvent::Step { index, size: d } = ev else {
-            panic!("{ev:?}");
+            panic!("{ty}: {ev:?}");
         };
-        assert_eq!(index, 25_000);
-        assert!(k - index <= MONITOR_STEP_LATENCY as u64, "{k}");
-        assert!((d - size).abs() < 1e-3 * size, "{d:e}");
+        assert_eq!(index, 25_000, "{ty}");
+        assert!(k - index <= MONITOR_STEP_LATENCY as u64, "{ty}: {k}");
+        let d = d.to_f64();
+        assert!((d - size).abs() < tol * size, "{ty}: {d:e}");
         // Dropping the model stops the tests.
         m.set_theta(None);
         assert!(!m.armed());
@@ -553,9 +563,16 @@ mod tests {
 
     #[test]
     fn the_guard_flags_a_drift_within_ten_ms_of_its_onset() {
+        drift_flagged::<f64>();
+        drift_flagged::<f32>();
+    }
+
+    /// The guard and its monitor in `T`: a drift of 0.02·Y0/s from 3 s.
+    fn drift_flagged<T: Real>() {
         let (cfg, theta, mut rig) = setup();
-        let mut g = SensorGuard::<f64>::new(&GuardConfig::new(TS)).unwrap();
-        let mut m = ResidualMonitor::<f64>::new(&cfg).unwrap();
+        let theta = theta.map(T::from_f64);
+        let mut g = SensorGuard::<T>::new(&GuardConfig::new(TS)).unwrap();
+        let mut m = ResidualMonitor::<T>::new(&cfg).unwrap();
         let rate = 0.02 * 1e-3; // 0.02·Y0/s
         let mut flags = Vec::new();
         for k in 0..40_000u64 {
@@ -564,16 +581,18 @@ mod tests {
             }
             let s = rig.tick();
             let t = (k as f64 - 30_000.0).max(0.0) * TS;
-            g.push_monitored(s.u, s.y + rate * t, true, k, Some(&mut m));
+            let (u, y) = (T::from_f64(s.u), T::from_f64(s.y + rate * t));
+            g.push_monitored(u, y, true, k, Some(&mut m));
             if let Some(l) = g.last_screening().level {
                 flags.push((k, l));
             }
         }
-        assert_eq!(flags.len(), 1, "{flags:?}");
+        let ty = T::NAME;
+        assert_eq!(flags.len(), 1, "{ty}: {flags:?}");
         let (k, l) = flags[0];
-        assert_eq!(l, LevelEvent::Drift);
-        assert!((30_000..=30_100).contains(&k), "{k}");
-        assert_eq!(g.counts().drift, 1);
-        assert_eq!(g.counts().offset, 0);
+        assert_eq!(l, LevelEvent::Drift, "{ty}");
+        assert!((30_000..=30_100).contains(&k), "{ty}: {k}");
+        assert_eq!(g.counts().drift, 1, "{ty}");
+        assert_eq!(g.counts().offset, 0, "{ty}");
     }
 }
