@@ -151,6 +151,14 @@ pub struct GuardArgs {
     /// does not bias the estimate [default: off, as on the firmware].
     #[arg(long)]
     pub level_correction: bool,
+
+    /// Also test for sensor faults on the model's equation error (the
+    /// guard's residual monitor, 2-mode models): offset steps below the
+    /// raw test's threshold and drift onsets within milliseconds, with the
+    /// first estimator's Θ̂ once it is excited and settled. Host only
+    /// [default: off, as on the firmware].
+    #[arg(long)]
+    pub residual_monitor: bool,
 }
 
 /// `--range` as [min, max].

@@ -60,6 +60,8 @@ struct Plan {
     range: Option<[f64; 2]>,
     /// `--level-correction`.
     level_correction: bool,
+    /// `--residual-monitor`.
+    residual_monitor: bool,
 }
 
 fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
@@ -123,6 +125,7 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
         crlb: args.crlb.then(|| (args.model_set.set(), args.noise_sd)),
         range: crate::events_cli::range(&args.guard)?,
         level_correction: args.guard.level_correction,
+        residual_monitor: args.guard.residual_monitor,
     })
 }
 
@@ -236,6 +239,7 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let mut session =
         Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
             .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
+            .and_then(|s| s.with_monitor(plan.residual_monitor))
             .map_err(|e| CliError::failure(format!("replay: {e}")))?;
     let dense = csv.is_some() || want_plot;
     let drift = drift_every(ts);

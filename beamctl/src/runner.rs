@@ -84,6 +84,8 @@ pub struct RunConfig {
     /// The guard's level corrections (DC-removing high-pass on u and y,
     /// offset-step removal; [`beamest::guard`]).
     pub level_correction: bool,
+    /// The guard's residual monitor ([`crate::session::Session::with_monitor`]).
+    pub residual_monitor: bool,
 }
 
 impl Default for RunConfig {
@@ -111,6 +113,7 @@ impl Default for RunConfig {
             events: Events::default(),
             range: None,
             level_correction: false,
+            residual_monitor: false,
         }
     }
 }
@@ -552,7 +555,8 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let truths = events::Truths::new(cfg)?;
     let weights = &truths.before.modal.output_weight[..truths.before.modal.modes];
     let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?
-        .with_guard(&guard_config(cfg.ts_s, cfg.range, cfg.level_correction))?;
+        .with_guard(&guard_config(cfg.ts_s, cfg.range, cfg.level_correction))?
+        .with_monitor(cfg.residual_monitor)?;
     let mut rig = scenario_rig(cfg)?;
     let total = samples(cfg);
     let every = cfg.eval_every as u64;

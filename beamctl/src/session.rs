@@ -11,8 +11,10 @@ use crate::fit::{Fit, Model};
 use crate::gains::{EstimatorKind, Gains};
 use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
 use crate::tuned::{Build, RobustStatus, Totals, Tuned};
+use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::guard::{
-    GuardConfig, GuardCounts, GuardError, LevelEvent, SampleFault, Screening, SensorGuard,
+    model_for_monitor, GuardConfig, GuardCounts, GuardError, LevelEvent, ResidualMonitor,
+    SampleFault, Screening, SensorGuard,
 };
 use beamest::modal::modal_from_tf;
 use beamest::modal::validity::Validity;
@@ -200,6 +202,10 @@ pub fn guard_config(ts_s: f64, range: Option<[f64; 2]>, level_correction: bool) 
     }
 }
 
+/// The residual monitor's model is refreshed at this period (s; the
+/// telemetry rate; [`Session::with_monitor`]).
+pub const MONITOR_MODEL_PERIOD_S: f64 = 0.01;
+
 /// ω̂, ζ̂ over time, kept to measure the drift at the end.
 #[derive(Debug, Default, Clone)]
 struct History {
@@ -256,6 +262,20 @@ pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
     weights: Vec<T>,
     guard: SensorGuard<f64>,
     ts_s: f64,
+    /// The guard's residual monitor (`--residual-monitor`), if on.
+    monitor: Option<Monitor>,
+    /// Samples given to the guard.
+    index: u64,
+    hold: OutputHold,
+    /// [`MONITOR_MODEL_PERIOD_S`] in samples.
+    model_every: u64,
+}
+
+/// The residual monitor of a session and the build of the first estimator
+/// it was made for (λ, U0, Y0: its filter bank must be that estimator's).
+struct Monitor {
+    mon: Option<ResidualMonitor<f64>>,
+    build: Option<(f64, f64, f64)>,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP, NS> {
@@ -282,7 +302,68 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             weights: weights.iter().map(|&w| T::from_f64(w)).collect(),
             guard,
             ts_s: tuning.ts_s,
+            monitor: None,
+            index: 0,
+            hold: tuning.hold,
+            model_every: (MONITOR_MODEL_PERIOD_S / tuning.ts_s).round().max(1.0) as u64,
         })
+    }
+
+    /// The same session with the guard's residual monitor on
+    /// ([`beamest::guard::ResidualMonitor`]): offset steps and drift onsets
+    /// seen on the first estimator's equation error, its Θ̂ taken every 10
+    /// ms once it is excited and settled
+    /// ([`beamest::guard::model_for_monitor`]). Off: unchanged.
+    ///
+    /// # Errors
+    /// On with a model of other than two modes (the monitor's bank is the
+    /// 2-mode one).
+    pub fn with_monitor(mut self, on: bool) -> Result<Self, RunError> {
+        if on && NP != 7 {
+            return Err(RunError::Setup(
+                "the residual monitor needs the 2-mode model".into(),
+            ));
+        }
+        self.monitor = on.then_some(Monitor {
+            mon: None,
+            build: None,
+        });
+        Ok(self)
+    }
+
+    /// Refresh the monitor's bank (after a rebuild of the first estimator)
+    /// and its model.
+    fn follow(&mut self) {
+        let Some(m) = self.monitor.as_mut() else {
+            return;
+        };
+        let Some(run) = self.runs.first() else {
+            return;
+        };
+        let build = run
+            .builds()
+            .last()
+            .map(|b| (b.lambda_rad_s, b.u_scale, b.y_scale));
+        if build != m.build {
+            m.build = build;
+            m.mon = build.and_then(|(lambda_rad_s, u_scale, y_scale)| {
+                ResidualMonitor::new(&FilterConfig {
+                    ts_s: self.ts_s,
+                    lambda_rad_s,
+                    scales: SignalScales { u_scale, y_scale },
+                    hold: self.hold,
+                    ..FilterConfig::default()
+                })
+                .ok()
+            });
+        }
+        let theta = run
+            .estimate()
+            .and_then(|e| model_for_monitor(e, self.ts_s))
+            .and_then(|t| <[f64; 7]>::try_from(t.map(|v| v.to_f64()).as_slice()).ok());
+        if let Some(mon) = m.mon.as_mut() {
+            mon.set_theta(theta.as_ref());
+        }
     }
 
     /// The same session with another sensor guard (see [`guard_config`]).
@@ -300,7 +381,13 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     /// estimator. Returns what the guard saw in this sample at once.
     #[inline]
     pub fn step(&mut self, u: f64, y: f64) -> Screening {
-        if let Some(g) = self.guard.push(u, y) {
+        if self.monitor.is_some() && self.index.is_multiple_of(self.model_every) {
+            self.follow();
+        }
+        let monitor = self.monitor.as_mut().and_then(|m| m.mon.as_mut());
+        let out = self.guard.push_monitored(u, y, true, self.index, monitor);
+        self.index += 1;
+        if let Some(g) = out {
             let (u, y) = g.for_estimator();
             let (u, y) = (T::from_f64(u), T::from_f64(y));
             for r in &mut self.runs {

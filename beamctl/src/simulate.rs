@@ -168,6 +168,7 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         events,
         range,
         level_correction: args.guard.level_correction,
+        residual_monitor: args.guard.residual_monitor,
         ..base_default
     };
     Ok(Plan {

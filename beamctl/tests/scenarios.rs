@@ -389,3 +389,53 @@ fn the_csv_carries_the_flags() {
     assert!(r["supervision"]["excitation_reason"].is_string());
     assert_eq!(r["validity"], Value::Array(vec![]));
 }
+
+/// `--residual-monitor`: a drift of 0.1 mV/s (≈ 0.02 of y's RMS per
+/// second) is flagged at its onset, within 10 ms (the level test alone:
+/// not within the 2 s that follow); a plant step raises no flag.
+#[test]
+fn the_residual_monitor_flags_a_drift_at_its_onset_and_not_a_plant_step() {
+    let drift = [
+        "--duration",
+        "7",
+        "--fault",
+        "drift",
+        "--fault-at",
+        "5",
+        "--fault-level",
+        "0.0001",
+    ];
+    let r = sim(&[&drift[..], &["--residual-monitor"]].concat());
+    let sc = &r["scenario"];
+    assert_eq!(sc["fault_detected_as"], "drift", "{sc}");
+    let latency = num(&sc["fault_detection_latency_s"]);
+    assert!(latency <= 0.010, "flagged after {latency} s");
+    assert_eq!(num(&r["guard"]["drift_flags"]), 1.0, "{}", r["guard"]);
+    let plain = sim(&drift);
+    assert_eq!(
+        num(&plain["guard"]["drift_flags"]),
+        0.0,
+        "{}",
+        plain["guard"]
+    );
+    for step in [["--step-omega", STEP_OMEGA], ["--step-zeta", STEP_ZETA]] {
+        let r = sim(&[
+            &["--duration", "8", "--step-at", "5", "--residual-monitor"][..],
+            &step[..],
+        ]
+        .concat());
+        assert_eq!(
+            num(&r["guard"]["drift_flags"]),
+            0.0,
+            "{step:?}: {}",
+            r["guard"]
+        );
+        assert_eq!(
+            num(&r["guard"]["offset_steps"]),
+            0.0,
+            "{step:?}: {}",
+            r["guard"]
+        );
+        assert!(max_error(&r) < 1e-4, "{step:?}: {}", r["rel_error"]);
+    }
+}

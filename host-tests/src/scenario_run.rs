@@ -272,6 +272,7 @@ pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
     feed: &mut GuardedFeed,
 ) -> RunTrace {
     run_with(est, rig, samples, eval_every, &mut |e: &mut E, k, s| {
+        feed.follow(&*e, k);
         let out = feed.feed(k, s);
         let hold = feed.guard.take_hold();
         if hold > 0 {
@@ -299,7 +300,14 @@ pub struct GuardedFeed {
     pub watch_from: u64,
     /// First flagged sample index ≥ `watch_from` and what was seen there.
     pub first_flag: Option<(u64, beamest::guard::Screening)>,
+    /// The tests on the model's residual, if on
+    /// ([`GuardedFeed::with_monitor`]).
+    pub monitor: Option<beamest::guard::ResidualMonitor<f64>>,
 }
+
+/// The monitor's model is refreshed from the estimator every this many
+/// samples (10 ms: the telemetry rate).
+pub const MODEL_EVERY: u64 = 100;
 
 impl GuardedFeed {
     /// A guard with `cfg`, watching from sample `watch_from`.
@@ -308,12 +316,35 @@ impl GuardedFeed {
             guard: beamest::guard::SensorGuard::new(cfg).expect("valid guard settings"),
             watch_from,
             first_flag: None,
+            monitor: None,
+        }
+    }
+
+    /// With the tests on the model's residual
+    /// ([`beamest::guard::ResidualMonitor`]) for an estimator with filter
+    /// settings `filter`.
+    pub fn with_monitor(mut self, filter: &FilterConfig) -> Self {
+        self.monitor = Some(beamest::guard::ResidualMonitor::new(filter).expect("valid settings"));
+        self
+    }
+
+    /// Give the monitor (if any) the estimator's model every
+    /// [`MODEL_EVERY`] samples ([`beamest::guard::model_for_monitor`]).
+    pub fn follow<T: Real, E: Estimator<T, 7> + ?Sized>(&mut self, est: &E, k: u64) {
+        if let Some(m) = self.monitor.as_mut() {
+            if k.is_multiple_of(MODEL_EVERY) {
+                let th =
+                    beamest::guard::model_for_monitor(est, TS_S).map(|t| t.map(|v| v.to_f64()));
+                m.set_theta(th.as_ref());
+            }
         }
     }
 
     /// Screen raw sample `k`; the sample for the estimator.
     pub fn feed(&mut self, k: u64, s: Sample<f64>) -> Sample<f64> {
-        let out = self.guard.push(s.u, s.y);
+        let out = self
+            .guard
+            .push_monitored(s.u, s.y, true, k, self.monitor.as_mut());
         let seen = self.guard.last_screening();
         if k >= self.watch_from
             && self.first_flag.is_none()

@@ -1,7 +1,8 @@
 //! The sensor guard's level tests: offset steps of y (removed) and drift
 //! (flagged); see the parent module's docs.
 
-use super::{LevelEvent, SensorGuard};
+use super::monitor::MONITOR_STEP_LATENCY;
+use super::{LevelEvent, MonitorEvent, ResidualMonitor, SensorGuard};
 use crate::scalar::Real;
 
 impl<T: Real> SensorGuard<T> {
@@ -24,6 +25,50 @@ impl<T: Real> SensorGuard<T> {
         // gap (the samples from the step on are still in the delay line).
         self.hold_pending = self.hold_pending.max(self.gap_hold);
         Some(LevelEvent::Offset)
+    }
+
+    /// The residual monitor's tests on an accepted y (after the raw step
+    /// test, whose event `level` is): a step it finds is removed as the raw
+    /// test's are, a drift's onset flagged.
+    #[inline]
+    pub(super) fn monitored(
+        &mut self,
+        m: &mut ResidualMonitor<T>,
+        u: T,
+        y: T,
+        repeat: bool,
+        index: u64,
+        level: Option<LevelEvent>,
+    ) -> Option<LevelEvent> {
+        if self.offset_steps && self.delay.delay() < MONITOR_STEP_LATENCY + 1 {
+            // A step on ε is found up to MONITOR_STEP_LATENCY samples
+            // after it (the raw test's latency and ε's lag): the line must
+            // still hold it (only without the stuck test is it shorter).
+            self.delay.lengthen(MONITOR_STEP_LATENCY + 1);
+        }
+        let test = !repeat && level.is_none();
+        let ev = m.push(u, y - self.offset, index, test);
+        if level.is_some() {
+            // The raw test corrected a step: ε's windows hold it.
+            m.corrected();
+            return level;
+        }
+        match ev? {
+            MonitorEvent::Step { index: from, size } if self.offset_steps => {
+                self.offset += size;
+                self.delay.shift_from(from, size);
+                self.step.correct(index, from, size);
+                m.corrected();
+                self.counts.offset = self.counts.offset.saturating_add(1);
+                self.hold_pending = self.hold_pending.max(self.gap_hold);
+                Some(LevelEvent::Offset)
+            }
+            MonitorEvent::Step { .. } => None,
+            MonitorEvent::Drift { .. } => {
+                self.counts.drift = self.counts.drift.saturating_add(1);
+                Some(LevelEvent::Drift)
+            }
+        }
     }
 
     /// Drift test on a good, offset-free (and high-passed) output.

@@ -14,6 +14,7 @@
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
 //! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to [`STEP_BEFORE`] + [`STEP_AFTER`] samples) beyond [`STEP_FACTOR`] × d̂'s running RMS | 1.4–2.2 ms (≤ [`STEP_LATENCY`] samples); the step is subtracted from its first sample on (inside the delay line) |
 //! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
+//! | [`LevelEvent::Offset`], [`LevelEvent::Drift`] (opt-in: [`SensorGuard::push_monitored`]) | a step, or a ramp's onset, in the model's equation error ε ([`ResidualMonitor`], fed the estimator's Θ̂) | a step as above, down to 0.1·Y0 at 40 dB; a drift's onset after 5 ms noise-free |
 //!
 //! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
 //! u kept when finite), which the estimators reject and follow with their
@@ -80,10 +81,14 @@
 pub(crate) mod delay;
 pub mod highpass;
 mod level;
+pub mod monitor;
+pub mod residual;
 mod step;
 
 pub use delay::MAX_DELAY;
 pub use highpass::HighPass;
+pub use monitor::{model_for_monitor, MonitorEvent, ResidualMonitor, MONITOR_STEP_LATENCY};
+pub use residual::{ResidualFilter, RESIDUAL_LAG};
 pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
 
 use crate::scalar::Real;
@@ -462,8 +467,52 @@ impl<T: Real> SensorGuard<T> {
     /// default index follows it.
     #[inline]
     pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
+        self.push_inner(u, y, valid, index, None)
+    }
+
+    /// [`SensorGuard::push_at`] with the tests on the model's residual
+    /// ([`ResidualMonitor`], given the estimator's Θ̂ by the caller): an
+    /// offset step it finds is removed as the raw test's are, a drift's
+    /// onset is flagged ([`LevelEvent::Drift`]). `None`: as
+    /// [`SensorGuard::push_at`]. The monitor costs a second filter bank and
+    /// two matched tests per sample (docs/ROBUSTNESS.md §1): the firmware's
+    /// pipeline runs without it.
+    #[inline]
+    pub fn push_monitored(
+        &mut self,
+        u: T,
+        y: T,
+        valid: bool,
+        index: u64,
+        monitor: Option<&mut ResidualMonitor<T>>,
+    ) -> Option<Guarded<T>> {
+        self.push_inner(u, y, valid, index, monitor)
+    }
+
+    /// Both pushes (inlined into each: without a monitor the code is the
+    /// guard's alone).
+    #[inline(always)]
+    fn push_inner(
+        &mut self,
+        u: T,
+        y: T,
+        valid: bool,
+        index: u64,
+        monitor: Option<&mut ResidualMonitor<T>>,
+    ) -> Option<Guarded<T>> {
         self.index = index.wrapping_add(1);
-        let (fault, level, stuck_started) = self.classify(u, y, valid, index);
+        let (fault, mut level, stuck_started) = self.classify(u, y, valid, index);
+        if let Some(m) = monitor {
+            level = match fault {
+                // A faulty sample is not pushed: the monitor rests.
+                Some(_) => {
+                    m.interrupt();
+                    level
+                }
+                // `repeats` > 0: this reading repeats the previous one.
+                None => self.monitored(m, u, y, self.repeats > 0, index, level),
+            };
+        }
         self.last = Screening { fault, level };
         if let Some(f) = fault {
             self.counts.bump(f, 1);

@@ -205,6 +205,17 @@ impl<T: Real> StepDetector<T> {
         None
     }
 
+    /// Another test found a step of `size` at `from` (`newest` is the
+    /// latest sample's index): remove it from the window as if found here.
+    pub(crate) fn correct(&mut self, newest: u64, from: u64, size: T) {
+        self.pending = None;
+        if self.len == N {
+            self.remove(newest, from, size);
+        } else {
+            self.interrupt();
+        }
+    }
+
     /// Subtract `size` from the window's samples from index `from` on
     /// (`newest` is the latest's index).
     fn remove(&mut self, newest: u64, from: u64, size: T) {
