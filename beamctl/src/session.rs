@@ -269,6 +269,9 @@ pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
     hold: OutputHold,
     /// [`MONITOR_MODEL_PERIOD_S`] in samples.
     model_every: u64,
+    /// Each estimator's detected plant changes when last looked at (for
+    /// the guard's change hold, [`SensorGuard::change_hold`]).
+    changes_held: Vec<u32>,
 }
 
 /// The residual monitor of a session and the build of the first estimator
@@ -306,6 +309,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             index: 0,
             hold: tuning.hold,
             model_every: (MONITOR_MODEL_PERIOD_S / tuning.ts_s).round().max(1.0) as u64,
+            changes_held: vec![0; kinds.len()],
         })
     }
 
@@ -387,11 +391,34 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         let monitor = self.monitor.as_mut().and_then(|m| m.mon.as_mut());
         let out = self.guard.push_monitored(u, y, true, self.index, monitor);
         self.index += 1;
+        // With the high-pass on: hold after a gap or an offset step (the
+        // guard asks), and an estimator that has just detected a plant
+        // change (it tells), while the high-pass's memory settles.
+        let gap_hold = self.guard.take_hold();
+        let change_hold = self.guard.change_hold();
         if let Some(g) = out {
             let (u, y) = g.for_estimator();
             let (u, y) = (T::from_f64(u), T::from_f64(y));
-            for r in &mut self.runs {
+            for (r, held) in self.runs.iter_mut().zip(&mut self.changes_held) {
+                if gap_hold > 0 {
+                    r.hold(gap_hold);
+                }
                 r.step(u, y);
+                if change_hold > 0 {
+                    // A rebuilt estimator counts from 0 again.
+                    let changes = r
+                        .estimator()
+                        .and_then(|e| e.supervision())
+                        .map_or(0, |s| s.changes);
+                    if changes > *held {
+                        r.hold(change_hold);
+                    }
+                    *held = changes;
+                }
+            }
+        } else if gap_hold > 0 {
+            for r in &mut self.runs {
+                r.hold(gap_hold);
             }
         }
         self.guard.last_screening()

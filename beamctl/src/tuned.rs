@@ -365,6 +365,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         }
     }
 
+    /// Hold the current estimator for `samples` ([`Estimator::hold`]: it
+    /// keeps its estimate, its filters run on); nothing during the
+    /// start-up window.
+    pub fn hold(&mut self, samples: u32) {
+        if let Some(est) = self.est.as_mut() {
+            est.get_mut().hold(samples);
+        }
+    }
+
     /// The current estimator (`None` during the start-up window).
     pub fn estimator(&self) -> Option<&dyn Estimator<T, NP>> {
         self.est.as_ref().map(Current::get)

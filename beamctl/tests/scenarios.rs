@@ -93,6 +93,38 @@ fn a_plant_step_scores_against_the_new_plant() {
     }
 }
 
+/// With the level corrections' high-pass on, the estimator is held after
+/// the detected change while the high-pass's memory of the old plant
+/// settles (`SensorGuard::change_hold`); without that hold it took 3.3 s
+/// to 1% and did not reach 0.1% within 6 s.
+#[test]
+fn a_plant_step_is_tracked_with_the_high_pass_on() {
+    for precision in ["f64", "f32"] {
+        let r = sim(&[
+            "--duration",
+            "9",
+            "--precision",
+            precision,
+            "--level-correction",
+            "--step-at",
+            "3",
+            "--step-omega",
+            STEP_OMEGA,
+            "--step-zeta",
+            STEP_ZETA,
+        ]);
+        let sc = &r["scenario"];
+        let t1 = num(&sc["tracking_1pct_s"]);
+        let t01 = num(&sc["tracking_0p1pct_s"]);
+        assert!(
+            t1 > 0.0 && t1 <= 2.0,
+            "{precision}: back within 1% after {t1} s"
+        );
+        assert!(t01 >= t1 && t01 <= 2.0, "{precision}: 0.1% after {t01} s");
+        assert!(max_error(&r) < 1e-4, "{precision}: {}", r["rel_error"]);
+    }
+}
+
 #[test]
 fn a_step_of_zeta_alone_keeps_omega() {
     let r = sim(&[

@@ -262,8 +262,9 @@ pub fn run_with<T: Real, E: Estimator<T, 7> + ?Sized>(
 
 /// [`run`] through a [`GuardedFeed`]: each raw sample is screened, and
 /// the guard's hold requests after a gap
-/// ([`beamest::guard::SensorGuard::take_hold`]) are passed to the
-/// estimator before the sample they come with.
+/// ([`beamest::guard::SensorGuard::take_hold`]) and after a plant change
+/// the estimator detected ([`beamest::guard::SensorGuard::change_hold`])
+/// are passed to the estimator before the sample they come with.
 pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
     est: &mut E,
     rig: &mut PaperRig,
@@ -271,10 +272,22 @@ pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
     eval_every: u64,
     feed: &mut GuardedFeed,
 ) -> RunTrace {
+    let mut changes_held = 0;
     run_with(est, rig, samples, eval_every, &mut |e: &mut E, k, s| {
         feed.follow(&*e, k);
         let out = feed.feed(k, s);
-        let hold = feed.guard.take_hold();
+        let mut hold = feed.guard.take_hold();
+        // A plant change the estimator detected (at its previous step):
+        // hold it while the high-pass settles, as the pipeline does.
+        let change_hold = feed.guard.change_hold();
+        if change_hold > 0 {
+            if let Some(sup) = e.supervision() {
+                if sup.changes > changes_held {
+                    hold = hold.max(change_hold);
+                }
+                changes_held = sup.changes;
+            }
+        }
         if hold > 0 {
             e.hold(hold);
         }

@@ -164,6 +164,8 @@ pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
     ts_s: f64,
     /// The estimator's detected changes at the previous record.
     changes_seen: u32,
+    /// ... and when the last change hold was given (the high-pass on).
+    changes_held: u32,
     lambda_rad_s: f64,
     next_index: u64,
     frozen: bool,
@@ -257,6 +259,7 @@ where
             guard,
             ts_s,
             changes_seen: 0,
+            changes_held: 0,
             lambda_rad_s: config.lambda_rad_s,
             next_index: 0,
             frozen: false,
@@ -369,6 +372,7 @@ where
                 self.estimator.step(nan, nan)
             };
             self.steps.count(s);
+            self.hold_after_change();
             Some(s)
         };
         let fed = if ok { (u, y) } else { (nan, nan) };
@@ -607,7 +611,27 @@ where
         self.last_good = (T::ZERO, T::ZERO);
         self.guard.clear();
         self.changes_seen = 0;
+        self.changes_held = 0;
         self.settle();
+    }
+
+    /// With the level corrections' high-pass on: when the estimator has
+    /// just detected a plant change, hold it while the high-pass's memory
+    /// of the old plant settles ([`SensorGuard::change_hold`]). Nothing
+    /// to do (one compare) with the high-pass off, the firmware default.
+    #[inline]
+    fn hold_after_change(&mut self) {
+        let hold = self.guard.change_hold();
+        if hold == 0 {
+            return;
+        }
+        if let Some(sup) = self.estimator.supervision() {
+            // A new estimator (swapped in) counts from 0 again.
+            if sup.changes > self.changes_held {
+                self.estimator.hold(hold);
+            }
+            self.changes_held = sup.changes;
+        }
     }
 
     /// Counters back to zero (the excitation's clamp counter is read
