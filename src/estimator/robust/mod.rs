@@ -276,6 +276,8 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
     /// Refinement steps still to take (after the replay up to `target`).
     refine_left: u32,
     candidate: [T; D],
+    /// The start-up law's adapting steps when it was seeded.
+    adapted: u32,
     oe: OeModel<T, D, NP>,
     law: OeLaw<T, NP, NS>,
 }
@@ -285,6 +287,17 @@ pub struct Pending<T, const D: usize, const NP: usize, const NS: usize> {
 /// estimate becomes the next linearization point. 200 steps cost ~0.2 ms
 /// off the sample path (20 dB, f32, 20 seeds: ω2 3.5 → 3.2× the bound).
 const REFINE_STEPS: u32 = 200;
+
+/// Adapting time (s) the start-up law needs between two candidates for
+/// their agreement to end the start-up (and before a forced switch): half
+/// the default update interval ([`RobustConfig::update_every`], 1,000
+/// samples at 10 kHz). A law that was held between them (the start
+/// quarantine after a moving start, a caller's hold at a swap, the input
+/// gone) gives the same candidate twice; taken as settled, that unadapted
+/// guess (Λ's poles) became the first linearization point and the
+/// Gauss–Newton replays diverged from it (the QEMU bench, where updates
+/// are requested from outside, BENCHMARKS.md).
+pub const START_MIN_ADAPT_S: f64 = 0.05;
 
 /// The normalized denominator of `theta` (indexed by power) if it is a
 /// stable model.
@@ -332,7 +345,14 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     unrecorded: u32,
     phase: Phase,
     epoch: u32,
-    candidate: Option<[T; D]>,
+    /// The last start-up candidate and the start-up law's adapting steps
+    /// when it was taken.
+    candidate: Option<([T; D], u32)>,
+    /// Adapting steps of the start-up law since it (re)started.
+    adapted: u32,
+    /// Adapting steps a start-up candidate needs since the previous one
+    /// ([`START_MIN_ADAPT_S`]).
+    min_adapted: u32,
     countdown: u32,
     frozen: bool,
     initial: Option<(T, bool)>,
@@ -400,6 +420,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             phase: Phase::Startup,
             epoch: 0,
             candidate: None,
+            adapted: 0,
+            min_adapted: libm::ceil(START_MIN_ADAPT_S / filter.ts_s) as u32,
             countdown: cfg.update_every,
             frozen: false,
             initial: None,
@@ -523,7 +545,14 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         if self.phase == Phase::Startup {
             // Leave room in the record for the refinement.
             let late = self.rec_len >= B - B / 4;
-            let converged = self.candidate.is_some_and(|last| {
+            // Two candidates agree only if the law could have moved between
+            // them: a law held (the start quarantine, a hold at a swap, the
+            // input gone) gives the same candidate twice.
+            let min = self.min_adapted;
+            let converged = self.candidate.is_some_and(|(last, at)| {
+                if p.adapted < at.saturating_add(min) {
+                    return false;
+                }
                 let (mut diff, mut size) = (T::ZERO, T::ZERO);
                 for k in 0..D {
                     diff += (p.candidate[k] - last[k]).abs();
@@ -533,9 +562,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             });
             // A forced switch needs a start-up estimate that has run for a
             // period at least (a stored candidate).
-            let forced = late && self.candidate.is_some();
+            let forced = late && self.candidate.is_some() && p.adapted >= min;
             if !(converged || forced) {
-                self.candidate = Some(p.candidate);
+                self.candidate = Some((p.candidate, p.adapted));
                 return Err(UpdateError::NotConverged);
             }
             self.phase = Phase::Refining;
@@ -615,7 +644,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             Phase::Startup => {
                 let reg = self.bank.push(u, y);
                 if update {
-                    return self.startup.update(&reg);
+                    self.startup.update(&reg)?;
+                    self.adapted = self.adapted.saturating_add(1);
                 }
             }
             Phase::Refining | Phase::Steady => {
@@ -657,6 +687,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
+        self.adapted = 0;
         self.initial = None;
         self.countdown = self.cfg.update_every;
     }
@@ -731,6 +762,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.phase = Phase::Startup;
         self.epoch = self.epoch.wrapping_add(1);
         self.candidate = None;
+        self.adapted = 0;
         self.initial = None;
         self.countdown = self.cfg.update_every;
         self.samples = 0;
