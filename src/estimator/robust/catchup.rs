@@ -205,8 +205,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         };
         for (&u, &y) in u.iter().zip(y) {
             let s = p.oe.push(u, y);
-            // A failed step leaves θ̂ unchanged; the replay goes on.
-            let _ = p.law.update(&s.psi, s.eps);
+            // A rejected reading (recorded as NaN) is no measurement: the
+            // simulation runs on with u, the law skips its residual. A
+            // failed step leaves θ̂ unchanged; the replay goes on.
+            if s.eps.is_finite() {
+                let _ = p.law.update(&s.psi, s.eps);
+            }
         }
         p.replayed = to;
         to - from

@@ -623,11 +623,14 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         }
     }
 
-    fn push(&mut self, u: T, y: T, mut update: bool) -> Result<(), LawError> {
+    /// One sample into the record and the running law; `y_valid` false:
+    /// `y` is a substitute for a rejected reading, recorded as missing
+    /// (NaN), so the replays never take it for a measurement.
+    fn push(&mut self, u: T, y: T, mut update: bool, y_valid: bool) -> Result<(), LawError> {
         let (us, ys) = (u * self.inv_u_scale, y * self.inv_y_scale);
         if self.rec_len < B {
             self.rec_u[self.rec_len] = us;
-            self.rec_y[self.rec_len] = ys;
+            self.rec_y[self.rec_len] = if y_valid { ys } else { T::from_f64(f64::NAN) };
             self.rec_len += 1;
             if self.rec_len == B && self.phase == Phase::Refining {
                 self.phase = Phase::Steady;
@@ -702,7 +705,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         let status = match self.screen.screen(u, y) {
             Screened::Good(u, y) => {
                 let adapt = self.supervisor.admit(u * self.inv_u_scale) && !self.frozen;
-                match self.push(u, y, adapt) {
+                match self.push(u, y, adapt, true) {
                     Ok(()) if !adapt => StepStatus::Frozen,
                     Ok(()) => StepStatus::Updated,
                     Err(_) => {
@@ -713,7 +716,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
             }
             Screened::Quarantined(u, y) => {
                 self.supervisor.admit(u * self.inv_u_scale);
-                let _ = self.push(u, y, false);
+                let _ = self.push(u, y, false, true);
                 StepStatus::Frozen
             }
             Screened::Rejected(u_sub, y_sub) => {
@@ -721,7 +724,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
                 // good u even when y is bad (a wrong u would leave a model
                 // transient lasting as long as the slowest mode).
                 let u = if self.screen.accepts_u(u) { u } else { u_sub };
-                let _ = self.push(u, y_sub, false);
+                let _ = self.push(u, y_sub, false, false);
                 StepStatus::Rejected
             }
         };

@@ -275,12 +275,15 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
     /// the model `m`.
     pub fn push<const NP: usize>(&mut self, m: &OeModel<T, D, NP>, u: &[T], y: &[T]) {
         for (&uk, &yk) in u.iter().zip(y) {
-            let r = yk - m.output(&self.rest);
-            let f: [T; D] = core::array::from_fn(|k| m.output(&self.free[k]));
-            for a in 0..D {
-                self.h[a] += f[a] * r;
-                for b in 0..D {
-                    self.g[a][b] += f[a] * f[b];
+            // A rejected reading (NaN in the record) adds nothing.
+            if yk.is_finite() {
+                let r = yk - m.output(&self.rest);
+                let f: [T; D] = core::array::from_fn(|k| m.output(&self.free[k]));
+                for a in 0..D {
+                    self.h[a] += f[a] * r;
+                    for b in 0..D {
+                        self.g[a][b] += f[a] * f[b];
+                    }
                 }
             }
             OeModel::<T, D, NP>::advance(&m.f, &mut self.rest, uk);

@@ -1,9 +1,25 @@
-//! The QEMU image's `--robust` sequence on the host: the firmware's pipeline
-//! (drivers over the chip models, the bench's converter timing, the guard)
-//! with the robust estimator swapped in over a resting beam and its model
-//! updates staged like `src/bin/qemu-rig/robust.rs`.
+//! The QEMU image's `--robust` sequence on the host (`cargo xtask qemu
+//! --robust`, `xtask/src/e2e_robust.rs`): the firmware's pipeline (drivers
+//! over the chip models, the bench's converter timing, the sensor guard)
+//! with `Robust2<f32>` swapped in by `link::robust_configs` at the device's
+//! own settings, and its model updates staged like
+//! `src/bin/qemu-rig/robust.rs` (a seed every 1,000 recorded samples,
+//! catch-up in chunks of 16 units, three chunks every four samples as on
+//! the QEMU image, installation with ≤ 16 left).
 //!
-//! `cargo run --release -p host-tests --example robust_fwpath -- [rest_s] [on_delay_samples] [stuck_after] [chunks_per_4_samples] [after_s]`
+//! Checked: the robust estimator converges, to within the bias of the
+//! converter timing it does not model ([`OMEGA_TOLERANCE`],
+//! [`ZETA_TOLERANCE`]), started over a beam at rest after the excitation
+//! was off (the QEMU sequence: 20 s, and 8 s with the beam still ringing)
+//! and started on the moving beam 1 s into the excitation; a beam at rest
+//! without drive is not flagged stuck. `--nocapture` prints the figures
+//! BENCHMARKS.md quotes.
+//!
+//! Before this test's commit the QEMU sequence (rest 20 s) ended here with
+//! an estimate that was no longer two modes (on the QEMU image 41–48% off):
+//! the start-up took two candidates of its start-up law, held by the
+//! pipeline at the swap, as settled; and the guard flagged the resting
+//! beam's repeated ADC code as a stuck sensor (82,180 samples).
 
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
@@ -13,7 +29,7 @@ use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::pipeline::{bring_up, NoSink, Pipeline, PipelineConfig};
+use beamest::pipeline::{bring_up, NoSink, Pipeline};
 use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::{bench, ConverterModels};
 use heapless::spsc::Queue;
@@ -80,15 +96,34 @@ impl Updates {
     }
 }
 
-fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let arg = |i: usize, d: f64| a.get(i).and_then(|s| s.parse().ok()).unwrap_or(d);
-    let rest_s = arg(1, 20.0);
-    let on_delay = arg(2, 300.0) as u64;
-    let stuck_after = arg(3, f64::from(bench::STUCK_AFTER)) as u16;
-    let chunks4 = arg(4, 3.0) as u32;
-    let after_s = arg(5, 6.5);
+/// Bound on ω's relative error: the robust estimator's output-error model
+/// leaves out the converter timing (the ADS131M02's sinc3, the DAC's
+/// 15 µs; it refuses `FilterConfig::timing`), which biases ω2 by −2.2e-3
+/// on this bench (ideal timing: ≤ 2e-11, `examples/robust_moving.rs`);
+/// about twice that.
+pub const OMEGA_TOLERANCE: f64 = 5e-3;
+/// Bound on ζ's relative error: the same bias on ζ2, +8.1e-3 to +1.0e-2
+/// (by start); about twice that.
+pub const ZETA_TOLERANCE: f64 = 2e-2;
 
+/// What a run did.
+struct Outcome {
+    omega: f64,
+    zeta: f64,
+    phase: Phase,
+    applied: u32,
+    /// Pipeline stuck / rejected counters when the robust estimator was
+    /// swapped in.
+    stuck_at_switch: u32,
+    rejected_at_switch: u32,
+    moving: Option<bool>,
+}
+
+/// Excitation off at 0.5 s for `rest_s` (0: never off, the switch at 1 s
+/// on the moving beam), the switch to the robust estimator, the excitation
+/// on again `on_delay` samples later (the host's round trip), `after_s`
+/// more.
+fn run(rest_s: f64, on_delay: u64, after_s: f64) -> Outcome {
     let models: &'static ConverterModels = Box::leak(Box::new(ConverterModels::new()));
     let mut adc = Ads131m02::new(models.adc_spi());
     let mut dac = Ad5761r::new(models.dac_spi());
@@ -101,7 +136,8 @@ fn main() {
     )
     .unwrap();
     let mut rig = bench::converter_rig(models).unwrap();
-    // The device's own settings in the QEMU run (its log): λ, U0, Y0.
+    // The device's own settings in the QEMU run (its log: λ from the
+    // automatic rule, U0 and Y0 measured at start-up), not the truth.
     let (lambda, u0, y0) = (94.15, 0.1007, 2.3195e-3);
     let filter = FilterConfig {
         lambda_rad_s: lambda,
@@ -117,12 +153,8 @@ fn main() {
     let q: &'static mut Queue<beamest::pipeline::TelemetryRecord<f32, 7, 28>, 4> =
         Box::leak(Box::new(Queue::new()));
     let (prod, mut cons) = q.split();
-    let cfg = PipelineConfig {
-        stuck_after,
-        ..bench::pipeline_config()
-    };
     let mut p = Pipeline::new(
-        &cfg,
+        &bench::pipeline_config(),
         Est::Left(adaptive),
         bench::excitation::<f32>().unwrap(),
         adc,
@@ -132,7 +164,11 @@ fn main() {
     )
     .unwrap();
     let off_at = 5_000u64;
-    let switch_at = off_at + (rest_s * 1e4) as u64;
+    let switch_at = if rest_s > 0.0 {
+        off_at + (rest_s * 1e4) as u64
+    } else {
+        10_000
+    };
     let on_at = switch_at + on_delay;
     let end = switch_at + (after_s * 1e4) as u64;
     let mut upd = Updates::default();
@@ -143,55 +179,63 @@ fn main() {
         lambda_rad_s: Some(lambda as f32),
         ..EstimatorSettings::default()
     };
-    let mut rejected_at_switch = 0;
+    let (mut stuck_at_switch, mut rejected_at_switch) = (0, 0);
     for k in 0..end {
         rig.tick().unwrap();
         let _ = p.tick();
         while cons.dequeue().is_some() {}
-        if k + 1 == off_at {
+        if k + 1 == off_at && rest_s > 0.0 {
             p.excitation_mut().set_amplitude(0.0).unwrap();
         }
         if k + 1 == switch_at {
             let (f, law) = robust_configs::<7>(&settings, lambda, &filter);
             let r: &'static mut Robust2<f32> = Box::leak(Box::new(Robust2::new(&f, &law).unwrap()));
-            let _ = p.replace_estimator(Est::Right(r), lambda);
+            assert!(p.replace_estimator(Est::Right(r), lambda).is_ok());
+            stuck_at_switch = p.counters().stuck;
             rejected_at_switch = p.counters().rejected;
-            println!(
-                "switch at {}: rejected so far {rejected_at_switch}, stuck {}",
-                k + 1,
-                p.counters().stuck
-            );
         }
         if k + 1 == on_at {
             p.excitation_mut().set_amplitude(0.1).unwrap();
         }
-        if k + 1 >= switch_at {
-            let r = p.estimator_mut().right_mut().unwrap();
-            // `chunks4` polls every 4 samples.
-            if (k % 4) < u64::from(chunks4) {
-                upd.poll(r);
-            }
-            let n = k + 1 - switch_at;
-            if n % 2_000 == 0 || n == 40 {
-                let r = p.estimator().right().unwrap();
-                let (ew, ez) = err(&r.transfer_function());
-                let c = p.counters();
-                println!(
-                    "t {:6.2} (+{:5.2}) {:?} upd {} nc {} ref {} init {:?} rej {} stuck {} h {:?} ω {:.2e} ζ {:.2e}",
-                    (k + 1) as f64 * 1e-4,
-                    n as f64 * 1e-4,
-                    r.phase(),
-                    upd.applied,
-                    upd.not_converged,
-                    upd.refused,
-                    r.initial_state_significance(),
-                    c.rejected - rejected_at_switch,
-                    c.stuck,
-                    r.health().rejected,
-                    ew,
-                    ez
-                );
-            }
+        // Three polls of the thread-mode loop every four samples.
+        if k + 1 >= switch_at && k % 4 < 3 {
+            upd.poll(p.estimator_mut().right_mut().unwrap());
         }
+    }
+    let r = p.estimator().right().unwrap();
+    let (omega, zeta) = err(&r.transfer_function());
+    Outcome {
+        omega,
+        zeta,
+        phase: r.phase(),
+        applied: upd.applied,
+        stuck_at_switch,
+        rejected_at_switch,
+        moving: r.initial_state_significance().map(|(_, m)| m),
+    }
+}
+
+#[test]
+fn robust_estimator_converges_on_the_firmware_path() {
+    // (rest s, excitation on after the switch, samples): the QEMU
+    // sequence, a shorter rest with the beam still ringing, and no rest.
+    for (rest, delay) in [(20.0, 300), (20.0, 0), (8.0, 300), (0.0, 0)] {
+        let o = run(rest, delay, 6.5);
+        println!(
+            "rest {rest} s, excitation on {delay} samples after the switch: omega within \
+             {:.1e}, zeta within {:.1e}; phase {:?}, {} updates installed; start test: moving \
+             {:?}; at the switch: stuck {}, rejected {}",
+            o.omega, o.zeta, o.phase, o.applied, o.moving, o.stuck_at_switch, o.rejected_at_switch
+        );
+        assert!(
+            o.omega <= OMEGA_TOLERANCE && o.zeta <= ZETA_TOLERANCE,
+            "rest {rest}: omega {:.1e} zeta {:.1e}",
+            o.omega,
+            o.zeta
+        );
+        assert_eq!(o.phase, Phase::Steady);
+        assert!(o.applied >= 1);
+        // The beam at rest without drive reads one code: no stuck sensor.
+        assert_eq!((o.stuck_at_switch, o.rejected_at_switch), (0, 0));
     }
 }
