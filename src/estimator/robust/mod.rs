@@ -15,8 +15,9 @@
 //!    and held for the input quarantine (40/λ), because its filters started
 //!    at rest and the beam did not.
 //! 2. **Refining** ([`Phase::Refining`]): once that estimate has settled
-//!    (two candidates `update_every` apart agree within `start_tolerance`,
-//!    or ¾ of the record is used), and then every `update_every` samples
+//!    (two candidates `update_every` apart, with at least
+//!    [`START_MIN_ADAPT_S`] of adaptation of the start-up law between
+//!    them, agree within `start_tolerance`, or ¾ of the record is used), and then every `update_every` samples
 //!    while the record lasts, the model B̂/Â is re-simulated over the record
 //!    — from rest, or from the initial state fitted to the record — with the
 //!    current estimate as linearization point θ_m, and the law restarts
@@ -136,10 +137,21 @@
 //!   [`RobustEstimator::apply_bounded`]), bit-identical. An update
 //!   prepared before the record filled but applied after it is refused
 //!   ([`UpdateError::Stale`]): the samples past the record are not in it.
-//! * It must start with the beam at rest: started on a moving beam (the
-//!   QEMU bench 0.5 s or 1 s into the paper's excitation, or after only 8 s
-//!   of ring-down) it diverges, `f32` and `f64` (BENCHMARKS.md, "The robust
-//!   estimator on the Cortex-M4F").
+//! * Started on a moving beam it converges (the initial state is fitted),
+//!   at a cost in efficiency (above, "Initial state"). It once diverged
+//!   there when updates were requested from outside (firmware,
+//!   `update_every = 0`): candidates taken while the start-up law was held
+//!   (the start quarantine after a moving start, a pipeline's hold at the
+//!   swap, the input gone) were identical, passed the agreement test, and
+//!   the unadapted guess (Λ's poles) became the first linearization point.
+//!   A candidate now counts only after [`START_MIN_ADAPT_S`] of adaptation
+//!   since the previous one (test
+//!   `started_on_a_moving_beam_with_external_updates_converges`; the QEMU
+//!   sequence on the host: `host-tests/tests/robust_firmware_path.rs`).
+//! * A rejected reading (a NaN from the caller, a screened sample) is
+//!   recorded as missing with the u given with it (or the last good u):
+//!   the replays run the simulation on through it and skip its residual,
+//!   the initial-state fit and the start test leave it out.
 //! * If the start-up estimate has not settled before the record is full
 //!   (a very short record, or a start quarantine longer than the record),
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
@@ -184,9 +196,10 @@ pub struct RobustConfig<const NP: usize> {
     /// while the start-up record lasts; 0 = only when the caller applies a
     /// [`Pending`].
     pub update_every: u32,
-    /// Start-up ends when two consecutive candidate denominators differ by
+    /// Start-up ends when two consecutive candidate denominators, with at
+    /// least [`START_MIN_ADAPT_S`] of adaptation between them, differ by
     /// less than this (Σ|Δc_k|/Σ|c_k|, normalized coefficients), or when ¾ of
-    /// the record is used.
+    /// the record is used (and the start-up law has adapted that long).
     pub start_tolerance: f64,
     /// The state of the beam when the first sample is taken.
     pub initial_state: InitialState,
