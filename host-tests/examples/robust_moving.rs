@@ -2,7 +2,10 @@
 //! settings (`link::robust_configs`), on the bench's plant with or without
 //! its converter timing.
 //!
-//! `cargo run --release -p host-tests --example robust_moving -- [start_s] [off_s] [timing] [f32|f64] [seconds]`
+//! `cargo run --release -p host-tests --example robust_moving -- [start_s] [off_s] [timing|ideal] [f32|f64] [seconds] [modelled|unmodelled]`
+//!
+//! (`timing`: the bench's converters simulated; `modelled`: the estimator
+//! models them, `FilterConfig::timing`.)
 
 use beamest::estimator::robust::Phase;
 use beamest::estimator::{Estimator, Robust2};
@@ -32,7 +35,7 @@ fn err<T: Real>(est: &Robust2<T>) -> (f64, f64) {
     }
 }
 
-fn run<T: Real>(start_s: f64, off_s: f64, timing: bool, seconds: f64) {
+fn run<T: Real>(start_s: f64, off_s: f64, timing: bool, seconds: f64, model_timing: bool) {
     let plant = bench::plant().unwrap();
     let t = if timing {
         bench::converter_timing()
@@ -53,6 +56,11 @@ fn run<T: Real>(start_s: f64, off_s: f64, timing: bool, seconds: f64) {
         scales: SignalScales {
             u_scale: 0.1007,
             y_scale: 2.3195e-3,
+        },
+        timing: if model_timing {
+            bench::output_timing()
+        } else {
+            beamest::filter_bank::OutputTiming::IDEAL
         },
         ..FilterConfig::default()
     };
@@ -99,9 +107,10 @@ fn main() {
     let timing = a.get(3).is_none_or(|s| s != "ideal");
     let f32 = a.get(4).is_some_and(|s| s == "f32");
     let secs: f64 = a.get(5).and_then(|s| s.parse().ok()).unwrap_or(8.0);
+    let model = a.get(6).is_none_or(|s| s != "unmodelled");
     if f32 {
-        run::<f32>(start, off, timing, secs);
+        run::<f32>(start, off, timing, secs, model);
     } else {
-        run::<f64>(start, off, timing, secs);
+        run::<f64>(start, off, timing, secs, model);
     }
 }

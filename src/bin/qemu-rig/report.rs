@@ -287,8 +287,7 @@ pub fn finish(
             robust::ZETA_TOLERANCE,
         );
         hprintln!(
-            "robust estimator convergence (omega within {}, zeta within {}: the converter \
-             timing's bias, which it does not model, about twice): {}",
+            "robust estimator convergence (omega within {}, zeta within {}): {}",
             Sci(robust::OMEGA_TOLERANCE, 0),
             Sci(robust::ZETA_TOLERANCE, 0),
             if converged { "yes" } else { "NO" }

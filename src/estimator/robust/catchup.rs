@@ -33,7 +33,7 @@ use super::{
     UpdateError, REFINE_STEPS,
 };
 use crate::compensated::CompensatedArray;
-use crate::filter_bank::OutputHold;
+use crate::filter_bank::{OutputHold, OutputTiming};
 use crate::scalar::Real;
 
 /// What a model update needs of the estimator, copied out of it (~1 KB for
@@ -50,6 +50,7 @@ pub struct UpdateSeed<T, const D: usize, const NP: usize, const NS: usize> {
     law: OeLaw<T, NP, NS>,
     rho_ts: f64,
     hold: OutputHold,
+    timing: OutputTiming,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D, NP, NS> {
@@ -73,7 +74,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
             }
             None => return Err(UpdateError::Unstable),
         };
-        let oe = OeModel::new(Filters::new(&c, self.rho_ts, self.hold), &theta);
+        // (The timing was accepted by `RobustEstimator::new`, for Λ; the
+        // same kernel on another stable 1/Â fails only if it is not causal.)
+        let f =
+            Filters::new(&c, self.rho_ts, self.hold, &self.timing).ok_or(UpdateError::Unstable)?;
+        let oe = OeModel::new(f, &theta);
         let mut law = self.law;
         law.restart(&theta);
         Ok(Pending {
@@ -129,6 +134,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             law: self.law.clone(),
             rho_ts: self.filter.lambda_rad_s * self.filter.ts_s,
             hold: self.filter.hold,
+            timing: self.filter.timing,
         })
     }
 

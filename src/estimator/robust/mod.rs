@@ -384,15 +384,22 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// # Errors
     /// [`ConfigError`] for invalid settings, and
     /// `ConfigError::Filter(FilterConfigError::Timing)` for an output timing
-    /// other than [`crate::filter_bank::OutputTiming::IDEAL`] (not modelled
-    /// by the output-error simulation).
+    /// ([`crate::filter_bank::OutputTiming`]) whose kernel reaches an input
+    /// later than the interval's own (a sinc³ with less than its 1.5-sample
+    /// group delay): the output-error simulation runs forward without the
+    /// filter bank's look-ahead. A causal timing (a point delay, the
+    /// ADS131M02's sinc³ with the DAC's latency) is simulated on the
+    /// model's u like the bank's u channel.
     pub fn new(filter: &FilterConfig, cfg: &RobustConfig<NP>) -> Result<Self, ConfigError> {
         let bank = FilterBank::new(filter)?;
-        // The output-error model simulates a held input only (no output
-        // timing kernel on its u): refuse rather than silently bias.
-        if !filter.timing.is_ideal() {
+        let rho_ts = filter.lambda_rad_s * filter.ts_s;
+        // The output-error model runs forward without look-ahead: a timing
+        // whose kernel reaches a later input is refused.
+        let Some(lambda_filters) =
+            Filters::new(&lambda_coeffs::<D>(), rho_ts, filter.hold, &filter.timing)
+        else {
             return Err(ConfigError::Filter(FilterConfigError::Timing));
-        }
+        };
         let startup = AdaptiveLaw::new(&cfg.startup, filter.ts_s)?;
         positive(cfg.gain)?;
         positive(cfg.forgetting)?;
@@ -401,17 +408,13 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         if cfg.theta_update_every == 0 {
             return Err(ConfigError::Gain);
         }
-        let rho_ts = filter.lambda_rad_s * filter.ts_s;
         let rho_pow =
             core::array::from_fn(|k| T::from_f64(libm::pow(filter.lambda_rad_s, (D - k) as f64)));
         let zero = CompensatedArray::default();
         Ok(Self {
             bank,
             startup,
-            oe: OeModel::new(
-                Filters::new(&lambda_coeffs::<D>(), rho_ts, filter.hold),
-                &zero,
-            ),
+            oe: OeModel::new(lambda_filters, &zero),
             law: OeLaw::new(
                 cfg.gain,
                 cfg.forgetting,
