@@ -7,7 +7,6 @@
 //! (`timing`: the bench's converters simulated; `modelled`: the estimator
 //! models them, `FilterConfig::timing`.)
 
-use beamest::estimator::robust::Phase;
 use beamest::estimator::{Estimator, Robust2};
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
@@ -81,7 +80,7 @@ fn run<T: Real>(start_s: f64, off_s: f64, timing: bool, seconds: f64, model_timi
         if k >= start {
             est.step(T::from_f64(u), T::from_f64(y));
             let n = k - start + 1;
-            if n % 2_000 == 0 || n == 32 {
+            if n.is_multiple_of(2_000) || n == 32 {
                 let (ew, ez) = err(&est);
                 println!(
                     "t {:6.2} s (est {:5.2} s) phase {:?} updates {} initial {:?} ω {:.2e} ζ {:.2e}",
@@ -97,7 +96,6 @@ fn run<T: Real>(start_s: f64, off_s: f64, timing: bool, seconds: f64, model_timi
         }
         u_prev = u;
     }
-    let _ = Phase::Steady;
 }
 
 fn main() {
