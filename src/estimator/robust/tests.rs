@@ -272,8 +272,9 @@ fn started_on_a_moving_beam_with_external_updates_converges() {
     let e = moving_start_external_updates::<f64>(2.0);
     assert!(e < 1e-6, "f64: {e}");
     let e = moving_start_external_updates::<f32>(2.0);
-    // (f32 at λ = 400 rad/s, 1.6× ω2, and a fitted initial state: 9.9e-4;
-    // without the adaptation requirement both precisions diverged, 11.7
-    // in f64.)
-    assert!(e < 5e-3, "f32: {e}");
+    println!("moving start, external updates: f32 {e:.1e}");
+    // (f32: 2.5e-5 with the initial-state fit's sums in double words,
+    // 9.9e-4 with them in plain f32; without the adaptation requirement
+    // both precisions diverged, 11.7 in f64.)
+    assert!(e < 1e-4, "f32: {e}");
 }
