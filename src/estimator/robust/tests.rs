@@ -278,3 +278,36 @@ fn started_on_a_moving_beam_with_external_updates_converges() {
     // both precisions diverged, 11.7 in f64.)
     assert!(e < 1e-4, "f32: {e}");
 }
+
+#[test]
+fn rejected_readings_in_the_record_are_missing_not_substituted() {
+    // Five readings lost at 0.05 s (y = NaN, u known): the replays run the
+    // simulation through them on u and skip their residuals. (Recorded as
+    // the substituted last good y they made the replayed data wrong for
+    // good.) λ = 400 rad/s: the quarantine after them (40/λ) ends inside
+    // the 0.3 s record.
+    let f = FilterConfig {
+        lambda_rad_s: 400.0,
+        ..filter()
+    };
+    let mut est = Small::<f64>::new(&f, &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 0.05);
+    for _ in 0..5 {
+        let (u, _) = rig.sample();
+        assert_eq!(est.step(u, f64::NAN), StepStatus::Rejected);
+    }
+    let err = rig.run(&mut est, 2.3);
+    assert_eq!(est.phase(), Phase::Steady);
+    assert!(err < 1e-8, "{err}");
+    // The start test leaves rejected readings out; too few valid: no verdict.
+    let mut y = [0.0f64; START_TEST_SAMPLES];
+    for (n, v) in y.iter_mut().enumerate() {
+        let t = n as f64 / 31.0;
+        *v = 1e-2 * t * t;
+    }
+    y[3] = f64::NAN;
+    y[17] = f64::NAN;
+    assert!(start_test(&y).unwrap() < 1.0);
+    assert_eq!(start_test(&[f64::NAN; START_TEST_SAMPLES]), None);
+}
