@@ -644,7 +644,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// (NaN), so the replays never take it for a measurement.
     fn push(&mut self, u: T, y: T, mut update: bool, y_valid: bool) -> Result<(), LawError> {
         let (us, ys) = (u * self.inv_u_scale, y * self.inv_y_scale);
-        if self.rec_len < B {
+        // The record starts at the first valid reading: readings missing
+        // before it (a caller's delay line filling, a fault at the start)
+        // carry nothing, and the start test judges the beam at the
+        // record's first sample.
+        let leading = self.rec_len == 0 && !y_valid;
+        if self.rec_len < B && !leading {
             self.rec_u[self.rec_len] = us;
             self.rec_y[self.rec_len] = if y_valid { ys } else { T::from_f64(f64::NAN) };
             self.rec_len += 1;
@@ -656,7 +661,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 // A restarted start-up law must not take this sample either.
                 update &= !self.screen.in_quarantine();
             }
-        } else {
+        } else if !leading {
             self.unrecorded = self.unrecorded.saturating_add(1);
         }
         match self.phase {
