@@ -151,7 +151,9 @@
 //! * A rejected reading (a NaN from the caller, a screened sample) is
 //!   recorded as missing with the u given with it (or the last good u):
 //!   the replays run the simulation on through it and skip its residual,
-//!   the initial-state fit and the start test leave it out.
+//!   the initial-state fit and the start test leave it out. Readings
+//!   missing before the first valid one are not recorded: the record
+//!   starts there.
 //! * If the start-up estimate has not settled before the record is full
 //!   (a very short record, or a start quarantine longer than the record),
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
