@@ -54,7 +54,7 @@ use crate::scalar::Real;
 
 mod timing;
 
-use timing::{InputTaps, U_HIST, U_TAPS};
+pub(crate) use timing::{InputTaps, U_HIST, U_TAPS};
 
 pub use timing::{OutputAverage, OutputTiming, MAX_OUTPUT_DELAY_SAMPLES};
 

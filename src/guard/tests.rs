@@ -336,3 +336,28 @@ fn bad_settings_are_refused() {
         assert_eq!(SensorGuard::<f32>::new(b).err(), Some(w));
     }
 }
+
+#[test]
+fn a_resting_beam_without_drive_is_not_stuck() {
+    let mut g = guard(None, None);
+    // No drive: the reading sits at one code for 1,000 samples.
+    g.set_input_quiet(true);
+    for k in 0..1_000u64 {
+        if let Some(o) = g.push(0.0, 0.25) {
+            assert_eq!(o.fault, None, "{k}");
+        }
+    }
+    assert_eq!(g.counts().stuck, 0);
+    // The drive returns and the reading still does not move: the repeats
+    // count afresh, the 25th driven sample completes a stuck run, which is
+    // rejected back through the delay line (26 samples: the 25 driven ones
+    // and the last quiet one), then each of the 15 more.
+    g.set_input_quiet(false);
+    for k in 0..40 {
+        g.push(0.1, 0.25);
+        if k == 23 {
+            assert_eq!(g.counts().stuck, 0);
+        }
+    }
+    assert_eq!(g.counts().stuck, 41);
+}

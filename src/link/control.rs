@@ -21,7 +21,7 @@ use crate::excitation::{
     ChirpSpec, Excitation, ExcitationError, ExcitationKind, MultisineSpec, Phases, Shape, Sweep,
     Waveform,
 };
-use crate::filter_bank::{FilterConfig, FilterConfigError, OutputTiming};
+use crate::filter_bank::{FilterConfig, FilterConfigError};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::protocol::{self, EstimatorSettings, RejectReason};
@@ -161,24 +161,19 @@ pub fn estimator_configs<const NP: usize>(
 
 /// The core's settings of the robust estimator
 /// ([`crate::estimator::robust`], `EstimatorKind::Robust`) for the
-/// protocol's: [`estimator_configs`]' filter bank with the converter timing
-/// left out (the output-error model simulates a held input only and
-/// refuses a timing model: on a board with converter latency the estimate
-/// carries its bias, docs/PROTOCOL.md §5.2), Γ = gain (eq. 41), l =
-/// forgetting_p (eq. 33; γ is tied to it, forgetting_h is unused),
-/// R(0) = I/initial_gain; its start-up law is the adaptive law of the same
-/// settings; model updates only when the caller applies them
-/// (`update_every = 0`: firmware prepares them off the sample path).
+/// protocol's: [`estimator_configs`]' filter bank, converter timing
+/// included (the output-error model simulates it on its u like the bank's
+/// u channel), Γ = gain (eq. 41), l = forgetting_p (eq. 33; γ is tied to
+/// it, forgetting_h is unused), R(0) = I/initial_gain; its start-up law is
+/// the adaptive law of the same settings; model updates only when the
+/// caller applies them (`update_every = 0`: firmware prepares them off the
+/// sample path).
 pub fn robust_configs<const NP: usize>(
     settings: &EstimatorSettings,
     lambda_rad_s: f64,
     base: &FilterConfig,
 ) -> (FilterConfig, RobustConfig<NP>) {
     let (filter, startup) = estimator_configs::<NP>(settings, lambda_rad_s, base);
-    let filter = FilterConfig {
-        timing: OutputTiming::IDEAL,
-        ..filter
-    };
     let law = RobustConfig {
         gain: f64::from(settings.gain),
         forgetting: f64::from(settings.forgetting_p),

@@ -64,12 +64,15 @@
 //! A sample with a converter error, a saturated, stuck or non-finite
 //! bridge conversion (with `Monitored`: also a bad monitor conversion), or
 //! a failed DAC write (with `Commanded`: the held value is unknown) is
-//! *invalid*. The estimator is then stepped with NaN: it keeps its time
-//! base, substitutes its last good sample into the filters and freezes its
-//! law for 40 filter time constants (the quarantine of
+//! *invalid*. The estimator is then stepped with y = NaN (and u = NaN
+//! unless u is known: a sample rejected for its y alone carries the u the
+//! beam saw, which the robust estimator's model simulation needs): it keeps
+//! its time base, substitutes its last good sample into the filters and
+//! freezes its law for 40 filter time constants (the quarantine of
 //! [`crate::estimator`]), so nothing of the bad sample ever reaches Θ̂.
 //! Skipping the step instead would shift the filters' time base by one
-//! sample. The prefilter is fed the last good values.
+//! sample. The prefilter is fed the known u and the last good y (the last
+//! good u too when u is not known).
 //!
 //! # Deliberate holds
 //! When the estimator's filters are out of step with the beam through no
@@ -308,12 +311,17 @@ where
         let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
 
         // 5. The pair for step(u held over the coming period, y now).
+        // A u that is not known (the DAC write failed, the monitor
+        // saturated) travels as NaN, so that a sample rejected for its y
+        // alone still carries its true u (below).
+        let nan = T::from_f64(f64::NAN);
+        let known = |u: T, u_ok: bool| if u_ok { u } else { nan };
         let pair = match self.input {
-            InputSource::Commanded => held_now.map(|(u, u_ok)| (u, y, u_ok && y_ok)),
+            InputSource::Commanded => held_now.map(|(u, u_ok)| (known(u, u_ok), y, u_ok && y_ok)),
             InputSource::Monitored => self
                 .prev_y
                 .replace((y, y_ok))
-                .map(|(py, py_ok)| (u_mon, py, mon_ok && py_ok)),
+                .map(|(py, py_ok)| (known(u_mon, mon_ok), py, mon_ok && py_ok)),
         };
         let Some((u, y, ok)) = pair else {
             // Start-up: nothing held yet to pair with.
@@ -323,6 +331,11 @@ where
         // line, so a run is rejected from its first sample) and the level
         // corrections, one implementation with the host tools
         // ([`crate::guard`]).
+        // A beam left without drive settles: its repeated readings are no
+        // stuck sensor ([`SensorGuard::set_input_quiet`]).
+        self.guard.set_input_quiet(
+            self.excitation.kind() == ExcitationKind::Off || self.excitation.amplitude() == T::ZERO,
+        );
         let out = self.guard.push_at(u, y, ok, index);
         let seen = self.guard.last_screening();
         if seen.fault.is_some_and(|f| f != SampleFault::Upstream) {
@@ -342,10 +355,13 @@ where
         };
         let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
-        // 6. Prefilter (fed the last good values across a bad sample).
+        // 6. Prefilter (fed the last good values across a bad sample; a
+        // known u is fed as it is).
         let (u_in, y_in) = if ok {
             self.last_good = (u, y);
             (u, y)
+        } else if u.is_finite() {
+            (u, self.last_good.1)
         } else {
             self.last_good
         };
@@ -357,8 +373,9 @@ where
             None => (u_in, y_in),
         };
 
-        // 7. Estimator.
-        let nan = T::from_f64(f64::NAN);
+        // 7. Estimator: a rejected sample as y = NaN, with its u when that
+        // is known (an estimator that simulates its model, the robust one,
+        // needs the input the beam saw; the others ignore it).
         if !ok {
             bump(&mut self.counters.rejected);
             self.flags.set(StatusFlags::REJECTED, true);
@@ -368,6 +385,8 @@ where
         } else {
             let s = if ok {
                 self.estimator.step(u_f, y_f)
+            } else if u.is_finite() {
+                self.estimator.step(u_f, nan)
             } else {
                 self.estimator.step(nan, nan)
             };

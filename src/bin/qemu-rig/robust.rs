@@ -135,14 +135,15 @@ impl RobustUpdates {
     }
 }
 
-/// Pass criterion on ω with the robust estimator (relative error).
+/// Pass criterion on ω with the robust estimator (relative error): the
+/// default run's for the adaptive law. The estimator models the converters'
+/// timing (`FilterConfig::timing`, as the adaptive law); on the host, the
+/// same sequence ends within 8.3e-7 on ω and 1.0e-5 on ζ
+/// (`host-tests/tests/robust_firmware_path.rs`; without the timing model
+/// the bias was ω2 −2.2e-3, ζ2 +8.1e-3: BENCHMARKS.md).
 pub const OMEGA_TOLERANCE: f64 = 1e-3;
-/// Pass criterion on ζ with the robust estimator (relative error): wider
-/// than ω's because its output-error model leaves out the converters'
-/// timing (the ADS131M02's sinc3 group delay and the AD5761R's latency),
-/// which it cannot model (it refuses `FilterConfig::timing`); that delay
-/// biases ζ (BENCHMARKS.md, "The robust estimator on the Cortex-M4F").
-pub const ZETA_TOLERANCE: f64 = 1e-2;
+/// Pass criterion on ζ with the robust estimator (relative error).
+pub const ZETA_TOLERANCE: f64 = 1e-3;
 
 /// Bound on any lock these updates take (instructions): one sample period
 /// (100 µs at one instruction per ns under `-icount shift=0`), so a sample
@@ -152,9 +153,8 @@ pub const LOCK_BOUND: u32 = 100_000;
 /// The robust estimator's figures at the end of the run (timer stopped);
 /// true if at least one update was installed and no lock of theirs
 /// exceeded [`LOCK_BOUND`] (the real-time properties this image proves).
-/// Its convergence on this bench is reported by the caller, not required:
-/// on the QEMU bench it does not converge (BENCHMARKS.md, "The robust
-/// estimator on the Cortex-M4F").
+/// Its convergence ([`OMEGA_TOLERANCE`], [`ZETA_TOLERANCE`]) is checked by
+/// the caller.
 pub fn report(u: &RobustUpdates, dev: &mut QemuDevice, ipt: f32) -> bool {
     let state = dev.with_robust(|r| (r.phase(), r.updates(), r.recorded()));
     let steps = dev.with_pipeline(|p| p.estimator().steps());

@@ -16,31 +16,71 @@
 //! direction (an error in it costs efficiency, never bias: it is built from
 //! u alone) and runs in plain working precision.
 
-use crate::compensated::{Compensated, CompensatedArray, Dot2};
-use crate::filter_bank::{FilterMatrices, WINDOW};
+use crate::compensated::{two_prod, Compensated, CompensatedArray, Dot2};
+use crate::filter_bank::{FilterMatrices, InputTaps, OutputTiming, U_HIST, U_TAPS, WINDOW};
 use crate::linalg::mat_vec;
 use crate::scalar::Real;
 
 /// One discretized normalized filter 1/Ã: Φ − I, the held-input gain and
-/// the interpolating-hold taps, in working precision.
+/// the interpolating-hold taps, in working precision; with a converter
+/// timing ([`OutputTiming`], not ideal) the held input's gain is replaced
+/// by the timing's gains on the last inputs (the filter bank's u channel,
+/// `filter_bank::timing`: the measured y_k is the model's output for the
+/// input seen through the converters' kernel).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Filters<T, const D: usize> {
     phi_minus_i: [[T; D]; D],
     gain_u: [T; D],
     taps: [[T; D]; WINDOW],
+    /// The timing's gains on u_{n−first−k}, k < `u_count`, over
+    /// [t_n, t_{n+1}]; `u_count` = 0: the zero-order hold (`gain_u`).
+    u_taps: [[T; D]; U_TAPS],
+    u_first: usize,
+    u_count: usize,
 }
+
+/// Inputs the model keeps (newest first): the timing's reach.
+pub(crate) const U_KEEP: usize = U_HIST;
 
 impl<T: Real, const D: usize> Filters<T, D> {
     /// Discretize 1/Ã for normalized coefficients `c` (power k at index k)
-    /// at ρ·Ts = `rho_ts` (start-up or off the sample path: one matrix
-    /// exponential).
-    pub(crate) fn new(c: &[f64; D], rho_ts: f64, hold: crate::filter_bank::OutputHold) -> Self {
+    /// at ρ·Ts = `rho_ts` with the converters' `timing` (start-up or off the
+    /// sample path: matrix exponentials). `None` for a timing whose kernel
+    /// reaches a later input than the interval's own (an output less
+    /// delayed than the sinc³'s group delay): the simulation runs forward
+    /// without look-ahead.
+    pub(crate) fn new(
+        c: &[f64; D],
+        rho_ts: f64,
+        hold: crate::filter_bank::OutputHold,
+        timing: &OutputTiming,
+    ) -> Option<Self> {
         let m = FilterMatrices::<D>::new(c, rho_ts, hold);
-        Self {
+        let mut f = Self {
             phi_minus_i: m.phi_minus_i.map(|r| r.map(T::from_f64)),
             gain_u: m.gain_u.map(T::from_f64),
             taps: m.taps_y.map(|r| r.map(T::from_f64)),
+            u_taps: [[T::ZERO; D]; U_TAPS],
+            u_first: 0,
+            u_count: 0,
+        };
+        if !timing.is_ideal() {
+            let (aug, n) = FilterMatrices::<D>::augmented(c, rho_ts);
+            let t = InputTaps::<D>::new(&aug, n, timing);
+            // The bank's taps are for the interval [t_{j}, t_{j+1}] with
+            // j = n − 3 (its look-ahead): u_{j−i} is its history entry
+            // 3 + i; here j = n.
+            let first = t.first.checked_sub(3)?;
+            if first + t.count > U_KEEP || t.count == 0 {
+                return None;
+            }
+            for (dst, src) in f.u_taps.iter_mut().zip(t.gains.iter()).take(t.count) {
+                *dst = src.map(T::from_f64);
+            }
+            f.u_first = first;
+            f.u_count = t.count;
         }
+        Some(f)
     }
 }
 
@@ -66,6 +106,9 @@ pub(crate) struct OeModel<T, const D: usize, const NP: usize> {
     yhat_win: [T; WINDOW],
     /// Measured y_{n−2}, y_{n−1}, y_n (scaled).
     y_delay: [T; 3],
+    /// Inputs u_n, u_{n−1}, … (scaled, newest first; zero before the
+    /// first): the timing's taps read them.
+    u_hist: [T; U_KEEP],
 }
 
 impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
@@ -87,6 +130,7 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
             g: [T::ZERO; D],
             yhat_win: [T::ZERO; WINDOW],
             y_delay: [T::ZERO; 3],
+            u_hist: [T::ZERO; U_KEEP],
         }
     }
 
@@ -100,9 +144,20 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
         acc.value()
     }
 
-    /// Advance ξ over one sample with the held (scaled) input `u`.
+    /// Shift the (scaled) input `u` in as u_n.
     #[inline]
-    fn advance(f: &Filters<T, D>, xi: &mut CompensatedArray<T, D>, u: T) {
+    fn shift_in(hist: &mut [T; U_KEEP], u: T) {
+        let h = *hist;
+        *hist = core::array::from_fn(|k| match k.checked_sub(1) {
+            Some(i) => h.get(i).copied().unwrap_or(T::ZERO),
+            None => u,
+        });
+    }
+
+    /// Advance ξ over [t_n, t_{n+1}] with the inputs `hist` (u_n first:
+    /// held, or through the timing's taps).
+    #[inline]
+    fn advance(f: &Filters<T, D>, xi: &mut CompensatedArray<T, D>, hist: &[T; U_KEEP]) {
         let mut d = mat_vec(&f.phi_minus_i, &xi.hi);
         if T::COMPENSATED {
             let l = mat_vec(&f.phi_minus_i, &xi.lo);
@@ -110,8 +165,24 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
                 d[i] += l[i];
             }
         }
+        if f.u_count == 0 {
+            let u = hist[0];
+            for i in 0..D {
+                d[i] += f.gain_u[i] * u;
+            }
+        } else {
+            for (g, uv) in f
+                .u_taps
+                .iter()
+                .zip(hist.iter().skip(f.u_first))
+                .take(f.u_count)
+            {
+                for i in 0..D {
+                    d[i] += g[i] * *uv;
+                }
+            }
+        }
         for i in 0..D {
-            d[i] += f.gain_u[i] * u;
             xi.add(i, d[i]);
         }
     }
@@ -133,7 +204,8 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
         self.yhat_win.copy_within(1.., 0);
         self.yhat_win[WINDOW - 1] = yhat;
         self.ring = [self.ring[1], self.ring[2], self.xi.values()];
-        Self::advance(&self.f, &mut self.xi, u);
+        Self::shift_in(&mut self.u_hist, u);
+        Self::advance(&self.f, &mut self.xi, &self.u_hist);
         let mut dg = mat_vec(&self.f.phi_minus_i, &self.g);
         for (tap, v) in self.f.taps.iter().zip(self.yhat_win.iter()) {
             for i in 0..D {
@@ -188,7 +260,10 @@ mod tests {
         for (j, v) in th.iter().enumerate() {
             t.set(j, *v);
         }
-        OeModel::new(Filters::new(&c, 1e-2, OutputHold::Quintic), &t)
+        OeModel::new(
+            Filters::new(&c, 1e-2, OutputHold::Quintic, &OutputTiming::IDEAL).unwrap(),
+            &t,
+        )
     }
 
     #[test]
@@ -249,8 +324,14 @@ pub(crate) struct InitialFit<T, const D: usize> {
     rest: CompensatedArray<T, D>,
     /// Free responses from ξ(t_0) = e_k, k = 0..D−1.
     free: [CompensatedArray<T, D>; D],
-    g: [[T; D]; D],
-    h: [T; D],
+    /// Normal equations Σf·fᵀ, Σf·r, by rows (double words when
+    /// `T::COMPENSATED`: the sums run over the whole record, 20,000 terms,
+    /// and in plain `f32` their rounding left a moving start 1.8e-3 off on
+    /// ζ; solved in `f64`, off the sample path).
+    g: [CompensatedArray<T, D>; D],
+    h: CompensatedArray<T, D>,
+    /// The inputs so far (newest first), for the response from rest.
+    u_hist: [T; U_KEEP],
     /// Samples accumulated.
     pub pos: usize,
 }
@@ -265,8 +346,9 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
                 c.set(k, T::ONE);
                 c
             }),
-            g: [[T::ZERO; D]; D],
-            h: [T::ZERO; D],
+            g: [CompensatedArray::default(); D],
+            h: CompensatedArray::default(),
+            u_hist: [T::ZERO; U_KEEP],
             pos: 0,
         }
     }
@@ -275,17 +357,31 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
     /// the model `m`.
     pub fn push<const NP: usize>(&mut self, m: &OeModel<T, D, NP>, u: &[T], y: &[T]) {
         for (&uk, &yk) in u.iter().zip(y) {
-            let r = yk - m.output(&self.rest);
-            let f: [T; D] = core::array::from_fn(|k| m.output(&self.free[k]));
-            for a in 0..D {
-                self.h[a] += f[a] * r;
-                for b in 0..D {
-                    self.g[a][b] += f[a] * f[b];
+            // A rejected reading (NaN in the record) adds nothing.
+            if yk.is_finite() {
+                let r = yk - m.output(&self.rest);
+                let f: [T; D] = core::array::from_fn(|k| m.output(&self.free[k]));
+                for a in 0..D {
+                    if T::COMPENSATED {
+                        let (p, e) = two_prod(f[a], r);
+                        self.h.add_dw(a, p, e);
+                        for b in 0..D {
+                            let (p, e) = two_prod(f[a], f[b]);
+                            self.g[a].add_dw(b, p, e);
+                        }
+                    } else {
+                        self.h.hi[a] += f[a] * r;
+                        for b in 0..D {
+                            self.g[a].hi[b] += f[a] * f[b];
+                        }
+                    }
                 }
             }
-            OeModel::<T, D, NP>::advance(&m.f, &mut self.rest, uk);
+            OeModel::<T, D, NP>::shift_in(&mut self.u_hist, uk);
+            OeModel::<T, D, NP>::advance(&m.f, &mut self.rest, &self.u_hist);
+            let none = [T::ZERO; U_KEEP];
             for fk in self.free.iter_mut() {
-                OeModel::<T, D, NP>::advance(&m.f, fk, T::ZERO);
+                OeModel::<T, D, NP>::advance(&m.f, fk, &none);
             }
             self.pos += 1;
         }
@@ -294,8 +390,11 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
     /// The least-squares initial state; `None` if the normal matrix is
     /// singular or the solution not finite.
     pub fn solve(&self) -> Option<[T; D]> {
-        let mut g = self.g;
-        let x = crate::linalg::ldlt_solve_floored(&mut g, &self.h).ok()?;
-        crate::linalg::all_finite(&x).then_some(x)
+        let dw = |c: &CompensatedArray<T, D>, i: usize| c.hi[i].to_f64() + c.lo[i].to_f64();
+        let mut g: [[f64; D]; D] =
+            core::array::from_fn(|a| core::array::from_fn(|b| dw(&self.g[a], b)));
+        let h: [f64; D] = core::array::from_fn(|a| dw(&self.h, a));
+        let x = crate::linalg::ldlt_solve_floored(&mut g, &h).ok()?;
+        crate::linalg::all_finite(&x).then(|| x.map(T::from_f64))
     }
 }

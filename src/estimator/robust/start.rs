@@ -37,8 +37,10 @@ pub const START_TEST_NOISE_FLOOR: f64 = 1e-3;
 /// The start test of [`InitialState::Auto`] on the first samples of y:
 /// χ²(2) of the value and slope at the first sample in a cubic fit
 /// (y_n ≈ a + b·t + c·t² + d·t³, t = n/(N−1)). A beam at rest has a = b = 0
-/// and its forced response is fitted by the c, d terms. `None` if fewer
-/// than [`START_TEST_SAMPLES`] samples or a degenerate fit.
+/// and its forced response is fitted by the c, d terms. Rejected readings
+/// (NaN) are left out. `None` if fewer than [`START_TEST_SAMPLES`] samples,
+/// fewer than 8 valid ones among them, or a degenerate fit (the caller then
+/// assumes the beam was moving).
 pub(super) fn start_test<T: Real>(y: &[T]) -> Option<T> {
     const K: usize = 4;
     let y = y.get(..START_TEST_SAMPLES)?;
@@ -49,7 +51,12 @@ pub(super) fn start_test<T: Real>(y: &[T]) -> Option<T> {
     };
     let mut xtx = [[T::ZERO; K]; K];
     let mut xty = [T::ZERO; K];
-    for (n, &v) in y.iter().enumerate() {
+    // Rejected readings (NaN in the record) are left out of the fit.
+    let valid = y.iter().filter(|v| v.is_finite()).count();
+    if valid < 2 * K {
+        return None;
+    }
+    for (n, &v) in y.iter().enumerate().filter(|(_, v)| v.is_finite()) {
         let x = basis(n);
         for i in 0..K {
             xty[i] += x[i] * v;
@@ -71,13 +78,13 @@ pub(super) fn start_test<T: Real>(y: &[T]) -> Option<T> {
     let coef: [T; K] =
         core::array::from_fn(|i| (0..K).fold(T::ZERO, |s, j| s + inv[i][j] * xty[j]));
     let mut rss = T::ZERO;
-    for (n, &v) in y.iter().enumerate() {
+    for (n, &v) in y.iter().enumerate().filter(|(_, v)| v.is_finite()) {
         let x = basis(n);
         let fit = (0..K).fold(T::ZERO, |s, j| s + coef[j] * x[j]);
         rss += (v - fit) * (v - fit);
     }
     let floor = T::from_f64(START_TEST_NOISE_FLOOR);
-    let var = (rss / T::from_usize(START_TEST_SAMPLES - K)).max(floor * floor);
+    let var = (rss / T::from_usize(valid - K)).max(floor * floor);
     // χ² = [a b]·(σ²·inv₂ₓ₂)⁻¹·[a b]ᵀ.
     let (p, q, r) = (inv[0][0], inv[0][1], inv[1][1]);
     let det = p * r - q * q;

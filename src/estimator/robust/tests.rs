@@ -117,9 +117,14 @@ fn manual_updates_and_stale_or_final_ones() {
     let mut est = Small::<f64>::new(&filter(), &cfg).unwrap();
     let mut rig = Rig::new();
     rig.run(&mut est, 0.1);
-    // First candidate is stored, the second (unchanged) one starts.
+    // First candidate is stored; the same one again, without adaptation
+    // in between, does not count as settled.
     let p = est.prepare_update().unwrap();
     assert_eq!(est.apply(p), Err(UpdateError::NotConverged));
+    let p = est.prepare_update().unwrap();
+    assert_eq!(est.apply(p), Err(UpdateError::NotConverged));
+    // After START_MIN_ADAPT_S of adaptation the next (settled) one starts.
+    rig.run(&mut est, 0.05);
     let p = est.prepare_update().unwrap();
     rig.run(&mut est, 0.01); // applied late: the samples since are replayed
     assert_eq!(est.apply(p.clone()), Ok(()));
@@ -166,13 +171,143 @@ fn rejects_invalid_settings() {
         ..filter()
     };
     assert!(Small::<f32>::new(&f, &RobustConfig::default()).is_err());
-    // An output timing the output-error model does not simulate.
+    // An output timing the forward simulation cannot run: a sinc³ with
+    // less than its group delay reaches the next input.
     let f = FilterConfig {
-        timing: crate::filter_bank::OutputTiming::sinc3_adc(15e-6, 1e-4),
+        timing: crate::filter_bank::OutputTiming {
+            delay_samples: 1.2,
+            average: crate::filter_bank::OutputAverage::Sinc3,
+        },
         ..filter()
     };
     assert_eq!(
         Small::<f32>::new(&f, &RobustConfig::default()).err(),
         Some(ConfigError::Filter(FilterConfigError::Timing))
     );
+}
+
+/// The bench's converters (the ADS131M02's sinc³, the DAC 15 µs late) on
+/// the paper's plant, modelled (`timing`) or not; largest ω/ζ error after
+/// 2.3 s.
+fn on_timed_converters<T: Real>(modelled: bool) -> f64 {
+    use crate::filter_bank::OutputTiming;
+    use crate::rig::timing::{ConverterTiming, TimedPlant};
+    let plant = ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+    let conv = ConverterTiming {
+        sinc3: true,
+        dac_latency_s: 15e-6,
+    };
+    let mut p = TimedPlant::new(&plant, conv).unwrap();
+    let f = FilterConfig {
+        timing: if modelled {
+            OutputTiming::sinc3_adc(15e-6, 1e-4)
+        } else {
+            OutputTiming::IDEAL
+        },
+        ..filter()
+    };
+    let mut est = Small::<T>::new(&f, &RobustConfig::default()).unwrap();
+    let mut sq = SquareWave::<f64>::paper();
+    let mut u_prev = 0.0;
+    for _ in 0..23_000 {
+        p.advance(u_prev);
+        let u = sq.next_sample();
+        est.step(T::from_f64(u), T::from_f64(p.measured()));
+        u_prev = u;
+    }
+    let w = [T::from_f64(-2.0), T::from_f64(2.0)];
+    let m = modal_from_tf(&est.transfer_function(), &w).unwrap();
+    (0..2)
+        .map(|i| {
+            let ew = m.omega_rad_s[i].to_f64() / PAPER_OMEGA[i] - 1.0;
+            let ez = m.zeta[i].to_f64() / PAPER_ZETA[i] - 1.0;
+            ew.abs().max(ez.abs())
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn converter_timing_is_simulated_and_its_bias_removed() {
+    let biased = on_timed_converters::<f64>(false);
+    let modelled = on_timed_converters::<f64>(true);
+    let modelled32 = on_timed_converters::<f32>(true);
+    println!("timing: unmodelled {biased:.1e}, modelled f64 {modelled:.1e} f32 {modelled32:.1e}");
+    assert!(biased > 1e-3, "unmodelled timing: {biased}");
+    assert!(modelled < 1e-8, "f64: {modelled} (unmodelled {biased})");
+    assert!(modelled32 < 1e-4, "f32: {modelled32}");
+}
+
+/// Started 1 s into the excitation (the beam moving), model updates
+/// requested from outside every 0.05 s, as firmware does (`update_every =
+/// 0`, candidates taken while the start-up law is still held for its start
+/// quarantine); error after `seconds`.
+fn moving_start_external_updates<T: Real>(seconds: f64) -> f64 {
+    let cfg = RobustConfig {
+        update_every: 0,
+        ..RobustConfig::default()
+    };
+    // λ = 400 rad/s: the start quarantine (40/λ) fits the 0.3 s record.
+    let f = FilterConfig {
+        lambda_rad_s: 400.0,
+        ..filter()
+    };
+    let mut est = Small::<T>::new(&f, &cfg).unwrap();
+    let mut rig = Rig::new();
+    for _ in 0..10_000 {
+        rig.sample();
+    }
+    for _ in 0..(seconds * 20.0) as usize {
+        rig.run(&mut est, 0.05);
+        if let Ok(p) = est.prepare_update() {
+            let _ = est.apply(p);
+        }
+    }
+    assert_eq!(est.initial_state_significance().map(|(_, m)| m), Some(true));
+    assert_eq!(est.phase(), Phase::Steady);
+    rig.run(&mut est, 0.0)
+}
+
+#[test]
+fn started_on_a_moving_beam_with_external_updates_converges() {
+    let e = moving_start_external_updates::<f64>(2.0);
+    assert!(e < 1e-6, "f64: {e}");
+    let e = moving_start_external_updates::<f32>(2.0);
+    println!("moving start, external updates: f32 {e:.1e}");
+    // (f32: 2.5e-5 with the initial-state fit's sums in double words,
+    // 9.9e-4 with them in plain f32; without the adaptation requirement
+    // both precisions diverged, 11.7 in f64.)
+    assert!(e < 1e-4, "f32: {e}");
+}
+
+#[test]
+fn rejected_readings_in_the_record_are_missing_not_substituted() {
+    // Five readings lost at 0.05 s (y = NaN, u known): the replays run the
+    // simulation through them on u and skip their residuals. (Recorded as
+    // the substituted last good y they made the replayed data wrong for
+    // good: 3.0e-4.) λ = 400 rad/s: the quarantine after them (40/λ) ends inside
+    // the 0.3 s record.
+    let f = FilterConfig {
+        lambda_rad_s: 400.0,
+        ..filter()
+    };
+    let mut est = Small::<f64>::new(&f, &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 0.05);
+    for _ in 0..5 {
+        let (u, _) = rig.sample();
+        assert_eq!(est.step(u, f64::NAN), StepStatus::Rejected);
+    }
+    let err = rig.run(&mut est, 2.3);
+    assert_eq!(est.phase(), Phase::Steady);
+    assert!(err < 1e-8, "{err}");
+    // The start test leaves rejected readings out; too few valid: no verdict.
+    let mut y = [0.0f64; START_TEST_SAMPLES];
+    for (n, v) in y.iter_mut().enumerate() {
+        let t = n as f64 / 31.0;
+        *v = 1e-2 * t * t;
+    }
+    y[3] = f64::NAN;
+    y[17] = f64::NAN;
+    assert!(start_test(&y).unwrap() < 1.0);
+    assert_eq!(start_test(&[f64::NAN; START_TEST_SAMPLES]), None);
 }
