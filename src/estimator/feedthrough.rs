@@ -66,7 +66,7 @@ use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor}
 use crate::modal::excitation_min_eig;
 use crate::model::{TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig, DISCOUNT};
+use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 /// Order of the filter Λ(s) = (s+λ)^6.
 pub const FILTER_ORDER: usize = 6;
@@ -215,37 +215,25 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
         self.lambda_rad_s
     }
 
-    /// One good sample: as `Identifier`'s (`estimator::supervised`).
+    /// One good sample: the same supervised step as `Identifier`'s
+    /// ([`super::supervised::learn`]) on this model's regressor.
     fn learn(&mut self, u: T, y: T) -> StepStatus {
         let reg = Self::regressor(&self.bank.push(u, y));
-        if self.supervised {
-            if !self.supervisor.admit(u * self.inv_u_scale) {
-                return StepStatus::Frozen;
-            }
-            if self.pending_discount {
-                self.pending_discount = false;
-                self.law.discount(T::from_f64(DISCOUNT));
-            }
-            self.supervise_phase += 1;
-            if self.supervise_phase >= SUPERVISE_EVERY {
-                self.supervise_phase = 0;
-                let e = self.law.prediction_error(&reg);
-                if self.supervisor.residual(e, self.samples).is_some() {
-                    self.screen.hold(self.screen.quarantine_len());
-                    self.pending_discount = true;
-                    return StepStatus::Frozen;
-                }
-                let forgetting = self.supervisor.lemma1(self.law.lemma1());
-                self.law.set_forgetting(forgetting);
-            }
-        }
-        match self.law.update(&reg) {
-            Ok(()) => StepStatus::Updated,
-            Err(_) => {
-                self.skipped = self.skipped.saturating_add(1);
-                StepStatus::Skipped
-            }
-        }
+        super::supervised::learn(
+            &mut self.law,
+            &reg,
+            u,
+            super::supervised::LearnState {
+                screen: &mut self.screen,
+                supervisor: &mut self.supervisor,
+                supervised: self.supervised,
+                inv_u_scale: self.inv_u_scale,
+                pending_discount: &mut self.pending_discount,
+                supervise_phase: &mut self.supervise_phase,
+                skipped: &mut self.skipped,
+                samples: self.samples,
+            },
+        )
     }
 }
 
