@@ -116,9 +116,6 @@ pub mod scalar;
 pub mod supervise;
 pub mod tuning;
 
-/// The plant simulator's former path; it lives in [`rig::plant`] now.
-pub use rig::plant;
-
 pub use scalar::Real;
 
 /// Compile-time check (with `--features defmt`) that the types the firmware

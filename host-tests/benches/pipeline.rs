@@ -29,8 +29,8 @@ use beamest::pipeline::{
     AdcFlags, AdcReading, DacLatch, DacOutcome, FaultKind, InputSource, NoSink, PiezoDac, Pipeline,
     PipelineConfig, PrefilterConfig, Sink, StrainAdc,
 };
-use beamest::plant::ModalPlant;
 use beamest::rig::bench::conversion;
+use beamest::rig::ModalPlant;
 use beamest::Real;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 

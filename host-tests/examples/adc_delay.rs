@@ -29,7 +29,7 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputAverage, OutputTiming, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-use beamest::plant::ModalPlant;
+use beamest::rig::ModalPlant;
 use beamest::rig::{ConverterTiming, TimedPlant};
 use beamest::Real;
 use host_tests::scenario::random_two_mode_plants;

@@ -10,7 +10,7 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-use beamest::plant::ModalPlant;
+use beamest::rig::ModalPlant;
 use beamest::rig::{noise_sd_for_snr, GaussianNoise};
 use beamest::Real;
 

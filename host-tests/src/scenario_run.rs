@@ -13,7 +13,7 @@ use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, TransferFunction, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::model::{PAPER_OMEGA as OMEGA0, PAPER_ZETA as ZETA0};
-use beamest::plant::ModalPlant;
+use beamest::rig::ModalPlant;
 use beamest::rig::{
     noise_sd_for_snr, ExcitationOff, FaultKind, GaussianNoise, PlantStep, Rig, Sample, Scenario,
     ScenarioRig, SensorFault, Window,

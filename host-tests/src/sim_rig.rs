@@ -22,7 +22,7 @@ use std::rc::Rc;
 use beamest::pipeline::{
     AdcFlags, AdcReading, ConversionConfig, DacOutcome, FaultKind, PiezoDac, StrainAdc,
 };
-use beamest::plant::ModalPlant;
+use beamest::rig::ModalPlant;
 use beamest::Real;
 
 /// A fault the ADC mock produces at one tick.

@@ -20,8 +20,8 @@ use beamest::pipeline::{
     Linearisation, NoSink, PiezoDac, Pipeline, PipelineConfig, Prefilter, PrefilterConfig,
     PrefilterState, StrainAdc, TelemetryRecord,
 };
-use beamest::plant::ModalPlant;
 use beamest::rig::bench::conversion;
+use beamest::rig::ModalPlant;
 use beamest::Real;
 use heapless::spsc::Queue;
 use host_tests::sim_rig::{Injected, SimAdc, SimDac, SimRig};

@@ -285,7 +285,7 @@ mod tests {
     #[test]
     fn output_matches_the_plant_simulator() {
         use crate::model::ModalParams;
-        use crate::plant::ModalPlant;
+        use crate::rig::ModalPlant;
         let mp = ModalParams::new(&[30.0, 140.0], &[0.03, 0.1], &[1.5, -4.0], None).unwrap();
         let m = ModalOutputModel::new(
             &[30.0, 140.0],

@@ -650,7 +650,7 @@ mod tests {
     use crate::excitation::SquareWave;
     use crate::filter_bank::{FilterConfig, SignalScales};
     use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-    use crate::plant::ModalPlant;
+    use crate::rig::ModalPlant;
 
     fn run(cfg: &AdaptiveConfig<7>, seconds: f64) -> Adaptive2<f64> {
         let filter = FilterConfig {

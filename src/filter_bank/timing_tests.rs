@@ -6,7 +6,7 @@ use super::*;
 use crate::excitation::SquareWave;
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling, SignalScales};
 use crate::model::{paper_plant_tf, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-use crate::plant::ModalPlant;
+use crate::rig::ModalPlant;
 use crate::rig::{ConverterTiming, TimedPlant};
 
 const TS: f64 = 1e-4;

@@ -485,7 +485,7 @@ mod tests {
     use crate::filter_bank::SignalScales;
     use crate::guard::{GuardConfig, LevelEvent, SensorGuard};
     use crate::model::{lambda_poly, paper_plant_tf, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-    use crate::plant::ModalPlant;
+    use crate::rig::ModalPlant;
     use crate::rig::Rig;
 
     const TS: f64 = 1e-4;

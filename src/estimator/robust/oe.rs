@@ -236,7 +236,7 @@ mod tests {
     use crate::excitation::SquareWave;
     use crate::filter_bank::OutputHold;
     use crate::model::{paper_plant_tf, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-    use crate::plant::ModalPlant;
+    use crate::rig::ModalPlant;
 
     /// θ = [θ_u, c] of the paper's plant for ρ = 100, U0 = 0.1, Y0 = 1e-3.
     fn paper_theta() -> [f64; 7] {

@@ -4,7 +4,7 @@ use crate::excitation::SquareWave;
 use crate::filter_bank::SignalScales;
 use crate::modal::modal_from_tf;
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
-use crate::plant::ModalPlant;
+use crate::rig::ModalPlant;
 
 /// A 0.3 s record keeps the tests quick.
 pub(super) type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
