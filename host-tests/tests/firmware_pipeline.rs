@@ -41,8 +41,7 @@ use beamest::filter_bank::{FilterConfig, OutputTiming};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{
-    bring_up, recover, Counters, NoSink, OutputScaleWindow, PiezoDac, Pipeline, TelemetryRecord,
-    Tick,
+    bring_up, recover, Counters, NoSink, PiezoDac, Pipeline, TelemetryRecord, Tick,
 };
 use beamest::rig::chips::ads131m02::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
@@ -167,6 +166,43 @@ where
         counters,
         last,
         records,
+    }
+}
+
+/// Y0 for this test's start-up: the RMS of the valid fed y over the first
+/// `needed` valid ticks (the firmware's own start-up is
+/// `link::StartupCollector` + `tuning::AutoTune`; this test fixes λ and
+/// measures only Y0).
+struct OutputScaleWindow<T> {
+    needed: u32,
+    seen: u32,
+    sum_sq: T,
+}
+
+impl<T: Real> OutputScaleWindow<T> {
+    fn new(samples: u32) -> Self {
+        Self {
+            needed: samples.max(1),
+            seen: 0,
+            sum_sq: T::ZERO,
+        }
+    }
+
+    /// The RMS once, at the tick that completes the window.
+    fn observe(&mut self, tick: &Tick<T>) -> Option<T> {
+        if self.seen >= self.needed {
+            return None;
+        }
+        let (u, y) = tick.fed?;
+        if !(u.is_finite() && y.is_finite()) {
+            return None;
+        }
+        self.sum_sq += y * y;
+        self.seen += 1;
+        if self.seen < self.needed {
+            return None;
+        }
+        Some((self.sum_sq / T::from_i32(self.seen as i32)).sqrt())
     }
 }
 

@@ -5,8 +5,7 @@
 //! scalar type.
 //!
 //! The real converter drivers plug in through [`adapters`] (and are
-//! brought up by [`bring_up`]); [`startup`] measures the estimator's output
-//! scale from the data before adaptation starts.
+//! brought up by [`bring_up`]).
 //!
 //! # One tick, in order ([`Pipeline::tick`], called on each data-ready)
 //! 1. **Read the conversion** of both channels: y at t_k (bridge) and the
@@ -110,7 +109,6 @@ mod config;
 pub mod convert;
 pub mod converters;
 pub mod prefilter;
-pub mod startup;
 pub mod telemetry;
 
 pub use adapters::{adc_scales, bring_up, lost_configuration, BringUp, BringUpError};
@@ -124,7 +122,6 @@ pub use converters::{
     ADC_CODE_MIN,
 };
 pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
-pub use startup::OutputScaleWindow;
 pub use telemetry::{
     recover, Counters, NoSink, RawBlock, Recovered, Sink, StatusFlags, StepCounts, TelemetryRecord,
     RAW_BLOCK_LEN,
