@@ -13,7 +13,7 @@
 //!    a beam model), or [`TuningConfig::data_lambda_factor`]·ω_c (`Data`).
 //!    The estimator is built with them and, because the beam is already
 //!    moving while its filters start from rest, its law is held for the
-//!    filters' settling time (40/λ, [`crate::estimator::QUARANTINE_TIME_CONSTANTS`]).
+//!    filters' settling time ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]).
 //! 3. **Re-centring.** Every [`TuningConfig::review_period_s`] the current
 //!    estimate is reviewed ([`AutoTune::review`]). Once it is valid (every
 //!    mode an underdamped, stable pole pair) and stable (ω̂ of every mode

@@ -290,7 +290,7 @@ mod tests {
             ..RobustConfig::default()
         };
         // With the initial state fitted the start-up law is held for its
-        // quarantine (40/λ) after the start test: a faster Λ lets it adapt
+        // quarantine (`QUARANTINE_TIME_CONSTANTS`/λ) after the start test: a faster Λ lets it adapt
         // inside the 0.3 s record.
         let f = match initial_state {
             InitialState::Estimate => crate::filter_bank::FilterConfig {

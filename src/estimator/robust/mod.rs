@@ -12,7 +12,7 @@
 //!    milliseconds, while u and y are recorded (the first `B` samples,
 //!    2 s by default). The first 3.2 ms decide whether the beam was at rest
 //!    ([`InitialState`]); if it was moving, the start-up law is restarted
-//!    and held for the input quarantine (40/λ), because its filters started
+//!    and held for the input quarantine ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]), because its filters started
 //!    at rest and the beam did not.
 //! 2. **Refining** ([`Phase::Refining`]): once that estimate has settled
 //!    (two candidates `update_every` apart, with at least
