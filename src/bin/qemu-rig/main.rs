@@ -73,7 +73,8 @@ const TELEMETRY_QUEUE: usize = 14;
 /// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
 const RAW_QUEUE: usize = 8;
 /// Start-up pair queue size (3 blocks of 32 pairs: 9.6 ms at 10 kHz; thread
-/// mode takes ~73,000 instructions per block, under one period's share).
+/// mode's cost per block, under one period's share: BENCHMARKS.md,
+/// "Firmware on the emulated board").
 /// A refused block is counted and its gap handled (`link::tune`).
 const STARTUP_QUEUE: usize = 4;
 
