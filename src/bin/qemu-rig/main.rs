@@ -406,7 +406,7 @@ fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
     [None, None]
 }
 
-/// The robust estimator's two slots (162 KB each in .bss; placeholders
+/// The robust estimator's two slots (in .bss, sizes in BENCHMARKS.md; placeholders
 /// until `SetEstimator` builds one, see [`device`]).
 #[cfg(feature = "qemu-robust")]
 fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
