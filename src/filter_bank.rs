@@ -23,22 +23,20 @@
 //!   the hold, up to five gain vectors on u. Chosen over a pure fractional
 //!   delay (two gain vectors) by measurement against the exact sinc3 rig,
 //!   20 s, noise-free (`cargo run --release -p host-tests --example
-//!   adc_delay`): worst residual bias of ω, ζ on the paper's plant — none
-//!   5.6e-3, delay 1.6e-5, sinc³ kernel 3.0e-10 (f64; f32 1.6e-5 vs
-//!   1.5e-6, the f32 floor); on a 155/1520 rad/s plant 3.5e-2, 1.8e-3
-//!   (above the 1e-3 acceptance), 7.5e-8. Cost on the Cortex-M4F `f32`
-//!   step (`cargo xtask qemu`): 1,617 → 1,667 instructions (a delay with
-//!   its own two-tap path, measured on a variant: 1,642); 1,633 with the
-//!   timing off. State: +96 B (BENCHMARKS.md, "Memory"). Default off:
-//!   results unchanged bit for bit.
+//!   adc_delay`): the sinc³ kernel leaves the smallest residual bias of ω,
+//!   ζ, on the paper's plant and on a 155/1520 rad/s one, where the delay
+//!   exceeds the 1e-3 acceptance (BENCHMARKS.md, "Converter timing:
+//!   simulated sinc3 on/off × compensation on/off"; its cost on the
+//!   Cortex-M4F step and its state: "Firmware on the emulated board",
+//!   "Memory: estimator state"). Default off: results unchanged bit for
+//!   bit.
 //! * **Interpolating hold on y.** y is *sampled*, not held. Over
 //!   [t_k, t_{k+1}] the filter is driven by the polynomial p through nearby
 //!   samples, integrated exactly: x⁺ = Φx + Σ_m G_m·p^{(m)}(0), with G_m the
 //!   response to τ^m/m!. The taps are folded into one gain vector per
 //!   window sample at start-up. The hold order sets the floor on ζ2 of the
-//!   paper's plant after 20 s (BENCHMARKS.md, `cargo run --release -p
-//!   host-tests --example accuracy_tables`): ZOH 1.2%, first-order hold
-//!   2.0e-4, cubic (y_{k−1}..y_{k+2}) 1.9e-8, quintic 3.1e-10 (λ = 100); the unit test
+//!   paper's plant after 20 s (BENCHMARKS.md, "y-hold order", for the
+//!   zero-order, first-order, cubic (y_{k−1}..y_{k+2}) and quintic holds); the unit test
 //!   `hold_order_sets_accuracy` pins the ordering. The cubic's error grows as (ωTs)⁴ and
 //!   reaches 1.2e-3 on a 1520 rad/s mode, so the default is the quintic
 //!   through y_{k−2}..y_{k+3} ([`OutputHold::Quintic`], (ωTs)⁶). The

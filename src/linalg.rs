@@ -73,9 +73,9 @@ pub fn all_finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
 /// the trailing update of row k is an axpy with the multipliers L_·j, and
 /// the forward substitution runs column by column (each x_i still receives
 /// its terms in ascending order). Loops run to the fixed bound N with an
-/// early exit, which the compiler unrolls completely; on the Cortex-M4F the
-/// adaptive law's 7×7 solve went from ~1,590 to ~400 instructions
-/// (BENCHMARKS.md, firmware section).
+/// early exit, which the compiler unrolls completely (its effect on the
+/// Cortex-M4F's θ step: BENCHMARKS.md, "History: the f32 step and recovery
+/// optimisation").
 ///
 /// Like the dense form: a pivot below `N·ε·max_i S_ii` is raised to that
 /// floor (a modified Cholesky factorization), so a rounding-level loss of
@@ -237,8 +237,8 @@ pub fn ldlt_substitute_packed<T: Real, const N: usize, const NS: usize>(
 /// LDLᵀ needs one division per column and no square root, and the
 /// factorization is right-looking (outer-product form), so each column's
 /// update is independent multiply-adds rather than long dot-product chains.
-/// On the benchmark host a 7×7 solve measured 273 ns against 314 ns for the
-/// textbook Cholesky–Crout loop; the remaining cost is the serial
+/// On the benchmark host a 7×7 solve is faster than the textbook
+/// Cholesky–Crout loop (BENCHMARKS.md, "Design measurements"); the remaining cost is the serial
 /// divide/update chain, which is why the θ step runs every K samples.
 /// The dense form of [`ldlt_solve_packed_floored`] (bit-identical), for
 /// the laws that keep full matrices (the robust estimator).

@@ -13,8 +13,8 @@
 //!   kept (16 bytes per sample) for the model-output fit, which needs the
 //!   final model and so a second look at the record.
 //! * **Modal recovery at a reduced rate**: every 0.1 s of record time, or
-//!   every 1 ms with `--csv`/`--plot` (recovery costs ~4 µs, the estimator
-//!   step ~70 ns).
+//!   every 1 ms with `--csv`/`--plot` (a recovery costs as much as many
+//!   estimator steps: BENCHMARKS.md, "Speed: ns per sample").
 //! * **`--crlb`**: the bound at each final estimate (that model driven
 //!   from rest by the recorded u; a record that does not start at rest is
 //!   bounded as if it did), with σ from `--noise-sd` or the a-posteriori

@@ -14,7 +14,7 @@ pub const PAPER_BBAR: [f64; 2] = [9.6293, 16.1458];
 
 /// Default third mode used when `--modes 3` is asked without `--omega`:
 /// the Table I beam's third bending mode, ω3 = ω2·(β3/β2)² ≈ 687.4 rad/s,
-/// with ζ3 = 0.05 and b̄3 = 20 (documented in README.md).
+/// with ζ3 = 0.05 and b̄3 = 20 (documented in docs/CLI.md).
 pub const DEFAULT_MODE3: (f64, f64, f64) = (687.4, 0.05, 20.0);
 
 /// Which simulated beam to run.

@@ -1,7 +1,7 @@
 //! End-to-end tests of the `beamctl` binary: output formats, files, and
 //! one-line errors for bad input. Simulations are kept at ≤ 1.5 s simulated
 //! (the truth-free tuning rule starts the law after a 0.2 s start-up
-//! window and the filters' settling time, 40/λ ≈ 0.4 s).
+//! window and the filters' settling time, `beamest::estimator::QUARANTINE_TIME_CONSTANTS`/λ).
 
 mod common;
 

@@ -1,5 +1,5 @@
 //! Statements the documentation makes about the laws' discretisation,
-//! checked (README, BENCHMARKS.md, docs/ARCHITECTURE.md, the `# Design`
+//! checked (BENCHMARKS.md, docs/ARCHITECTURE.md, the `# Design`
 //! notes of src/estimator/).
 
 // Index loops mirror the matrix algebra.

@@ -15,7 +15,7 @@ fn max_rel(report: &RunReport) -> f64 {
 }
 
 /// When the law of the last build starts updating: its first sample plus
-/// the filters' settling time (40/λ, the quarantine).
+/// the filters' settling time (`QUARANTINE_TIME_CONSTANTS`/λ, the quarantine).
 fn law_start_s(r: &RunReport, ts_s: f64) -> f64 {
     let b = r
         .builds
@@ -46,7 +46,7 @@ fn paper_plant_default_gains_f64_reaches_1e6_and_0p1pct_within_0p1s_of_the_law_s
     // The truth's b̄ is eq. 32 applied to eq. 46's numerator: [9.6293, 16.1458].
     assert!((r.truth.bbar[0] - 9.6293).abs() < 1e-4 && (r.truth.bbar[1] - 16.1458).abs() < 1e-4);
     // λ and scales from the data: a 0.2 s start-up window, then the law
-    // is held while the filters settle (40/λ).
+    // is held while the filters settle (the quarantine).
     let t = r.time_to_0p1pct_s.expect("converges to 0.1%");
     let start = law_start_s(&r, 1e-4);
     assert!(

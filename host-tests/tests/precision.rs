@@ -20,7 +20,7 @@ fn f32_paper_plant_reaches_1e4_and_0p1pct_within_0p1s_of_the_law_starting() {
     });
     assert!(r.rel_error.max() < 1e-4, "{:?}", r.rel_error);
     // The law starts after the 0.2 s start-up window and the filters'
-    // settling time (40/λ) of the truth-free rule.
+    // settling time (`QUARANTINE_TIME_CONSTANTS`/λ) of the truth-free rule.
     let b = r.builds.first().expect("built");
     let start = (b.sample as f64 + (40.0 / (b.lambda_rad_s * 1e-4)).ceil()) * 1e-4;
     let t = r.time_to_0p1pct_s.expect("converges");

@@ -636,7 +636,7 @@ mod tests {
     #[test]
     fn residues_reproduce_the_numerator() {
         // The modal split of eq. 46 gives back b̄ = [9.6293, 16.1458] by
-        // eq. 32 (the figures of README, "Defaults") and tiny velocity weights summing to zero.
+        // eq. 32 (the figures of docs/CLI.md, "Defaults worth knowing") and tiny velocity weights summing to zero.
         let acc = paper(0.0);
         let m = acc.model();
         assert!((m.beta[0] + m.beta[1]).abs() < 1e-12);

@@ -45,8 +45,8 @@
 //!   at Ts = 0.1 ms) with step K·Ts, while P, Q, R are updated every sample.
 //!   Backward Euler stays stable at any step and keeps the fixed point, so
 //!   accuracy is unchanged (measured: identical ω, ζ errors for K = 1 and
-//!   10 on the paper's plant) and the per-sample cost drops ~3×
-//!   (BENCHMARKS.md).
+//!   10 on the paper's plant) and the per-sample cost drops
+//!   (BENCHMARKS.md, "Speed: ns per sample").
 //! * **Precision where the fixed point lives.** θ is determined by W = 0;
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
@@ -61,8 +61,8 @@
 //!   instead of stopping the law. In `f64` the same code compiles to plain
 //!   arithmetic.
 //! * **Storage.** Symmetric matrices are packed (upper triangle, row by row:
-//!   `NS = NP(NP+1)/2` entries), which keeps the two-mode `f32` estimator
-//!   under 1 KiB.
+//!   `NS = NP(NP+1)/2` entries instead of NP²; the estimators' sizes are
+//!   in BENCHMARKS.md, "Memory: estimator state".
 //! * If the step matrix is not positive definite even after flooring (no
 //!   excitation at all and R decayed to zero), θ is held and the step
 //!   reports [`LawError::Singular`].
@@ -109,7 +109,7 @@ pub struct AdaptiveConfig<const NP: usize> {
 impl<const NP: usize> Default for AdaptiveConfig<NP> {
     /// Defaults for scaled coordinates (measured in BENCHMARKS.md): Γ = 1e4,
     /// θ stepped every 10 samples (1 kHz at Ts = 0.1 ms; same accuracy,
-    /// ~3× cheaper per sample than every sample),
+    /// cheaper per sample than every sample),
     /// l = γ = 0.05, R(0) = 1e-9·I, θ(0) = 0.
     fn default() -> Self {
         Self {

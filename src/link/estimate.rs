@@ -51,12 +51,12 @@ impl Default for FlagRules {
     /// The threshold sits between the levels measured on the simulated
     /// bench in `f32` with the default gains (l = γ = 0.05 /s) over 30 s
     /// (host test `link::excited_flag_follows_the_excitation`, which prints
-    /// them): under the paper's square wave (hundreds of sinusoids; 2
-    /// modes need 2n = 4, Lemma 1) λmin/tr(P) rises from 4.0e-7 at 1 s to
-    /// 9.2e-7; under one tone and under two tones (2 and 4 spectral lines:
-    /// not exciting for 7 parameters) λmin is rounding noise of either
-    /// sign, |λmin|/tr(P) ≤ 1.2e-8, while |λmin| itself grows to 3.5e-6
-    /// with P — why an absolute threshold cannot work. P is in the
+    /// them; the figures: BENCHMARKS.md, "Design measurements"): under the
+    /// paper's square wave (hundreds of sinusoids; 2 modes need 2n = 4,
+    /// Lemma 1) λmin/tr(P) stays above it; under one tone and under two
+    /// tones (2 and 4 spectral lines: not exciting for 7 parameters) λmin
+    /// is rounding noise of either sign, far below it relative to tr(P),
+    /// while |λmin| itself grows with P — why an absolute threshold cannot work. P is in the
     /// coordinates scaled by U0 and Y0 (eq. 29's scaling), so the ratio
     /// does not depend on the plant's units. A plant whose P is worse
     /// conditioned than ≈ 10⁷ (tr(P) ≥ λmax) is never flagged, excited or

@@ -80,7 +80,7 @@
 //! estimator while the beam moves ([`Pipeline::replace_estimator`],
 //! [`Pipeline::reset_estimator`]) — the pipeline holds the law for the
 //! estimator's settling time ([`Estimator::hold`] with
-//! [`Estimator::settling_samples`], 40/λ): the filters keep taking the real
+//! [`Estimator::settling_samples`]): the filters keep taking the real
 //! samples, Θ̂ and P stay, and nothing is counted as rejected. (Without the
 //! hold, an estimator started on the moving paper beam in `f32` was measured
 //! 71% off on ω2 after 5 s; with it, 9e-8.)

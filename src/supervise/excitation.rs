@@ -18,10 +18,9 @@
 //! # Design
 //! * **Why relative to tr(P).** λmin alone cannot tell excitation from
 //!   rounding: in `f32` the λmin of a non-exciting input is rounding noise
-//!   whose size grows with P (to 3.5e-6 over 30 s on the simulated bench,
-//!   above the square wave's early values), while λmin/tr(P) separates them
-//!   by 30× (square wave ≥ 4.0e-7 from 1 s on, one or two tones ≤ 1.2e-8;
-//!   host test `link::excited_flag_follows_the_excitation`). 1e-7 is near
+//!   whose size grows with P (above the square wave's early values), while
+//!   λmin/tr(P) separates them (the levels: BENCHMARKS.md, "Design
+//!   measurements"; host test `link::excited_flag_follows_the_excitation`). 1e-7 is near
 //!   `f32`'s ε (1.2e-7): below it λmin is within the rounding of P's
 //!   entries. A plant whose P is inherently worse conditioned than ~10⁷
 //!   (e.g. three modes, or a weak high mode) never passes, excited or not.

@@ -13,7 +13,7 @@
 //!    a beam model), or [`TuningConfig::data_lambda_factor`]·ω_c (`Data`).
 //!    The estimator is built with them and, because the beam is already
 //!    moving while its filters start from rest, its law is held for the
-//!    filters' settling time (40/λ, [`crate::estimator::QUARANTINE_TIME_CONSTANTS`]).
+//!    filters' settling time ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]).
 //! 3. **Re-centring.** Every [`TuningConfig::review_period_s`] the current
 //!    estimate is reviewed ([`AutoTune::review`]). Once it is valid (every
 //!    mode an underdamped, stable pole pair) and stable (ω̂ of every mode
@@ -36,8 +36,8 @@
 //!   Tests: wrong scales by 0.5× and 2× converge (`host-tests`).
 //! * **λ changes the regression, not its solution without noise.** Every
 //!   λ gives the same true Θ (eq. 29 holds exactly for any Λ), so
-//!   noise-free estimates agree to 1e-7 for λ from 30 to 400 rad/s on the
-//!   paper's plant. λ sets how Λ(s) weighs the band: far below the highest
+//!   noise-free estimates agree for λ from 30 to 400 rad/s on the paper's
+//!   plant (BENCHMARKS.md, "Truth-free settings"). λ sets how Λ(s) weighs the band: far below the highest
 //!   mode P is ill-conditioned; with noise on y the errors-in-variables
 //!   bias is smallest near the band's geometric centre (BENCHMARKS.md,
 //!   "Truth-free settings"). Re-centring needs the first estimate only to

@@ -99,7 +99,7 @@ fn startup_window_gives_rms_scales_and_a_data_lambda() {
     let c = t.stats().centroid_rad_s(TS).unwrap();
     assert!((filter.lambda_rad_s - 2.0 * c).abs() < 1e-9);
     assert_eq!(t.phase(), Phase::Reviewing);
-    // No review while the new filters settle (40/λ).
+    // No review while the new filters settle (`quarantine_samples_for`).
     let settle = quarantine_samples_for(&filter) as usize;
     assert!((0..settle).all(|_| !t.sample()));
 }
@@ -175,7 +175,7 @@ fn the_first_review_comes_after_settling_and_a_full_stability_window() {
     };
     // Built at sample 0 without settling: 10 reviews of 100 samples.
     assert_eq!(when, 1000);
-    // The rebuilt estimator settles for 40/λ = 4000 samples first.
+    // The rebuilt estimator settles for `QUARANTINE_TIME_CONSTANTS`/λ = 4000 samples first.
     let mut k = 0;
     while t.phase() == Phase::Reviewing {
         k += 1;
@@ -380,7 +380,7 @@ fn rebuilt_rearms_the_reviews_with_settling() {
     };
     t.rebuilt(filter);
     assert_eq!((t.phase(), t.recentres()), (Phase::Reviewing, 0));
-    // 40/λ = 40,000 samples of settling before the first review.
+    // `QUARANTINE_TIME_CONSTANTS`/λ = 40,000 samples of settling before the first review.
     assert!(!t.advance(40_000));
     let tf = tf_of(&[40.0, 250.0], &[0.02, 0.13]);
     let asked = reviews(&mut t, &tf, 2_000);

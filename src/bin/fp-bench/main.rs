@@ -132,7 +132,7 @@ fn run<T: Real>() -> Result<(&'static str, Figures), ()> {
     };
     let mut est = Adaptive2::<T>::new(&filter, &AdaptiveConfig::default()).map_err(|_| ())?;
     // The beam already moves: hold the law while the filters settle (one
-    // invalid sample arms the estimator's input quarantine, 40/λ).
+    // invalid sample arms the estimator's input quarantine, `QUARANTINE_TIME_CONSTANTS`/λ).
     let nan = T::from_f64(f64::NAN);
     est.step(nan, nan);
 

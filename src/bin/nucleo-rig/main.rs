@@ -38,7 +38,7 @@
 //!    for thread mode ([`beamest::link::StartupCollector`]); thread mode
 //!    computes U0, Y0, λ0 from them, builds the estimator (outside the
 //!    lock), swaps it in and resumes adaptation (`DeviceLink::poll`), with
-//!    the law held while its filters settle on the moving beam (40/λ).
+//!    the law held while its filters settle on the moving beam (the quarantine).
 //!    Re-centrings of λ are built and swapped in the same way.
 //!
 //! Any start-up failure drives the DAC to 0 V (CLEAR), lights LD3 and

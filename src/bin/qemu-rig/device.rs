@@ -7,7 +7,7 @@
 //! thread mode, with the sample interrupt running (its matrix
 //! exponentials take ~10⁵ instructions), swapped in inside the lock, and
 //! the replaced one's slot becomes the spare. The robust estimator
-//! (`EstimatorKind::Robust`, `Robust2<f32>`, 162 KB each) has two slots of
+//! (`EstimatorKind::Robust`, `Robust2<f32>`, its 2 s record in each) has two slots of
 //! its own, used the same way (a robust estimator replaced by another one
 //! needs both). Every lock span is timed (SysTick): the longest is how
 //! long a command, a swap or a robust model update's chunk ever delayed

@@ -73,7 +73,8 @@ const TELEMETRY_QUEUE: usize = 14;
 /// Raw-block queue size (holds 7 blocks of 32 pairs: 22 ms at 10 kHz).
 const RAW_QUEUE: usize = 8;
 /// Start-up pair queue size (3 blocks of 32 pairs: 9.6 ms at 10 kHz; thread
-/// mode takes ~73,000 instructions per block, under one period's share).
+/// mode's cost per block, under one period's share: BENCHMARKS.md,
+/// "Firmware on the emulated board").
 /// A refused block is counted and its gap handled (`link::tune`).
 const STARTUP_QUEUE: usize = 4;
 
@@ -405,7 +406,7 @@ fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
     [None, None]
 }
 
-/// The robust estimator's two slots (162 KB each in .bss; placeholders
+/// The robust estimator's two slots (in .bss, sizes in BENCHMARKS.md; placeholders
 /// until `SetEstimator` builds one, see [`device`]).
 #[cfg(feature = "qemu-robust")]
 fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {

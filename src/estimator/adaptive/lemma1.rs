@@ -8,8 +8,8 @@ use crate::linalg::ldlt_substitute_packed;
 use crate::scalar::Real;
 
 /// The in-loop Lemma 1 estimate takes one inverse-iteration step every
-/// this many θ steps (the cost, ~250 instructions, is then ~2.5 per
-/// sample at K = 10).
+/// this many θ steps, i.e. every 100 samples at K = 10 (the supervisor's
+/// cost, this included: BENCHMARKS.md, "Cost of the supervisor").
 pub const LEMMA1_EVERY: u32 = 10;
 
 impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {

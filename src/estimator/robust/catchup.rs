@@ -96,12 +96,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
 }
 
 /// A bound for [`RobustEstimator::apply_bounded`]'s work inside the lock:
-/// 32 replayed samples are ≈ 70,000 instructions on the Cortex-M4F in
-/// `f32` (≈ 2,200 each, `cargo xtask robust-bench`), 70 µs at the QEMU
-/// image's one instruction per ns, under one 100 µs sample period; the
-/// sample interrupt is then delayed, not lost. The QEMU image uses 16
-/// (`src/bin/qemu-rig/robust.rs`; its longest lock: 86,919 instructions,
-/// BENCHMARKS.md).
+/// 32 replayed samples are 32 robust steps, under one 100 µs sample period
+/// on the Cortex-M4F in `f32` at the QEMU image's one instruction per ns
+/// (the step's cost: BENCHMARKS.md, "The robust estimator on the
+/// Cortex-M4F"); the sample interrupt is then delayed, not lost. The QEMU
+/// image uses 16 (`src/bin/qemu-rig/robust.rs`; its longest lock:
+/// BENCHMARKS.md, "On the QEMU image, selected over the link").
 pub const APPLY_REPLAY_MAX: usize = 32;
 
 impl<T, const D: usize, const NP: usize, const NS: usize> Pending<T, D, NP, NS> {
@@ -290,7 +290,7 @@ mod tests {
             ..RobustConfig::default()
         };
         // With the initial state fitted the start-up law is held for its
-        // quarantine (40/λ) after the start test: a faster Λ lets it adapt
+        // quarantine (`QUARANTINE_TIME_CONSTANTS`/λ) after the start test: a faster Λ lets it adapt
         // inside the 0.3 s record.
         let f = match initial_state {
             InitialState::Estimate => crate::filter_bank::FilterConfig {

@@ -12,7 +12,7 @@
 //!    milliseconds, while u and y are recorded (the first `B` samples,
 //!    2 s by default). The first 3.2 ms decide whether the beam was at rest
 //!    ([`InitialState`]); if it was moving, the start-up law is restarted
-//!    and held for the input quarantine (40/λ), because its filters started
+//!    and held for the input quarantine ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]), because its filters started
 //!    at rest and the beam did not.
 //! 2. **Refining** ([`Phase::Refining`]): once that estimate has settled
 //!    (two candidates `update_every` apart, with at least
@@ -107,12 +107,9 @@
 //!   after 2–6 s. Noise-free after 20 s: ≤ 2e-12 (`f64`), ≤ 3e-7 (`f32`).
 //! * **Forgetting** l = 0.01 s⁻¹ (the paper's value): l = 0.05 gave 1.1,
 //!   1.4, 0.8, 1.3× / 1.1, 2.7, 0.9, 2.2×; l = 0.002 the same as 0.01.
-//! * **Cost** (criterion, `step/robust` vs `step/adaptive` in the same run,
-//!   two runs on the shared 2-core host, ns per sample): 2 modes `f64` 123
-//!   vs 108 and 92 vs 80 (1.14×, 1.15×), `f32` 468 vs 461 and 318 vs 293
-//!   (1.01×, 1.08×); 1 mode `f64` 1.0×, 1.6×, `f32` 1.7×, 0.9×; 3 modes
-//!   ≤ 1.06×. The start-up (the 2 s record with about 18 replays) averages
-//!   0.85–1.4 µs per sample in `f64`, 3.6–4.9 µs in `f32`.
+//! * **Cost**: the steady `step` against the proposed law's and the
+//!   start-up's average per sample are in BENCHMARKS.md, "The robust
+//!   estimator's step on the host".
 //!
 //! # Limits
 //! * After the record the linearization point never moves: a plant that

@@ -246,7 +246,7 @@ fn moving_start_external_updates<T: Real>(seconds: f64) -> f64 {
         update_every: 0,
         ..RobustConfig::default()
     };
-    // λ = 400 rad/s: the start quarantine (40/λ) fits the 0.3 s record.
+    // λ = 400 rad/s: the start quarantine (`QUARANTINE_TIME_CONSTANTS`/λ) fits the 0.3 s record.
     let f = FilterConfig {
         lambda_rad_s: 400.0,
         ..filter()
@@ -284,7 +284,7 @@ fn rejected_readings_in_the_record_are_missing_not_substituted() {
     // Five readings lost at 0.05 s (y = NaN, u known): the replays run the
     // simulation through them on u and skip their residuals. (Recorded as
     // the substituted last good y they made the replayed data wrong for
-    // good: 3.0e-4.) λ = 400 rad/s: the quarantine after them (40/λ) ends inside
+    // good: 3.0e-4.) λ = 400 rad/s: the quarantine after them (`QUARANTINE_TIME_CONSTANTS`/λ) ends inside
     // the 0.3 s record.
     let f = FilterConfig {
         lambda_rad_s: 400.0,

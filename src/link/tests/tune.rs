@@ -52,7 +52,7 @@ fn the_automatic_rule_builds_from_the_window_and_recentres_with_carry_over() {
     assert!(!l.collecting_startup());
     let at = first.at;
     d.p.calls.clear();
-    // Records of a stable estimate: after settling (40/λ0) and ten reviews
+    // Records of a stable estimate: after settling (`QUARANTINE_TIME_CONSTANTS`/λ0) and ten reviews
     // λ moves to √(40·250) = 100, Θ̂ carried over.
     let mut k = at / 100 + 1;
     let recentred = loop {
