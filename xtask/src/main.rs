@@ -22,12 +22,15 @@
 //!   update) on QEMU `mps2-an386`, split as the firmware would run it.
 //! * `fp-bench` — the f32/f64 cost of the estimator step on QEMU
 //!   `mps2-an386` (Cortex-M4F) and `mps2-an500` (Cortex-M7).
+//! * `layout [--deny-unused-pub]` — the workspace's import cycles (fails
+//!   on any) and the core's `pub` items no other crate names ([`layout`]).
 
 mod callgraph;
 mod e2e;
 mod e2e_robust;
 mod e2e_tuning;
 mod image;
+mod layout;
 mod m7;
 mod memory_map;
 mod qemu;
@@ -138,6 +141,7 @@ fn main() -> ExitCode {
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
         Some("robust-bench") => m7::robust_bench(),
+        Some("layout") => layout::run(&args[1..]),
         Some("help" | "-h" | "--help") | None => {
             print!("{}", USAGE);
             Ok(())
@@ -187,6 +191,11 @@ usage: cargo xtask <command>
                            (Cortex-M4F) and mps2-an500 (Cortex-M7)
   robust-bench             the robust estimator's step and model-update costs on QEMU
                            mps2-an386 (Cortex-M4F, f32)
+  layout [--deny-unused-pub]
+                           from the sources: every import cycle between sibling modules
+                           of every workspace crate, with the edges that make it (fails
+                           if any), and the core's pub items no other crate names
+                           (listed; fails on them only with --deny-unused-pub)
 ";
 
 fn workspace_root() -> PathBuf {
