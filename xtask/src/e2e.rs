@@ -29,9 +29,10 @@
 //!    device uses comes from the truth; only this host compares with it.
 //!
 //! The schedule runs on the device's clock (the sample index in the frames),
-//! so it does not depend on how fast the host runs QEMU. The test fails
-//! with a message naming each check that failed, and if QEMU's own verdict
-//! (its exit status) is failure.
+//! so it does not depend on how fast the host runs QEMU. The run is also
+//! judged from the firmware's log as the plain run is
+//! ([`crate::rig_report`]). The test fails with a message naming each
+//! check that failed, and if the firmware fails (its exit status).
 
 use std::io::{self, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -405,13 +406,14 @@ pub(crate) trait LinkHost {
 
 /// Boot the firmware in QEMU with UART0 connected to a loopback socket,
 /// pump UART0's bytes through `host` until QEMU exits (or `timeout`), and
-/// return QEMU's exit status and the wall time (s).
+/// return QEMU's exit status, the wall time (s) and the firmware's log
+/// (semihosting: QEMU's stdout).
 pub(crate) fn session(
     elf: &Path,
     seconds: Option<&str>,
     timeout: Duration,
     host: &mut impl LinkHost,
-) -> Result<(std::process::ExitStatus, f64), String> {
+) -> Result<(std::process::ExitStatus, f64, String), String> {
     let listener =
         TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
     let port = listener
@@ -482,16 +484,18 @@ pub(crate) fn session(
         }
     }
     let status = wait(&mut child, timeout, start)?;
-    for t in [out, err].into_iter().flatten() {
+    let log = out.and_then(|t| t.join().ok()).unwrap_or_default();
+    if let Some(t) = err {
         let _ = t.join();
     }
-    Ok((status, start.elapsed().as_secs_f64()))
+    let log = String::from_utf8_lossy(&log).into_owned();
+    Ok((status, start.elapsed().as_secs_f64(), log))
 }
 
 /// Run the test (see the module doc).
 pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     let mut host = Host::new();
-    let (status, wall) = session(elf, None, timeout, &mut host)?;
+    let (status, wall, log) = session(elf, None, timeout, &mut host)?;
     let capture = Capture {
         counters: *host.dec.counters(),
         tally: host.tally,
@@ -499,8 +503,13 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     };
     println!("\ne2e: UART0 as decoded by the host: {}", capture.summary());
     check(&mut host, &capture);
+    if let Err(failures) = crate::rig_report::judge(&log) {
+        for f in failures {
+            host.fail(format!("the run (firmware's measurements): {f}"));
+        }
+    }
     if !status.success() {
-        host.fail(format!("the firmware's own verdict is failure ({status})"));
+        host.fail(format!("the firmware failed ({status})"));
     }
     println!("e2e: {QEMU} exited with {status} after {wall:.2} s wall time");
     if host.failures.is_empty() {

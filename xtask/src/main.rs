@@ -34,6 +34,7 @@ mod layout;
 mod m7;
 mod memory_map;
 mod qemu;
+mod rig_report;
 
 use std::env;
 use std::fs;
@@ -327,18 +328,22 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Copy a child's output to ours as it arrives.
+/// Copy a child's output to ours as it arrives; the thread returns what
+/// it copied.
 fn stream<R: Read + Send + 'static, W: Write + Send + 'static>(
     mut from: R,
     mut to: W,
-) -> thread::JoinHandle<()> {
+) -> thread::JoinHandle<Vec<u8>> {
     thread::spawn(move || {
+        let mut seen = Vec::new();
         let mut buf = [0u8; 4096];
         while let Ok(n) = from.read(&mut buf) {
             if n == 0 || to.write_all(&buf[..n]).and_then(|()| to.flush()).is_err() {
                 break;
             }
+            seen.extend_from_slice(&buf[..n]);
         }
+        seen
     })
 }
 

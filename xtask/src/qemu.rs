@@ -18,8 +18,8 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use crate::{
-    build, e2e, e2e_robust, require_tool, stream, workspace_root, IMAGES, QEMU, QEMU_IMAGE,
-    QEMU_ROBUST_FEATURE,
+    build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
+    QEMU_IMAGE, QEMU_ROBUST_FEATURE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
@@ -144,7 +144,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
     Ok(o)
 }
 
-/// `cargo xtask qemu …`.
+/// `cargo xtask qemu …`: every mode that ends a run judges it from the
+/// firmware's log ([`rig_report::judge`]).
 pub fn run(args: &[String]) -> Result<(), String> {
     let o = parse(args)?;
     require_tool(
@@ -211,21 +212,24 @@ fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     let out = child.stdout.take().map(|s| stream(s, io::stdout()));
     let err = child.stderr.take().map(|s| stream(s, io::stderr()));
     let status = wait(&mut child, o.timeout, start)?;
-    for t in [out, err].into_iter().flatten() {
+    let log = out.and_then(|t| t.join().ok()).unwrap_or_default();
+    if let Some(t) = err {
         let _ = t.join();
     }
     println!(
         "{QEMU} exited with {status} after {:.2} s wall time",
         start.elapsed().as_secs_f64()
     );
+    let verdict = rig_report::judge(&String::from_utf8_lossy(&log));
     let bytes = fs::read(&o.uart0).map_err(|e| format!("reading {}: {e}", o.uart0.display()))?;
     let link = e2e::decode_capture(&bytes);
     println!("UART0: {}", link.summary());
     let link_ok = link.is_clean() && link.tally.estimates > 0 && link.tally.status > 0;
-    match (status.success(), link_ok) {
-        (true, true) => Ok(()),
-        (false, _) => Err(format!("the emulated firmware failed ({status})")),
-        (true, false) => Err(format!(
+    match (status.success(), verdict, link_ok) {
+        (true, Ok(()), true) => Ok(()),
+        (false, _, _) => Err(format!("the emulated firmware failed ({status})")),
+        (true, Err(f), _) => Err(format!("the emulated run failed: {}", f.join("; "))),
+        (true, Ok(()), false) => Err(format!(
             "UART0's frames are not a clean protocol stream: {}",
             link.summary()
         )),
