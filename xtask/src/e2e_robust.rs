@@ -41,7 +41,7 @@ use beamest::protocol::{
     Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
 };
 
-use crate::e2e::{session, LinkHost};
+use crate::emulator::{session, LinkHost};
 use crate::rig_report::{ROBUST_OMEGA_TOLERANCE, ROBUST_ZETA_TOLERANCE};
 
 /// Simulated run length (s): excitation off at 0.5 s, the switch at 20.5

@@ -29,6 +29,7 @@ mod callgraph;
 mod e2e;
 mod e2e_robust;
 mod e2e_tuning;
+mod emulator;
 mod image;
 mod layout;
 mod m7;

@@ -13,10 +13,11 @@ use std::fs::{self, File};
 use std::io::{self, BufRead, BufReader, Read};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
+use crate::emulator::{command, wait, Serial};
 use crate::{
     build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
     QEMU_IMAGE, QEMU_ROBUST_FEATURE,
@@ -26,44 +27,6 @@ use crate::{
 const TIMEOUT_S: u64 = 300;
 /// Default simulated run length of `--monitor`, s.
 const MONITOR_SECONDS: &str = "60";
-
-/// Where UART0 goes.
-pub enum Serial {
-    /// A file (the plain run).
-    File(PathBuf),
-    /// QEMU connects to a host listener on this port (the end-to-end test).
-    Connect(u16),
-    /// QEMU listens on this port and waits for one client before starting
-    /// the CPU (`beamctl monitor`).
-    Listen(u16),
-}
-
-/// The QEMU command line for `elf` with UART0 on `serial`, running
-/// `seconds` of simulated time (the firmware's default 5 s if `None`).
-pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>) -> Command {
-    let mut semihosting = String::from("enable=on,target=native,arg=qemu-rig");
-    if let Some(s) = seconds {
-        semihosting.push_str(",arg=seconds=");
-        semihosting.push_str(s);
-    }
-    let serial = match serial {
-        Serial::File(p) => format!("file:{}", p.display()),
-        Serial::Connect(port) => format!("tcp:127.0.0.1:{port},nodelay=on"),
-        Serial::Listen(port) => format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
-    };
-    let mut cmd = Command::new(QEMU);
-    cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-monitor", "none"])
-        .arg("-semihosting-config")
-        .arg(semihosting)
-        .args(["-icount", "shift=0,sleep=off"])
-        .arg("-serial")
-        .arg(serial)
-        .arg("-kernel")
-        .arg(elf)
-        .stdin(Stdio::null());
-    cmd
-}
 
 /// Options of `cargo xtask qemu`.
 struct Options {
@@ -173,28 +136,6 @@ pub fn run(args: &[String]) -> Result<(), String> {
         monitor(&elf, &o)
     } else {
         plain(&elf, &o)
-    }
-}
-
-/// Wait for `child` up to `timeout`; kill it after that.
-pub fn wait(
-    child: &mut Child,
-    timeout: Duration,
-    start: Instant,
-) -> Result<std::process::ExitStatus, String> {
-    loop {
-        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
-            return Ok(status);
-        }
-        if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Err(format!(
-                "{QEMU} still running after {} s: killed",
-                timeout.as_secs()
-            ));
-        }
-        thread::sleep(Duration::from_millis(20));
     }
 }
 
