@@ -43,8 +43,9 @@
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
 use beamest::board::qemu::uart::{self, UartTx};
+use beamest::filter_bank::FilterConfig;
 use beamest::link::estimate::{estimate, Convergence, EstimateContext};
-use beamest::link::{DeviceLink, Sent, Transmitter, TxSink};
+use beamest::link::{BuildKind, DeviceLink, Sent, Transmitter, Tuned, TxSink};
 use beamest::modal::modal_from_tf;
 use beamest::model::ModalParams;
 use beamest::pipeline::{recover, Recovered};
@@ -116,6 +117,40 @@ pub fn log(
         record.steps.rejected,
         record.counters.rejected
     );
+}
+
+/// Log an estimator the tuning rule swapped in, and note it in `run`.
+pub fn on_build(t: &Tuned, link: &DeviceLink, run: &mut Run) {
+    let f: &FilterConfig = &t.filter;
+    match t.kind {
+        BuildKind::First => {
+            run.started_at = Some(t.at);
+            run.first_lambda = Some(f.lambda_rad_s);
+            hprintln!(
+                "start-up: U0 = {} V, Y0 = {} m (RMS of u, y over {} samples, excitation \
+                 running); lambda = {} rad/s ({}); estimator running from sample {}",
+                Sci(f.scales.u_scale, 4),
+                Sci(f.scales.y_scale, 4),
+                link.tuner().rule().stats().samples(),
+                Fixed(f.lambda_rad_s, 1),
+                if link.is_automatic() {
+                    "automatic: twice the frequency centroid of y"
+                } else {
+                    "commanded"
+                },
+                t.at
+            );
+        }
+        BuildKind::Recentre => {
+            let _ = run.recentred.push((t.at, f.lambda_rad_s));
+            hprintln!(
+                "tuning: lambda re-centred on the estimated band: {} rad/s, estimate carried \
+                 over; running from sample {}",
+                Fixed(f.lambda_rad_s, 1),
+                t.at
+            );
+        }
+    }
 }
 
 /// What thread mode saw of the tuning rule's builds.
