@@ -29,16 +29,14 @@
 //!    device uses comes from the truth; only this host compares with it.
 //!
 //! The schedule runs on the device's clock (the sample index in the frames),
-//! so it does not depend on how fast the host runs QEMU. The test fails
-//! with a message naming each check that failed, and if QEMU's own verdict
-//! (its exit status) is failure.
+//! so it does not depend on how fast the host runs QEMU. The run is also
+//! judged from the firmware's log as the plain run is
+//! ([`crate::rig_report`]). The test fails with a message naming each
+//! check that failed, and if the firmware fails (its exit status).
 
-use std::io::{self, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::io::{self, Write};
+use std::net::TcpStream;
 use std::path::Path;
-use std::process::Stdio;
-use std::sync::mpsc;
-use std::thread;
 use std::time::{Duration, Instant};
 
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
@@ -48,8 +46,8 @@ use beamest::protocol::{
     MAX_ENCODED_LEN,
 };
 
-use crate::qemu::{command, wait, Serial};
-use crate::{stream, QEMU};
+use crate::emulator::{session, LinkHost};
+use crate::QEMU;
 
 /// What a stream of device frames contained.
 #[derive(Debug, Default, Clone, Copy)]
@@ -394,104 +392,10 @@ impl LinkHost for Host {
     }
 }
 
-/// A host end of the link test: fed every byte read from UART0's socket
-/// (and an empty slice when a read times out, so it can send on time).
-pub(crate) trait LinkHost {
-    /// Decode `bytes`, answer on `link`.
-    fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()>;
-    /// Record a failed check.
-    fn fail(&mut self, msg: String);
-}
-
-/// Boot the firmware in QEMU with UART0 connected to a loopback socket,
-/// pump UART0's bytes through `host` until QEMU exits (or `timeout`), and
-/// return QEMU's exit status and the wall time (s).
-pub(crate) fn session(
-    elf: &Path,
-    seconds: Option<&str>,
-    timeout: Duration,
-    host: &mut impl LinkHost,
-) -> Result<(std::process::ExitStatus, f64), String> {
-    let listener =
-        TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
-    let port = listener
-        .local_addr()
-        .map_err(|e| format!("listening on loopback: {e}"))?
-        .port();
-    let mut cmd = command(elf, &Serial::Connect(port), seconds);
-    cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
-    println!("running: {cmd:?}");
-    let start = Instant::now();
-    let mut child = cmd.spawn().map_err(|e| format!("starting {QEMU}: {e}"))?;
-    let out = child.stdout.take().map(|s| stream(s, io::stdout()));
-    let err = child.stderr.take().map(|s| stream(s, io::stderr()));
-    // QEMU connects while it starts; give up if it exits first.
-    let (tx, rx) = mpsc::channel();
-    thread::spawn(move || {
-        let _ = tx.send(listener.accept());
-    });
-    let mut link = loop {
-        if let Ok(r) = rx.recv_timeout(Duration::from_millis(50)) {
-            break r
-                .map_err(|e| format!("accepting QEMU's connection: {e}"))?
-                .0;
-        }
-        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
-            return Err(format!(
-                "{QEMU} exited ({s}) before connecting to UART0's socket"
-            ));
-        }
-        if start.elapsed() > Duration::from_secs(30) {
-            let _ = child.kill();
-            return Err(format!(
-                "{QEMU} did not connect to UART0's socket within 30 s"
-            ));
-        }
-    };
-    println!("UART0 connected on 127.0.0.1:{port}");
-    link.set_read_timeout(Some(Duration::from_millis(50)))
-        .map_err(|e| e.to_string())?;
-    link.set_nodelay(true).map_err(|e| e.to_string())?;
-    let mut writer = link.try_clone().map_err(|e| e.to_string())?;
-    let mut buf = [0u8; 4096];
-    loop {
-        match link.read(&mut buf) {
-            Ok(0) => break, // QEMU exited: the socket closed.
-            Ok(n) => host
-                .receive(&buf[..n], &mut writer)
-                .map_err(|e| format!("writing a command: {e}"))?,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                host.receive(&[], &mut writer)
-                    .map_err(|e| format!("writing a command: {e}"))?;
-            }
-            // QEMU exited with bytes of ours unread: the checks say which
-            // commands went unanswered.
-            Err(e) if e.kind() == io::ErrorKind::ConnectionReset => {
-                host.fail("QEMU exited with host bytes unread on UART0 (connection reset)".into());
-                break;
-            }
-            Err(e) => return Err(format!("reading UART0's socket: {e}")),
-        }
-        if start.elapsed() > timeout {
-            break;
-        }
-    }
-    let status = wait(&mut child, timeout, start)?;
-    for t in [out, err].into_iter().flatten() {
-        let _ = t.join();
-    }
-    Ok((status, start.elapsed().as_secs_f64()))
-}
-
 /// Run the test (see the module doc).
 pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     let mut host = Host::new();
-    let (status, wall) = session(elf, None, timeout, &mut host)?;
+    let (status, wall, log) = session(elf, None, timeout, &mut host)?;
     let capture = Capture {
         counters: *host.dec.counters(),
         tally: host.tally,
@@ -499,8 +403,13 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     };
     println!("\ne2e: UART0 as decoded by the host: {}", capture.summary());
     check(&mut host, &capture);
+    if let Err(failures) = crate::rig_report::judge(&log) {
+        for f in failures {
+            host.fail(format!("the run (firmware's measurements): {f}"));
+        }
+    }
     if !status.success() {
-        host.fail(format!("the firmware's own verdict is failure ({status})"));
+        host.fail(format!("the firmware failed ({status})"));
     }
     println!("e2e: {QEMU} exited with {status} after {wall:.2} s wall time");
     if host.failures.is_empty() {

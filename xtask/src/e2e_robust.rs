@@ -14,7 +14,7 @@
 //!    accepted; the Status that follows reports kind Robust, and every
 //!    Estimate from the switch on carries estimator = Robust;
 //! 2. convergence, ASSERTED: the last physically valid estimate's ω1, ω2
-//!    within [`OMEGA_TOLERANCE`] and ζ1, ζ2 within [`ZETA_TOLERANCE`] of
+//!    within [`ROBUST_OMEGA_TOLERANCE`](crate::rig_report::ROBUST_OMEGA_TOLERANCE) and ζ1, ζ2 within [`ROBUST_ZETA_TOLERANCE`](crate::rig_report::ROBUST_ZETA_TOLERANCE) of
 //!    the bench's beam (the default run's bound for the adaptive law). The
 //!    robust estimator models the converters' timing (ADS131M02 sinc3 group
 //!    delay, AD5761R latency) as the adaptive law does; on the host the
@@ -23,11 +23,12 @@
 //!    BENCHMARKS.md);
 //! 3. real time: the device's overrun counter (last Status) is 0 and the
 //!    link is clean (no gap, no CRC error, nothing dropped);
-//! 4. the firmware's own verdict is PASS: converged (its own check, the
-//!    same bounds), model updates installed and every
-//!    lock it took for them (seed, catch-up chunks, installation) no
-//!    longer than one sample period, no overrun; its log prints the robust
-//!    step's cost and the longest lock (`robust_lock_instructions:`).
+//! 4. the run judged from the firmware's log ([`crate::rig_report`]):
+//!    its final estimate converged (the same bounds), model updates
+//!    installed and every lock it took for them (seed, catch-up chunks,
+//!    installation) no longer than one sample period, no overrun; its log
+//!    prints the robust step's cost and the longest lock
+//!    (`robust_lock_instructions:`).
 
 use std::io::{self, Write};
 use std::net::TcpStream;
@@ -40,7 +41,8 @@ use beamest::protocol::{
     Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
 };
 
-use crate::e2e::{session, LinkHost};
+use crate::emulator::{session, LinkHost};
+use crate::rig_report::{ROBUST_OMEGA_TOLERANCE, ROBUST_ZETA_TOLERANCE};
 
 /// Simulated run length (s): excitation off at 0.5 s, the switch at 20.5
 /// s, then the robust estimator's 2 s record, its model updates prepared in
@@ -50,11 +52,6 @@ pub const SECONDS: &str = "27";
 const OFF_AT: u64 = 5_000;
 /// Device sample index of the switch to the robust estimator (20.5 s).
 const SWITCH_AT: u64 = 205_000;
-/// Bound on ω's relative error (see the module doc; the firmware's own
-/// `robust::OMEGA_TOLERANCE`).
-const OMEGA_TOLERANCE: f64 = 1e-3;
-/// Bound on ζ's relative error (see the module doc).
-const ZETA_TOLERANCE: f64 = 1e-3;
 /// Wall time allowed for an acknowledgement.
 const ACK_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -232,10 +229,15 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
         lambda: None,
         acks: Vec::new(),
     };
-    let (status, _wall) = session(elf, Some(SECONDS), timeout, &mut host)?;
+    let (status, _wall, log) = session(elf, Some(SECONDS), timeout, &mut host)?;
     check(&mut host);
+    if let Err(failures) = crate::rig_report::judge(&log) {
+        for f in failures {
+            host.fail(format!("the run (firmware's measurements): {f}"));
+        }
+    }
     if !status.success() {
-        host.fail(format!("the firmware's own verdict is failure ({status})"));
+        host.fail(format!("the firmware failed ({status})"));
     }
     if host.failures.is_empty() {
         println!("robust: PASS");
@@ -320,9 +322,9 @@ fn check(h: &mut Host) {
             let t = e.sample_index as f64 * 1e-4;
             let what = format!(
                 "estimate at t = {t:.2} s: omega within {ew_max:.1e} (bound \
-                 {OMEGA_TOLERANCE:.0e}), zeta within {ez_max:.1e} (bound {ZETA_TOLERANCE:.0e})"
+                 {ROBUST_OMEGA_TOLERANCE:.0e}), zeta within {ez_max:.1e} (bound {ROBUST_ZETA_TOLERANCE:.0e})"
             );
-            if ew_max <= OMEGA_TOLERANCE && ez_max <= ZETA_TOLERANCE {
+            if ew_max <= ROBUST_OMEGA_TOLERANCE && ez_max <= ROBUST_ZETA_TOLERANCE {
                 pass(format!("converged: {what}"));
             } else {
                 fails.push(format!("not converged: {what}"));

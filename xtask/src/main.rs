@@ -22,15 +22,20 @@
 //!   update) on QEMU `mps2-an386`, split as the firmware would run it.
 //! * `fp-bench` — the f32/f64 cost of the estimator step on QEMU
 //!   `mps2-an386` (Cortex-M4F) and `mps2-an500` (Cortex-M7).
+//! * `layout [--deny-unused-pub]` — the workspace's import cycles (fails
+//!   on any) and the core's `pub` items no other crate names ([`layout`]).
 
 mod callgraph;
 mod e2e;
 mod e2e_robust;
 mod e2e_tuning;
+mod emulator;
 mod image;
+mod layout;
 mod m7;
 mod memory_map;
 mod qemu;
+mod rig_report;
 
 use std::env;
 use std::fs;
@@ -138,6 +143,7 @@ fn main() -> ExitCode {
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
         Some("robust-bench") => m7::robust_bench(),
+        Some("layout") => layout::run(&args[1..]),
         Some("help" | "-h" | "--help") | None => {
             print!("{}", USAGE);
             Ok(())
@@ -187,6 +193,11 @@ usage: cargo xtask <command>
                            (Cortex-M4F) and mps2-an500 (Cortex-M7)
   robust-bench             the robust estimator's step and model-update costs on QEMU
                            mps2-an386 (Cortex-M4F, f32)
+  layout [--deny-unused-pub]
+                           from the sources: every import cycle between sibling modules
+                           of every workspace crate, with the edges that make it (fails
+                           if any), and the core's pub items no other crate names
+                           (listed; fails on them only with --deny-unused-pub)
 ";
 
 fn workspace_root() -> PathBuf {
@@ -318,18 +329,22 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Copy a child's output to ours as it arrives.
+/// Copy a child's output to ours as it arrives; the thread returns what
+/// it copied.
 fn stream<R: Read + Send + 'static, W: Write + Send + 'static>(
     mut from: R,
     mut to: W,
-) -> thread::JoinHandle<()> {
+) -> thread::JoinHandle<Vec<u8>> {
     thread::spawn(move || {
+        let mut seen = Vec::new();
         let mut buf = [0u8; 4096];
         while let Ok(n) = from.read(&mut buf) {
             if n == 0 || to.write_all(&buf[..n]).and_then(|()| to.flush()).is_err() {
                 break;
             }
+            seen.extend_from_slice(&buf[..n]);
         }
+        seen
     })
 }
 

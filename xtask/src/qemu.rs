@@ -13,57 +13,20 @@ use std::fs::{self, File};
 use std::io::{self, BufRead, BufReader, Read};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
+use crate::emulator::{command, wait, Serial};
 use crate::{
-    build, e2e, e2e_robust, require_tool, stream, workspace_root, IMAGES, QEMU, QEMU_IMAGE,
-    QEMU_ROBUST_FEATURE,
+    build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
+    QEMU_IMAGE, QEMU_ROBUST_FEATURE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
 const TIMEOUT_S: u64 = 300;
 /// Default simulated run length of `--monitor`, s.
 const MONITOR_SECONDS: &str = "60";
-
-/// Where UART0 goes.
-pub enum Serial {
-    /// A file (the plain run).
-    File(PathBuf),
-    /// QEMU connects to a host listener on this port (the end-to-end test).
-    Connect(u16),
-    /// QEMU listens on this port and waits for one client before starting
-    /// the CPU (`beamctl monitor`).
-    Listen(u16),
-}
-
-/// The QEMU command line for `elf` with UART0 on `serial`, running
-/// `seconds` of simulated time (the firmware's default 5 s if `None`).
-pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>) -> Command {
-    let mut semihosting = String::from("enable=on,target=native,arg=qemu-rig");
-    if let Some(s) = seconds {
-        semihosting.push_str(",arg=seconds=");
-        semihosting.push_str(s);
-    }
-    let serial = match serial {
-        Serial::File(p) => format!("file:{}", p.display()),
-        Serial::Connect(port) => format!("tcp:127.0.0.1:{port},nodelay=on"),
-        Serial::Listen(port) => format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
-    };
-    let mut cmd = Command::new(QEMU);
-    cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-monitor", "none"])
-        .arg("-semihosting-config")
-        .arg(semihosting)
-        .args(["-icount", "shift=0,sleep=off"])
-        .arg("-serial")
-        .arg(serial)
-        .arg("-kernel")
-        .arg(elf)
-        .stdin(Stdio::null());
-    cmd
-}
 
 /// Options of `cargo xtask qemu`.
 struct Options {
@@ -144,7 +107,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
     Ok(o)
 }
 
-/// `cargo xtask qemu …`.
+/// `cargo xtask qemu …`: every mode that ends a run judges it from the
+/// firmware's log ([`rig_report::judge`]).
 pub fn run(args: &[String]) -> Result<(), String> {
     let o = parse(args)?;
     require_tool(
@@ -175,28 +139,6 @@ pub fn run(args: &[String]) -> Result<(), String> {
     }
 }
 
-/// Wait for `child` up to `timeout`; kill it after that.
-pub fn wait(
-    child: &mut Child,
-    timeout: Duration,
-    start: Instant,
-) -> Result<std::process::ExitStatus, String> {
-    loop {
-        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
-            return Ok(status);
-        }
-        if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Err(format!(
-                "{QEMU} still running after {} s: killed",
-                timeout.as_secs()
-            ));
-        }
-        thread::sleep(Duration::from_millis(20));
-    }
-}
-
 /// The plain run: UART0 to a file, decoded and checked afterwards.
 fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     if let Some(dir) = o.uart0.parent() {
@@ -211,21 +153,24 @@ fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     let out = child.stdout.take().map(|s| stream(s, io::stdout()));
     let err = child.stderr.take().map(|s| stream(s, io::stderr()));
     let status = wait(&mut child, o.timeout, start)?;
-    for t in [out, err].into_iter().flatten() {
+    let log = out.and_then(|t| t.join().ok()).unwrap_or_default();
+    if let Some(t) = err {
         let _ = t.join();
     }
     println!(
         "{QEMU} exited with {status} after {:.2} s wall time",
         start.elapsed().as_secs_f64()
     );
+    let verdict = rig_report::judge(&String::from_utf8_lossy(&log));
     let bytes = fs::read(&o.uart0).map_err(|e| format!("reading {}: {e}", o.uart0.display()))?;
     let link = e2e::decode_capture(&bytes);
     println!("UART0: {}", link.summary());
     let link_ok = link.is_clean() && link.tally.estimates > 0 && link.tally.status > 0;
-    match (status.success(), link_ok) {
-        (true, true) => Ok(()),
-        (false, _) => Err(format!("the emulated firmware failed ({status})")),
-        (true, false) => Err(format!(
+    match (status.success(), verdict, link_ok) {
+        (true, Ok(()), true) => Ok(()),
+        (false, _, _) => Err(format!("the emulated firmware failed ({status})")),
+        (true, Err(f), _) => Err(format!("the emulated run failed: {}", f.join("; "))),
+        (true, Ok(()), false) => Err(format!(
             "UART0's frames are not a clean protocol stream: {}",
             link.summary()
         )),

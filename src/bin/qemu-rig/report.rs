@@ -2,9 +2,36 @@
 //! carries the protocol): a log line every 0.25 s of simulated time while
 //! the estimate converges, from the recovery the link made for its
 //! Estimate; at the end the instruction counts, the link's counters and the
-//! cost of producing an Estimate frame, the fault counters against what
-//! was injected, and ω, ζ against the simulated truth (the one place that
-//! reads it), then the exit status.
+//! cost of producing an Estimate frame, then what was measured as `rig:`
+//! lines, and exit status 0 (1 only for a boot error). The image reads no
+//! truth and judges nothing: `cargo xtask qemu` parses the `rig:` lines
+//! and decides (`xtask/src/rig_report.rs`).
+//!
+//! The `rig:` lines, one each at the end of a run unless said otherwise,
+//! each `rig: <what>` and then `key=value` words (numbers in decimal;
+//! floats as `d.ddddddddde±x`, `nan` if absent):
+//!
+//! * `rig: fault at=<sample> kind=bad_crc|saturate|stuck|dropped n=<count>
+//!   done_by=<sample>` — one per fault of the schedule injected into the
+//!   ADC model (`sample::FAULTS`), and the sample by which all of them and
+//!   their quarantines are over;
+//! * `rig: counters adc_crc= adc_status= adc_bus= adc_other=
+//!   bridge_saturated= monitor_saturated= stuck= rejected= dac_errors=
+//!   dac_saturated= dropped_records=` — the pipeline's counters;
+//! * `rig: robust running=true phase=startup|refining|steady updates=<n>
+//!   lock_max_instructions=<n>` (or `running=false`) — only when the link
+//!   switched to the robust estimator;
+//! * `rig: recentre at=<sample> lambda=<rad/s>` — one per re-centring of
+//!   λ by the tuning rule;
+//! * `rig: tuning automatic=true|false lambda0= lambda= phase=startup|
+//!   reviewing|converged|fixed|max_recentres|timeout recentre_threshold=
+//!   lost_pairs= startup_dropped=` — the tuning rule at the end (λ0 of the
+//!   first estimator, λ in use, relative re-centring threshold, start-up
+//!   pairs lost by the rule and blocks refused by its queue);
+//! * `rig: modes n=<modes> omega1= zeta1= omega2= zeta2=` — the final
+//!   estimate's recovery (eqs. 30-32; `n=0` and nothing else without one);
+//! * `rig: end samples= overruns= rig_errors= started_at=<sample>|none
+//!   estimator=adaptive|robust` — last: the run is over and reported.
 
 #![deny(
     clippy::unwrap_used,
@@ -16,10 +43,11 @@
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
 use beamest::board::qemu::uart::{self, UartTx};
+use beamest::filter_bank::FilterConfig;
 use beamest::link::estimate::{estimate, Convergence, EstimateContext};
-use beamest::link::{DeviceLink, Sent, Transmitter, TxSink};
+use beamest::link::{BuildKind, DeviceLink, Sent, Transmitter, Tuned, TxSink};
 use beamest::modal::modal_from_tf;
-use beamest::model::{ModalParams, PAPER_OMEGA, PAPER_ZETA};
+use beamest::model::ModalParams;
 use beamest::pipeline::{recover, Recovered};
 use beamest::protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::rig::bench;
@@ -30,12 +58,10 @@ use heapless::spsc::Queue;
 use crate::device::QemuDevice;
 use crate::numfmt::{Fixed, Sci};
 use crate::robust::{self, RobustUpdates};
-use crate::sample::{self, Record, Summary, PERIODS};
+use crate::sample::{self, Fault, Record, Summary, PERIODS};
 
 /// Output weights C̄ (eq. 24), for b̄.
 pub const OUTPUT_WEIGHT: [f32; 2] = [-2.0, 2.0];
-/// Pass criterion: relative error of every ω and ζ after the run.
-const TOLERANCE: f64 = 1e-3;
 /// Semihosting log interval while converging, samples (0.25 s).
 pub const LOG_EVERY: u64 = 2_500;
 /// Repetitions of the timed Estimate-frame production.
@@ -93,6 +119,40 @@ pub fn log(
     );
 }
 
+/// Log an estimator the tuning rule swapped in, and note it in `run`.
+pub fn on_build(t: &Tuned, link: &DeviceLink, run: &mut Run) {
+    let f: &FilterConfig = &t.filter;
+    match t.kind {
+        BuildKind::First => {
+            run.started_at = Some(t.at);
+            run.first_lambda = Some(f.lambda_rad_s);
+            hprintln!(
+                "start-up: U0 = {} V, Y0 = {} m (RMS of u, y over {} samples, excitation \
+                 running); lambda = {} rad/s ({}); estimator running from sample {}",
+                Sci(f.scales.u_scale, 4),
+                Sci(f.scales.y_scale, 4),
+                link.tuner().rule().stats().samples(),
+                Fixed(f.lambda_rad_s, 1),
+                if link.is_automatic() {
+                    "automatic: twice the frequency centroid of y"
+                } else {
+                    "commanded"
+                },
+                t.at
+            );
+        }
+        BuildKind::Recentre => {
+            let _ = run.recentred.push((t.at, f.lambda_rad_s));
+            hprintln!(
+                "tuning: lambda re-centred on the estimated band: {} rad/s, estimate carried \
+                 over; running from sample {}",
+                Fixed(f.lambda_rad_s, 1),
+                t.at
+            );
+        }
+    }
+}
+
 /// What thread mode saw of the tuning rule's builds.
 #[derive(Debug, Clone, Default)]
 pub struct Run {
@@ -113,7 +173,7 @@ fn mean(s: &SpanSum, ipt: f32) -> f64 {
     f64::from(s.mean_instructions(ipt))
 }
 
-/// End of run: report, check, exit.
+/// End of run: report, exit.
 pub fn finish(
     s: &Summary,
     last: Option<&Record>,
@@ -172,46 +232,8 @@ pub fn finish(
         locks.count,
         (locks.max_ticks as f32 * ipt) as u32
     );
-    let c = s.counters;
-    let expected = sample::expected_counters();
-    hprintln!(
-        "faults injected in the ADC model: {} bad-CRC frames, {} saturated, {}-repeat stuck run, \
-         {} dropped conversions",
-        expected.adc_crc,
-        expected.bridge_saturated,
-        expected.stuck.saturating_sub(1),
-        expected.adc_other
-    );
-    hprintln!(
-        "pipeline counters: crc {} status {} bus {} other {} | saturated bridge {} monitor {} | \
-         stuck {} | rejected {} | dac errors {} saturated {} | records dropped {}",
-        c.adc_crc,
-        c.adc_status,
-        c.adc_bus,
-        c.adc_other,
-        c.bridge_saturated,
-        c.monitor_saturated,
-        c.stuck,
-        c.rejected,
-        c.dac_errors,
-        c.dac_saturated,
-        c.dropped_records
-    );
-    // A run shorter than the fault schedule cannot be checked against it.
-    let schedule_done = s.samples >= sample::FAULTS_DONE_BY;
-    if !schedule_done {
-        hprintln!(
-            "the run ended before the fault schedule (until {} s): fault counters not checked",
-            Fixed(f64::from(sample::FAULTS_DONE_BY) * bench::TS_S, 1)
-        );
-    }
+    rig_faults(s);
     let robust_running = link.settings().estimator.kind == EstimatorKind::Robust;
-    // With the robust estimator the host switches the drive off from 0.5 s
-    // to 20.5 s (`cargo xtask qemu --robust`): the schedule's faults fall
-    // in that window, where a repeated reading is no stuck run (the guard's
-    // quiet input: a resting beam reads one code), so the injected stuck
-    // run is not flagged: the counters are printed, not compared.
-    let counters_ok = c == expected || !schedule_done || robust_running;
 
     // Instruction counts: steady state = samples whose step updated the law.
     let st = &s.steady;
@@ -279,31 +301,19 @@ pub fn finish(
         libm::round(tick_product - est) as u32
     );
 
-    let (tuning_ok, modes_ok) = if robust_running {
-        let ok = robust::report(&run.robust, device, ipt);
-        let converged = check_modes(
-            modes.as_ref(),
-            robust::OMEGA_TOLERANCE,
-            robust::ZETA_TOLERANCE,
-        );
-        hprintln!(
-            "robust estimator convergence (omega within {}, zeta within {}): {}",
-            Sci(robust::OMEGA_TOLERANCE, 0),
-            Sci(robust::ZETA_TOLERANCE, 0),
-            if converged { "yes" } else { "NO" }
-        );
-        (ok, converged)
-    } else {
-        (
-            check_tuning(run, link, modes.as_ref(), s.startup_dropped),
-            check_modes(modes.as_ref(), TOLERANCE, TOLERANCE),
-        )
-    };
-    let others_ok = s.overruns == 0 && s.rig_errors == 0 && run.started_at.is_some();
-    if !counters_ok {
-        hprintln!("fault counters differ from the injected faults");
+    if robust_running {
+        robust::report(&run.robust, device, ipt);
     }
-    let pass = modes_ok && counters_ok && others_ok && tuning_ok;
+    rig_tuning(run, link, s.startup_dropped);
+    rig_modes(modes.as_ref());
+    hprintln!(
+        "rig: end samples={} overruns={} rig_errors={} started_at={} estimator={}",
+        s.samples,
+        s.overruns,
+        s.rig_errors,
+        Opt(run.started_at),
+        if robust_running { "robust" } else { "adaptive" }
+    );
     // Let the TX interrupt hand the last frames to the UART (≤ 40 ms).
     let mut spins = 0u32;
     while !tx.is_drained() && spins < 20_000 {
@@ -312,29 +322,100 @@ pub fn finish(
     }
     // The last byte leaves the UART's one-byte buffer.
     board::idle();
-    if robust_running {
+    board::exit(true)
+}
+
+/// `rig: fault` (the schedule injected into the ADC model) and `rig:
+/// counters` (the pipeline's counters at the end).
+fn rig_faults(s: &Summary) {
+    for (at, fault) in sample::FAULTS {
+        let (kind, n) = match fault {
+            Fault::BadCrc(n) => ("bad_crc", n),
+            Fault::Saturate(n) => ("saturate", n),
+            Fault::Stuck(n) => ("stuck", n),
+            Fault::Dropped(n) => ("dropped", n),
+        };
         hprintln!(
-            "result: {} (robust estimator: converged within the bounds above, model updates \
-             installed, every lock of theirs within one sample period; no overrun; after {} s; \
-             fault counters reported above, not checked)",
-            if pass { "PASS" } else { "FAIL" },
-            Fixed(f64::from(s.samples) * bench::TS_S, 1)
+            "rig: fault at={} kind={} n={} done_by={}",
+            at,
+            kind,
+            n,
+            sample::FAULTS_DONE_BY
         );
-        board::exit(pass)
+    }
+    let c = &s.counters;
+    hprintln!(
+        "rig: counters adc_crc={} adc_status={} adc_bus={} adc_other={} bridge_saturated={} \
+         monitor_saturated={} stuck={} rejected={} dac_errors={} dac_saturated={} \
+         dropped_records={}",
+        c.adc_crc,
+        c.adc_status,
+        c.adc_bus,
+        c.adc_other,
+        c.bridge_saturated,
+        c.monitor_saturated,
+        c.stuck,
+        c.rejected,
+        c.dac_errors,
+        c.dac_saturated,
+        c.dropped_records
+    );
+}
+
+/// `rig: tuning` (the rule's state at the end) and one `rig: recentre`
+/// per re-centring.
+fn rig_tuning(run: &Run, link: &DeviceLink, startup_dropped: u32) {
+    for (at, lambda) in &run.recentred {
+        hprintln!("rig: recentre at={} lambda={}", at, Sci(*lambda, 9));
     }
     hprintln!(
-        "result: {} (all of omega, zeta within {} after {} s; lambda settled by the automatic \
-         rule on the estimated band; fault counters {}; no overrun)",
-        if pass { "PASS" } else { "FAIL" },
-        Sci(TOLERANCE, 0),
-        Fixed(f64::from(s.samples) * bench::TS_S, 1),
-        if schedule_done {
-            "as injected"
-        } else {
-            "not checked (short run)"
-        }
+        "rig: tuning automatic={} lambda0={} lambda={} phase={} recentre_threshold={} \
+         lost_pairs={} startup_dropped={}",
+        link.is_automatic(),
+        Sci(run.first_lambda.unwrap_or(f64::NAN), 9),
+        Sci(link.lambda_rad_s().unwrap_or(f64::NAN), 9),
+        match link.tuner().phase() {
+            Phase::Startup => "startup",
+            Phase::Reviewing => "reviewing",
+            Phase::Settled(Settled::Converged) => "converged",
+            Phase::Settled(Settled::Fixed) => "fixed",
+            Phase::Settled(Settled::MaxRecentres) => "max_recentres",
+            Phase::Settled(Settled::Timeout) => "timeout",
+        },
+        Sci(link.tuner().rule().config().recentre_threshold, 9),
+        link.tuner().lost_pairs(),
+        startup_dropped
     );
-    board::exit(pass)
+}
+
+/// `rig: modes` (the final estimate; `n=0` without one).
+fn rig_modes(modes: Option<&ModalParams<f32>>) {
+    let Some(m) = modes else {
+        hprintln!("rig: modes n=0");
+        return;
+    };
+    let [w1, w2, ..] = m.omega_rad_s.map(f64::from);
+    let [z1, z2, ..] = m.zeta.map(f64::from);
+    hprintln!(
+        "rig: modes n={} omega1={} zeta1={} omega2={} zeta2={}",
+        m.modes,
+        Sci(w1, 9),
+        Sci(z1, 9),
+        Sci(w2, 9),
+        Sci(z2, 9)
+    );
+}
+
+/// An optional count: the number or `none`.
+struct Opt(Option<u64>);
+
+impl core::fmt::Display for Opt {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.0 {
+            Some(v) => write!(f, "{v}"),
+            None => f.write_str("none"),
+        }
+    }
 }
 
 /// The cost of producing one Estimate frame from a recovered record
@@ -476,106 +557,4 @@ fn tuning_cost(
 /// The link's flag thresholds (the same as the running link's).
 fn link_rules() -> beamest::link::FlagRules {
     bench::link_config(board::UART_BAUD).rules
-}
-
-/// The tuning rule, judged without the truth: it ran from the data
-/// (automatic λ), settled because λ is within its re-centring threshold of
-/// the final estimate's band centre √(ω̂1·ω̂2), and lost no start-up pair.
-/// The truth's band centre is printed beside it for the reader only.
-fn check_tuning(
-    run: &Run,
-    link: &DeviceLink,
-    modes: Option<&ModalParams<f32>>,
-    startup_dropped: u32,
-) -> bool {
-    let phase = link.tuner().phase();
-    let lambda = link.lambda_rad_s().unwrap_or(f64::NAN);
-    let cfg = link.tuner().rule().config();
-    let centre = modes.map_or(f64::NAN, |m| {
-        libm::sqrt(f64::from(m.omega_rad_s[0]) * f64::from(m.omega_rad_s[1]))
-    });
-    let truth_centre = libm::sqrt(PAPER_OMEGA[0] * PAPER_OMEGA[1]);
-    hprintln!(
-        "tuning: automatic {}; lambda0 = {} rad/s from the data, {} re-centring(s){}; final \
-         lambda = {} rad/s, phase {}; estimated band centre sqrt(w1*w2) = {} rad/s (the truth's: \
-         {}); start-up pairs lost {}",
-        link.is_automatic(),
-        Fixed(run.first_lambda.unwrap_or(f64::NAN), 1),
-        run.recentred.len(),
-        Recentres(&run.recentred),
-        Fixed(lambda, 1),
-        match phase {
-            Phase::Startup => "startup",
-            Phase::Reviewing => "reviewing",
-            Phase::Settled(Settled::Converged) => "settled (converged)",
-            Phase::Settled(Settled::Fixed) => "settled (fixed)",
-            Phase::Settled(Settled::MaxRecentres) => "settled (most re-centrings)",
-            Phase::Settled(Settled::Timeout) => "settled (timeout)",
-        },
-        Fixed(centre, 1),
-        Fixed(truth_centre, 1),
-        link.tuner().lost_pairs()
-    );
-    let ratio = lambda / centre;
-    let centred = ratio.max(1.0 / ratio) < 1.0 + cfg.recentre_threshold;
-    let ok = link.is_automatic()
-        && phase == Phase::Settled(Settled::Converged)
-        && centred
-        && startup_dropped == 0
-        && link.tuner().lost_pairs() == 0;
-    if !ok {
-        hprintln!("the automatic rule did not settle on the estimated band");
-    }
-    ok
-}
-
-/// " (at sample s: λ rad/s, …)".
-struct Recentres<'a>(&'a [(u64, f64)]);
-
-impl core::fmt::Display for Recentres<'_> {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        for (i, (at, l)) in self.0.iter().enumerate() {
-            let sep = if i == 0 { " (" } else { ", " };
-            write!(f, "{sep}at sample {at}: {}", Fixed(*l, 1))?;
-        }
-        if !self.0.is_empty() {
-            f.write_str(")")?;
-        }
-        Ok(())
-    }
-}
-
-/// The only read of the simulated truth: ω within `tol_omega`, ζ within
-/// `tol_zeta` ([`TOLERANCE`] for the adaptive law).
-fn check_modes(modes: Option<&ModalParams<f32>>, tol_omega: f64, tol_zeta: f64) -> bool {
-    let Some(m) = modes else {
-        hprintln!("no modal estimate at the end of the run");
-        return false;
-    };
-    let mut ok = true;
-    let pairs = m
-        .omega_rad_s
-        .iter()
-        .zip(m.zeta.iter())
-        .zip(PAPER_OMEGA.iter().zip(PAPER_ZETA.iter()))
-        .take(2);
-    for (i, ((&w, &z), (&tw, &tz))) in pairs.enumerate() {
-        let ew = (f64::from(w) / tw - 1.0).abs();
-        let ez = (f64::from(z) / tz - 1.0).abs();
-        hprintln!(
-            "mode {}: omega = {} rad/s (truth {}, rel. error {}), zeta = {} (truth {}, rel. error {})",
-            i + 1,
-            Fixed(w.into(), 5),
-            Fixed(tw, 4),
-            Sci(ew, 1),
-            Fixed(z.into(), 7),
-            Fixed(tz, 4),
-            Sci(ez, 1)
-        );
-        // `!(e <= tol)` fails NaN too.
-        if !(ew <= tol_omega && ez <= tol_zeta) {
-            ok = false;
-        }
-    }
-    ok && m.modes == 2
 }

@@ -135,27 +135,11 @@ impl RobustUpdates {
     }
 }
 
-/// Pass criterion on ω with the robust estimator (relative error): the
-/// default run's for the adaptive law. The estimator models the converters'
-/// timing (`FilterConfig::timing`, as the adaptive law); the same sequence
-/// on the host (`host-tests/tests/robust_firmware_path.rs`) and the bias
-/// without the timing model: BENCHMARKS.md, "On the QEMU image, selected
-/// over the link".
-pub const OMEGA_TOLERANCE: f64 = 1e-3;
-/// Pass criterion on ζ with the robust estimator (relative error).
-pub const ZETA_TOLERANCE: f64 = 1e-3;
-
-/// Bound on any lock these updates take (instructions): one sample period
-/// (100 µs at one instruction per ns under `-icount shift=0`), so a sample
-/// is at worst delayed, never lost.
-pub const LOCK_BOUND: u32 = 100_000;
-
-/// The robust estimator's figures at the end of the run (timer stopped);
-/// true if at least one update was installed and no lock of theirs
-/// exceeded [`LOCK_BOUND`] (the real-time properties this image proves).
-/// Its convergence ([`OMEGA_TOLERANCE`], [`ZETA_TOLERANCE`]) is checked by
-/// the caller.
-pub fn report(u: &RobustUpdates, dev: &mut QemuDevice, ipt: f32) -> bool {
+/// The robust estimator's figures at the end of the run (timer stopped),
+/// and `rig: robust` with what `cargo xtask qemu --robust` judges: its
+/// phase, the model updates installed and the longest lock they took
+/// (instructions).
+pub fn report(u: &RobustUpdates, dev: &mut QemuDevice, ipt: f32) {
     let state = dev.with_robust(|r| (r.phase(), r.updates(), r.recorded()));
     let steps = dev.with_pipeline(|p| p.estimator().steps());
     let max = |s: &SpanSum| (s.max_ticks as f32 * ipt) as u32;
@@ -189,25 +173,27 @@ pub fn report(u: &RobustUpdates, dev: &mut QemuDevice, ipt: f32) -> bool {
     );
     match state {
         Some((phase, updates, recorded)) => {
+            let phase = match phase {
+                Phase::Startup => "startup",
+                Phase::Refining => "refining",
+                Phase::Steady => "steady",
+            };
             hprintln!(
                 "robust estimator: phase {}, {} model updates, {} samples recorded",
-                match phase {
-                    Phase::Startup => "startup",
-                    Phase::Refining => "refining",
-                    Phase::Steady => "steady",
-                },
+                phase,
                 updates,
                 recorded
             );
-            let locks_ok = max(&u.locks) <= LOCK_BOUND;
-            if !locks_ok {
-                hprintln!("a model update's lock exceeded {} instructions", LOCK_BOUND);
-            }
-            updates >= 1 && locks_ok
+            hprintln!(
+                "rig: robust running=true phase={} updates={} lock_max_instructions={}",
+                phase,
+                updates,
+                max(&u.locks)
+            );
         }
         None => {
             hprintln!("robust estimator: not running at the end");
-            false
+            hprintln!("rig: robust running=false");
         }
     }
 }
