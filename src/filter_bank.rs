@@ -45,9 +45,9 @@
 //! * Φ and the G_m come from one matrix exponential of an augmented system
 //!   (`linalg::expm`, computed in f64 at construction, never Euler).
 
-use crate::compensated::CompensatedArray;
 use crate::linalg::{dot, expm, solve_dense, Block, EXPM_MAX};
 use crate::model::binomial;
+use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
 
 mod timing;

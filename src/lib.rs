@@ -38,8 +38,9 @@
 //!   frames in a bounded TX ring, command frames → validated changes of the
 //!   pipeline between samples, acknowledgements (any board).
 //!
-//! Internal helpers (`linalg`: small fixed-size matrices; `compensated`:
-//! double-word arithmetic for `f32`) are crate-private.
+//! Internal helpers (`linalg`: small fixed-size matrices;
+//! `scalar::compensated`: double-word arithmetic for `f32`) are
+//! crate-private.
 //!
 //! # Example
 //!
@@ -97,7 +98,6 @@
 pub mod beam;
 #[cfg(any(feature = "board-qemu", feature = "board-nucleo"))]
 pub mod board;
-pub(crate) mod compensated;
 pub mod crlb;
 pub mod drivers;
 pub mod estimator;

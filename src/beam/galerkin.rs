@@ -95,6 +95,13 @@ pub struct GalerkinMatrices {
     pub input_z: [f64; MAX_MODES],
 }
 
+impl BeamParams {
+    /// Galerkin matrices of eq. 54–57 for the first `modes` modes.
+    pub fn galerkin(&self, modes: usize) -> Result<GalerkinMatrices, BeamError> {
+        GalerkinMatrices::new(self, modes)
+    }
+}
+
 impl GalerkinMatrices {
     /// Compute eq. 54–57 for the first `modes` (1..=[`MAX_MODES`]) modes.
     pub fn new(params: &BeamParams, modes: usize) -> Result<Self, BeamError> {

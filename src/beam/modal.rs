@@ -174,6 +174,11 @@ pub struct ModeModel {
 }
 
 impl BeamParams {
+    /// The diagonal modal model of eq. 21–24 for the first `modes` modes.
+    pub fn modal(&self, modes: usize) -> Result<BeamModal, BeamError> {
+        BeamModal::new(self, modes)
+    }
+
     /// The diagonal modal model of mode `mode_number` (1-based, any order).
     ///
     /// # Errors

@@ -9,9 +9,7 @@
 //! [`BeamParams::paper`] for the assumed default.
 
 use super::error::{BeamError, BeamParam};
-use super::galerkin::GalerkinMatrices;
 use super::is_positive_finite;
-use super::modal::BeamModal;
 use super::shape::{frequency_root, ModeShape};
 
 /// Which physical quantity the beam model outputs (row C_w of eq. 22).
@@ -168,16 +166,6 @@ impl BeamParams {
     pub fn mode_shape(&self, mode_number: usize) -> Result<ModeShape, BeamError> {
         self.validate()?;
         ModeShape::new(mode_number, self.length_m)
-    }
-
-    /// Galerkin matrices of eq. 54–57 for the first `modes` modes.
-    pub fn galerkin(&self, modes: usize) -> Result<GalerkinMatrices, BeamError> {
-        GalerkinMatrices::new(self, modes)
-    }
-
-    /// The diagonal modal model of eq. 21–24 for the first `modes` modes.
-    pub fn modal(&self, modes: usize) -> Result<BeamModal, BeamError> {
-        BeamModal::new(self, modes)
     }
 
     /// Output weight c_i of one mode for the configured output (see

@@ -50,7 +50,7 @@
 //! * **Precision where the fixed point lives.** θ is determined by W = 0;
 //!   an error δ in P, Q or W moves θ by cond(P)·δ, and cond(P) ≈ 9e5 for the
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
-//!   evaluated with a double-word dot product (`src/compensated.rs`) when
+//!   evaluated with a double-word dot product (`src/scalar/compensated.rs`) when
 //!   `T::COMPENSATED` (`f32`). Per sample, each of the NS + NP increments
 //!   is a near-exact product of operands split once (`Factor`) added
 //!   lazily (`add_lazy`); P̃, Q̃ are renormalized inside the W pass at each
@@ -68,9 +68,11 @@
 //!   reports [`LawError::Singular`].
 
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
-use crate::compensated::{add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::linalg::{all_finite, ldlt_solve_packed_floored_keep};
+use crate::scalar::compensated::{
+    add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor,
+};
 use crate::scalar::Real;
 use crate::supervise::SupervisorConfig;
 

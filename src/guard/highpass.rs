@@ -25,10 +25,10 @@
 //!   transient) and u's to zero (the drive starts with the run).
 //! * **Precision.** α = 1 − e^{−ω_c·Ts} is ~1e-4: each state's increment is
 //!   a small fraction of the state, so in `f32` the states are double words
-//!   (as the filter bank's, `crate::compensated`); the output x − m is then
+//!   (as the filter bank's, `crate::scalar::compensated`); the output x − m is then
 //!   rounded once.
 
-use crate::compensated::Compensated;
+use crate::scalar::compensated::Compensated;
 use crate::scalar::Real;
 
 /// One channel's two low-pass states.

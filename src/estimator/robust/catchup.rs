@@ -32,8 +32,8 @@ use super::{
     stable_candidate, Filters, InitialFit, OeLaw, OeModel, Pending, Phase, RobustEstimator,
     UpdateError, REFINE_STEPS,
 };
-use crate::compensated::CompensatedArray;
 use crate::filter_bank::{OutputHold, OutputTiming};
+use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
 
 /// What a model update needs of the estimator, copied out of it (~1 KB for

@@ -24,9 +24,9 @@
 //! (docs/NUMERICS.md). θ̂ and θ_m are double words so their difference is
 //! exact.
 
-use crate::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::estimator::LawError;
 use crate::linalg::{all_finite, ldlt_solve_floored};
+use crate::scalar::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::scalar::Real;
 
 /// Damping of the step matrix in units of NP·ε·max diag (see `step`).

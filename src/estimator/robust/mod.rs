@@ -160,7 +160,6 @@ mod law;
 mod oe;
 mod start;
 
-use crate::compensated::CompensatedArray;
 use crate::estimator::adaptive::{AdaptiveConfig, AdaptiveLaw};
 use crate::estimator::screen::{InputScreen, Screened};
 use crate::estimator::{
@@ -169,6 +168,7 @@ use crate::estimator::{
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
 use crate::modal::{excitation_min_eig, modes_from_denominator};
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
+use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
 use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};

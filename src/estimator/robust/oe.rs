@@ -16,9 +16,9 @@
 //! direction (an error in it costs efficiency, never bias: it is built from
 //! u alone) and runs in plain working precision.
 
-use crate::compensated::{two_prod, Compensated, CompensatedArray, Dot2};
 use crate::filter_bank::{FilterMatrices, InputTaps, OutputTiming, U_HIST, U_TAPS, WINDOW};
 use crate::linalg::mat_vec;
+use crate::scalar::compensated::{two_prod, Compensated, CompensatedArray, Dot2};
 use crate::scalar::Real;
 
 /// One discretized normalized filter 1/Ã: Φ − I, the held-input gain and

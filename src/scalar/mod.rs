@@ -15,6 +15,8 @@
 //! ([`Real::from_f32`]), and `f32` has its own square root and hypot
 //! ([`sqrt_f32`], [`hypot_f32`]; libm's `hypotf` widens to `f64`).
 
+pub(crate) mod compensated;
+
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
 
@@ -47,7 +49,7 @@ pub trait Real:
     /// Short name used in reports (`"f32"` / `"f64"`).
     const NAME: &'static str;
     /// Whether long sums and the W residual (eq. 35) use compensated
-    /// (double-word) arithmetic, see `src/compensated.rs`. `true` for
+    /// (double-word) arithmetic, see `src/scalar/compensated.rs`. `true` for
     /// `f32`, whose 24-bit mantissa cannot hold P otherwise (cond(P) ≈ 9e5
     /// for the paper's plant, ~1e8 with a weak high mode);
     /// `false` for `f64`, where plain arithmetic already reaches ~1e-10.
@@ -316,7 +318,7 @@ fn scaled_powi_f64(base: f64, n: u32, coef: u32) -> f64 {
 /// (`libm::pow` in `f64` here cost ~3 KB of flash and a software-double
 /// `pow` call per recovery on the Cortex-M4F.)
 fn scaled_powi_f32(base: f64, n: u32, coef: u32) -> f32 {
-    use crate::compensated::{fast_two_sum, two_prod};
+    use crate::scalar::compensated::{fast_two_sum, two_prod};
     let hi = base as f32;
     let lo = (base - f64::from(hi)) as f32;
     let (mut ph, mut pl) = (coef as f32, 0.0f32);
@@ -394,7 +396,7 @@ pub fn sqrt_f32(x: f32) -> f32 {
 /// rounded but for rare near-midpoint cases). ±∞ in either argument gives
 /// +∞, otherwise NaN gives NaN.
 pub fn hypot_f32(x: f32, y: f32) -> f32 {
-    use crate::compensated::{fast_two_sum, two_prod};
+    use crate::scalar::compensated::{fast_two_sum, two_prod};
     let (ax, ay) = (x.abs(), y.abs());
     if ax == f32::INFINITY || ay == f32::INFINITY {
         return f32::INFINITY;
