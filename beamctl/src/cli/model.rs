@@ -12,10 +12,10 @@
 //! `output_position_m` to `length_m` (the tip). Unknown keys are an error.
 //! The mirror struct lives here so the core stays serde-free.
 
-use crate::error::CliError;
-use crate::simulate::write_stdout;
-use crate::table::{short, sig, Column, Table};
-use crate::ModelArgs;
+use crate::cli::error::CliError;
+use crate::cli::simulate::write_stdout;
+use crate::io::table::{short, sig, Column, Table};
+use crate::cli::args::ModelArgs;
 use beamest::beam::{
     rectangular_thickness_m, BeamError, BeamModal, BeamOutput, BeamParam, BeamParams,
 };
@@ -274,6 +274,7 @@ pub fn run(args: &ModelArgs) -> Result<(), CliError> {
     write_stdout(&text)
 }
 
+/// The beam of a TOML file (`--beam`; keys: [`BeamFile`]).
 pub fn load(path: &Path) -> Result<BeamParams, CliError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::usage("--beam", format!("cannot read {}: {e}", path.display())))?;

@@ -1,5 +1,5 @@
 //! `beamctl simulate`: validate the flags into [`RunConfig`]s, run them
-//! through [`beamctl::run`] and report (table or JSON, plus optional CSV
+//! through [`crate::run`] and report (table or JSON, plus optional CSV
 //! and PNG).
 //!
 //! # Design
@@ -9,22 +9,22 @@
 //!   mode count is known.
 //! * The plant flags are resolved by `plant.rs` (shared with `crlb`).
 //! * With noise the experiment's Cramér–Rao bound is computed once
-//!   ([`beamctl::runner::run_bound`]) and each estimator's error is divided
+//!   ([`crate::run::run_bound`]) and each estimator's error is divided
 //!   by it; `--seeds` is `multiseed.rs`.
 //! * The runner's observer is called at 1 kHz; it feeds the CSV writer, the
 //!   plot recorder and the progress bar without allocating per call (apart
 //!   from the CSV cell strings).
 
-use crate::csvout::CsvOut;
-use crate::error::CliError;
-use crate::plot::{self, OutputPanel, Recorder};
-use crate::progress::Progress;
-use crate::report;
-use crate::settings::{self, EstimatorPlan};
-use crate::SimulateArgs;
-use beamctl::fit::{self, Model};
-use beamctl::runner::{run_many, samples, scenario_rig};
-use beamctl::{Observer, RunConfig, RunReport, Trace};
+use crate::io::csv_out::CsvOut;
+use crate::cli::error::CliError;
+use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::cli::progress::Progress;
+use crate::judge::report;
+use crate::cli::estimator_flags::{self, EstimatorPlan};
+use crate::cli::args::SimulateArgs;
+use crate::judge::fit::{self, Model};
+use crate::run::{run_many, samples, scenario_rig};
+use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
@@ -130,10 +130,10 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         plot::check_extension(p)?;
     }
 
-    let (plant, modes, plant_label) = crate::plant::resolve(&args.plant, ts)?;
-    let est = settings::plan(&args.est, modes)?;
-    let range = crate::events_cli::range(&args.guard)?;
-    let events = crate::events_cli::events(
+    let (plant, modes, plant_label) = crate::cli::plant_flags::resolve(&args.plant, ts)?;
+    let est = estimator_flags::plan(&args.est, modes)?;
+    let range = crate::cli::event_flags::range(&args.guard)?;
+    let events = crate::cli::event_flags::events(
         &args.scenario,
         args.duration,
         &plant,
@@ -155,7 +155,7 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         snr_db: args.snr_db,
         noise_sd: args.noise_sd,
         crlb: (noisy && events.is_empty())
-            .then(|| args.model_set.unwrap_or(crate::ModelSetChoice::Tf).set()),
+            .then(|| args.model_set.unwrap_or(crate::cli::args::ModelSetChoice::Tf).set()),
         seed: args.seed,
         // Modal recovery costs ~4–7 µs: at 1 kHz it would dominate an hour
         // of simulation, so long runs without --csv evaluate at 100 Hz
@@ -194,12 +194,18 @@ fn finite(flag: &str, v: f64) -> Result<(), CliError> {
 /// One run's report with the settings that produced it (the JSON object).
 #[derive(Debug, Serialize)]
 pub struct JsonRun<'a> {
+    /// What the run measured.
     #[serde(flatten)]
     pub report: &'a RunReport,
+    /// Modes of the estimator's model.
     pub modes: usize,
+    /// The gain set ([`crate::run::estimator::Gains::name`]).
     pub gains: &'static str,
+    /// Sample interval (s).
     pub ts_s: f64,
+    /// SNR of the noise on y (dB), if given.
     pub snr_db: Option<f64>,
+    /// Noise seed.
     pub seed: u64,
 }
 
@@ -247,7 +253,7 @@ impl Observer for SimObserver<'_> {
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
-        return crate::multiseed::run(&plan, seeds, args.json);
+        return crate::cli::simulate_seeds::run(&plan, seeds, args.json);
     }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
@@ -290,7 +296,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     }
     if let Some(p) = &args.plot {
         // The truth in force: after a plant step, the new plant's.
-        let truths = beamctl::events::Truths::new(&plan.base)
+        let truths = crate::run::events::Truths::new(&plan.base)
             .map_err(|e| CliError::failure(format!("simulation: {e}")))?;
         let truth = plot::TruthLines {
             before: &truths.before.modal,
@@ -431,7 +437,7 @@ fn noise_label(cfg: &RunConfig) -> String {
 /// seed, unless several run).
 pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> String {
     let sigma = sigma.map_or(String::new(), |s| {
-        format!("σ = {}", crate::table::sig(s, 4))
+        format!("σ = {}", crate::io::table::sig(s, 4))
     });
     let seed = seed.map_or(String::new(), |s| format!(", seed {s}"));
     match (cfg.snr_db, cfg.noise_sd) {
@@ -442,15 +448,15 @@ pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> Str
 }
 
 /// The line naming the bound's model set, σ and SNR.
-pub fn bound_line(b: &beamctl::bound::ExperimentBound, modes: usize) -> String {
+pub fn bound_line(b: &crate::judge::bound::ExperimentBound, modes: usize) -> String {
     let set = match b.model_set {
         "modal" => beamest::crlb::ModelSet::Modal,
         _ => beamest::crlb::ModelSet::TransferFunction,
     };
     format!(
         "bound:  Cramér–Rao, {}; σ = {}, SNR {:.1} dB over the run\n",
-        beamctl::bound::model_set_description(set, modes),
-        crate::table::sig(b.sigma, 4),
+        crate::judge::bound::model_set_description(set, modes),
+        crate::io::table::sig(b.sigma, 4),
         b.snr_db
     )
 }
@@ -550,7 +556,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
 }
 
 /// The "events:" heading lines of a run with a scenario.
-pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
+pub fn scenario_lines(sc: &crate::run::events::ScenarioReport) -> String {
     let mut parts = Vec::new();
     if let Some(at) = sc.step_at_s {
         parts.push(format!(
@@ -564,7 +570,7 @@ pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
         let detected = match (sc.fault_detection_latency_s, sc.fault_detected_as) {
             (Some(l), Some(w)) => format!(
                 "flagged as {w} after {} ms",
-                crate::table::short(l * 1e3, 4)
+                crate::io::table::short(l * 1e3, 4)
             ),
             _ => "not flagged by the guard".to_string(),
         };
@@ -586,8 +592,8 @@ pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>
         cfg.u_freq_hz,
         plan.est.lambda_label,
         match cfg.precision {
-            beamctl::Precision::F64 => "f64",
-            beamctl::Precision::F32 => "f32",
+            crate::run::Precision::F64 => "f64",
+            crate::run::Precision::F32 => "f32",
         },
         cfg.gains.name(),
         noise_text(cfg, sigma, seed)
@@ -597,7 +603,8 @@ pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::{EstimatorKind, PlantSpec};
+    use crate::run::estimator::EstimatorKind;
+    use crate::run::plant::PlantSpec;
     use clap::Parser;
 
     fn args(extra: &[&str]) -> SimulateArgs {

@@ -8,8 +8,8 @@
 //! a step, the default fault levels, the scale of the extra modes); the
 //! estimators and the sensor guard see the samples only.
 
-use crate::runner::{RunConfig, RunError};
-use crate::scenario::Truth;
+use crate::run::{RunConfig, RunError};
+use crate::run::plant::Truth;
 use beamest::beam::BeamParams;
 use beamest::excitation::SquareWave;
 use beamest::modal::modal_from_tf;
@@ -343,8 +343,8 @@ impl Detection {
             return;
         }
         let what = match (s.fault, s.level) {
-            (Some(f), _) => Some(crate::session::fault_name(f)),
-            (None, Some(l)) => Some(crate::session::level_name(l)),
+            (Some(f), _) => Some(crate::run::session::fault_name(f)),
+            (None, Some(l)) => Some(crate::run::session::level_name(l)),
             (None, None) => None,
         };
         if let Some(w) = what {
@@ -431,7 +431,7 @@ pub(crate) fn events_rig(
     cfg: &RunConfig,
     with_fault: bool,
 ) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
-    let rig = crate::runner::clean_rig(cfg)?;
+    let rig = crate::run::clean_rig(cfg)?;
     let ev = &cfg.events;
     let truth = cfg.plant.truth();
     let setup = |e: String| RunError::Setup(e);
@@ -439,7 +439,7 @@ pub(crate) fn events_rig(
     if with_fault && ev.fault.is_some() {
         // Default fault levels are relative to the moving beam's RMS.
         let mut probe = events_rig(cfg, false)?;
-        let n = crate::runner::samples(cfg).max(1);
+        let n = crate::run::samples(cfg).max(1);
         let acc: f64 = (0..n).map(|_| probe.tick().y.powi(2)).sum();
         let rms = (acc / n as f64).sqrt();
         sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, rms, cfg.range).map_err(setup)?;

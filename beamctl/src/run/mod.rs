@@ -2,18 +2,25 @@
 //!
 //! The estimators see only what the firmware would: the held input u and
 //! the sampled output y (plus optional noise, and the run's events:
-//! [`crate::events`]), screened by the sensor guard ([`beamest::guard`],
-//! via [`crate::session`]), through their own filter banks, with λ and the
+//! [`crate::run::events`]), screened by the sensor guard ([`beamest::guard`],
+//! via [`crate::run::session`]), through their own filter banks, with λ and the
 //! signal scales chosen by the truth-free rule ([`beamest::tuning`], via
-//! [`crate::tuned`]). Modal parameters are recovered at the telemetry rate
+//! [`crate::run::tuned`]). Modal parameters are recovered at the telemetry rate
 //! ([`RunConfig::eval_every`]) and compared here, and only here, with the
 //! truth in force (after a plant step, the new plant's).
 
-use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
-use crate::events::{self, Detection, Events, ScenarioReport, Settling};
-use crate::fit::{self, Model};
-use crate::scenario::PlantSpec;
-use crate::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
+pub mod estimator;
+pub mod events;
+pub mod plant;
+pub mod seeds;
+pub mod session;
+pub mod tuned;
+
+use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
+use crate::run::events::{Detection, Events, ScenarioReport, Settling};
+use crate::judge::fit::{self, Model};
+use crate::run::plant::PlantSpec;
+use crate::run::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
 use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
@@ -23,9 +30,9 @@ use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use serde::Serialize;
 
-pub use crate::gains::{build_estimator, EstimatorKind, Gains};
-pub use crate::session::Outcome;
-pub use crate::tuned::{Build, RobustStatus};
+pub use crate::run::estimator::{build_estimator, EstimatorKind, Gains};
+pub use crate::run::session::Outcome;
+pub use crate::run::tuned::{Build, RobustStatus};
 
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -75,7 +82,7 @@ pub struct RunConfig {
     /// Evaluate modal parameters every this many samples (10 → 1 kHz).
     pub eval_every: usize,
     /// Events of the run: plant change, excitation pause, sensor fault,
-    /// modes beyond the model ([`crate::events`]).
+    /// modes beyond the model ([`crate::run::events`]).
     pub events: Events,
     /// The converter's rails in units of y, [min, max]: the sensor guard's
     /// saturation and open-bridge tests, and what a saturated or open
@@ -84,7 +91,7 @@ pub struct RunConfig {
     /// The guard's level corrections (DC-removing high-pass on u and y,
     /// offset-step removal; [`beamest::guard`]).
     pub level_correction: bool,
-    /// The guard's residual monitor ([`crate::session::Session::with_monitor`]).
+    /// The guard's residual monitor ([`crate::run::session::Session::with_monitor`]).
     pub residual_monitor: bool,
 }
 
@@ -295,7 +302,7 @@ pub struct RunReport {
     /// [`Outcome::validity`]).
     pub validity: Vec<&'static str>,
     /// The sensor guard's counters.
-    pub guard: crate::session::GuardReport,
+    pub guard: crate::run::session::GuardReport,
     /// With events: what they did (tracking time, fault latency).
     pub scenario: Option<ScenarioReport>,
 }

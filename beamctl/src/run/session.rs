@@ -7,10 +7,10 @@
 //! outcome carries its counters, the supervisor's state and the final
 //! estimate's physical validity.
 
-use crate::fit::{Fit, Model};
-use crate::gains::{EstimatorKind, Gains};
-use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
-use crate::tuned::{Build, RobustStatus, Totals, Tuned};
+use crate::judge::fit::{Fit, Model};
+use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
+use crate::run::tuned::{Build, RobustStatus, Totals, Tuned};
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::guard::{
     model_for_monitor, GuardConfig, GuardCounts, GuardError, LevelEvent, ResidualMonitor,
@@ -491,7 +491,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             .map(|e| to_f64_tf(&e.transfer_function()))
     }
 
-    /// The identified model of estimator `i` for [`crate::fit::fit`], if any.
+    /// The identified model of estimator `i` for [`crate::judge::fit::fit`], if any.
     pub fn model(&self, i: usize, ts_s: f64) -> Option<Model> {
         Model::new(&self.transfer_function(i)?, ts_s)
     }
@@ -502,7 +502,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     }
 
     /// The truth-free part of estimator `i`'s report. `end_s` is the time
-    /// of the last sample, `fit` the model-output fit (see [`crate::fit::fit`]).
+    /// of the last sample, `fit` the model-output fit (see [`crate::judge::fit::fit`]).
     pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();

@@ -2,8 +2,8 @@
 //! commands.
 //!
 //! The bytes come from a serial port, a TCP socket or a capture file
-//! (`beamctl::link::transport`), read on a thread; this module's event loop
-//! decodes them (`beamctl::link::Host`), records them (`--record`,
+//! (`crate::link::transport`), read on a thread; this module's event loop
+//! decodes them (`crate::link::Host`), records them (`--record`,
 //! `--capture`), shows them (the terminal view of [`tui`] on a terminal,
 //! else one line per estimate on stdout), sends the commands typed (keys
 //! and `:` in the terminal view, `--stdin-commands` in plain mode) and
@@ -27,9 +27,9 @@ mod plot;
 pub mod state;
 mod tui;
 
-use crate::error::CliError;
-use crate::send::{self, CommandArgs, DeviceArgs};
-use beamctl::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
+use crate::cli::error::CliError;
+use crate::cli::send::{self, CommandArgs, DeviceArgs};
+use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
 use beamest::protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
 use state::State;
@@ -52,6 +52,7 @@ const ERROR_LINE_EVERY: Duration = Duration::from_secs(1);
 #[derive(Debug, Clone, Args)]
 #[command(group(ArgGroup::new("source").args(["port", "tcp", "file"]).required(true)))]
 pub struct MonitorArgs {
+    /// The device to watch.
     #[command(flatten)]
     pub device: DeviceArgs,
 
@@ -135,8 +136,11 @@ enum End {
 
 /// What a key asks for.
 pub enum KeyAction {
+    /// Nothing.
     None,
+    /// End the monitor.
     Quit,
+    /// Send this command to the device.
     Send(CommandArgs),
 }
 
@@ -170,7 +174,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
         ));
     }
     if let Some(p) = &args.plot {
-        crate::plot::check_writable(p)?;
+        crate::io::plot::check_writable(p)?;
     }
     let mut recorder = match &args.record {
         Some(p) => Some(Recorder::create(p).map_err(|m| CliError::usage("--record", m))?),
@@ -327,7 +331,7 @@ impl Loop<'_> {
                         return End::Failure(format!("--capture: {e}"));
                     }
                 }
-                next_capture_flush = now + beamctl::link::record::FLUSH_EVERY;
+                next_capture_flush = now + crate::link::record::FLUSH_EVERY;
             }
         }
     }

@@ -170,7 +170,7 @@ pub struct CommandLine {
 pub fn parse_line(line: &str) -> Result<CommandArgs, String> {
     CommandLine::try_parse_from(line.split_whitespace())
         .map(|c| c.command)
-        .map_err(|e| crate::error::one_line(&e.render().to_string()))
+        .map_err(|e| crate::cli::error::one_line(&e.render().to_string()))
 }
 
 impl CommandArgs {
@@ -421,11 +421,11 @@ impl TelemetryArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::link::fake::FakeDevice;
-    use beamctl::link::text;
+    use crate::link::fake::FakeDevice;
+    use crate::link::text;
 
     fn status() -> Status {
-        FakeDevice::new(beamctl::link::fake::FakeConfig::default()).status()
+        FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
     }
 
     fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {

@@ -29,8 +29,8 @@ mod font;
 
 pub use font::ensure_font;
 
-use crate::error::CliError;
-use beamctl::Trace;
+use crate::cli::error::CliError;
+use crate::run::Trace;
 use beamest::model::{ModalParams, MAX_MODES};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -136,7 +136,7 @@ fn decimate<T>(v: &mut Vec<T>, stride: usize) {
 }
 
 /// The measured y and each model's output over a window (see
-/// `beamctl::fit`).
+/// `crate::judge::fit`).
 #[derive(Debug, Clone)]
 pub struct OutputPanel {
     /// Time (s).
