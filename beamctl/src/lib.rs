@@ -15,7 +15,8 @@
 //! * [`link`] — the host end of the serial link and a fake device that
 //!   speaks the protocol;
 //! * [`cli`] — the command-line front ends: one module per subcommand
-//!   and the option types they share.
+//!   and the option types they share;
+//! * [`error`] — one-line errors and exit codes, shared by all of them.
 
 // Same numerical-code conventions as the core (see the root src/lib.rs).
 #![allow(clippy::needless_range_loop)]
@@ -23,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod error;
 pub mod io;
 pub mod judge;
 pub mod link;

@@ -24,7 +24,8 @@
 //! failures while running.
 
 use beamctl::cli::args::{CrlbArgs, ModelArgs, ReplayArgs, SimulateArgs};
-use beamctl::cli::{crlb, error, model, monitor, replay, send, simulate};
+use beamctl::cli::{crlb, model, monitor, replay, send, simulate};
+use beamctl::error;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 

@@ -2,14 +2,15 @@
 //! simulate` would run with the same flags ([`crate::judge::bound`]), before it
 //! is run.
 
-use crate::cli::error::CliError;
-use crate::judge::report;
-use crate::cli::simulate::{check_duration, check_noise, write_stdout};
-use crate::io::table::{rel, sig, Column, Table};
 use crate::cli::args::CrlbArgs;
+use crate::cli::simulate::plan::{check_duration, check_noise};
+use crate::error::write_stdout;
+use crate::error::CliError;
+use crate::io::table::{rel, sig, Column, Table};
 use crate::judge::bound::{model_set_description, ExperimentBound, NoiseLevel};
-use crate::run::{excitation, samples};
+use crate::judge::report;
 use crate::run::RunConfig;
+use crate::run::{excitation, samples};
 use serde::Serialize;
 
 /// Run `beamctl crlb`.

@@ -1,8 +1,8 @@
 //! The estimator flags `simulate` and `replay` share (law, precision,
 //! gains, where λ comes from), validated into what the runs use.
 
-use crate::cli::error::CliError;
 use crate::cli::args::{EstimatorArgs, EstimatorChoice, PrecisionChoice};
+use crate::error::CliError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::Precision;
 use beamest::tuning::LambdaSource;
@@ -114,7 +114,11 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
         let m = params.modal(modes).map_err(|e| {
             CliError::usage(
                 "--beam",
-                format!("{}: {}", path.display(), crate::cli::model::explain(e, &params)),
+                format!(
+                    "{}: {}",
+                    path.display(),
+                    crate::cli::model::explain(e, &params)
+                ),
             )
         })?;
         let (lo, hi) = (m.omega_rad_s[0], m.omega_rad_s[modes - 1]);

@@ -5,7 +5,7 @@
 //! validated into [`crate::run::events::Events`] and the guard's settings.
 //! Every message is one line naming the flag it is about.
 
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use crate::run::events::{extra_beam_modes, Events, FaultChoice, FaultEvent, StepEvent};
 use crate::run::plant::PlantSpec;
 use beamest::beam::BeamParams;

@@ -3,16 +3,16 @@
 //! validated into the library's types, and the one-line error reporting.
 //!
 //! * [`args`] — the options of `simulate`, `replay`, `crlb`, `model`;
-//! * [`simulate`] (with [`simulate_seeds`] for `--seeds`), [`replay`],
+//! * [`simulate`] (its flags validated in [`simulate::plan`], `--seeds` in
+//!   [`simulate::seeds`]), [`replay`],
 //!   [`crlb`], [`model`], [`monitor`], [`send`] — the subcommands;
 //! * [`estimator_flags`], [`plant_flags`], [`event_flags`] — the estimator,
 //!   plant and event/guard flags, validated;
-//! * [`error`] — the one-line errors and exit codes; [`progress`] — the
-//!   progress bar of long runs.
+//! * [`progress`] — the progress bar of long runs. (The one-line errors
+//!   and exit codes: [`crate::error`].)
 
 pub mod args;
 pub mod crlb;
-pub mod error;
 pub mod estimator_flags;
 pub mod event_flags;
 pub mod model;
@@ -22,4 +22,3 @@ pub mod progress;
 pub mod replay;
 pub mod send;
 pub mod simulate;
-pub mod simulate_seeds;

@@ -12,10 +12,10 @@
 //! `output_position_m` to `length_m` (the tip). Unknown keys are an error.
 //! The mirror struct lives here so the core stays serde-free.
 
-use crate::cli::error::CliError;
-use crate::cli::simulate::write_stdout;
-use crate::io::table::{short, sig, Column, Table};
 use crate::cli::args::ModelArgs;
+use crate::error::write_stdout;
+use crate::error::CliError;
+use crate::io::table::{short, sig, Column, Table};
 use beamest::beam::{
     rectangular_thickness_m, BeamError, BeamModal, BeamOutput, BeamParam, BeamParams,
 };
@@ -455,7 +455,7 @@ mod tests {
 
     #[test]
     fn sample_file_is_the_paper_beam() {
-        let text = include_str!("../examples/paper-beam.toml");
+        let text = include_str!("../../examples/paper-beam.toml");
         let p = parse_beam(text, "paper-beam.toml").unwrap();
         let q = BeamParams::paper();
         assert_eq!(p.output, q.output);

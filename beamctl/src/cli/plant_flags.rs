@@ -7,8 +7,8 @@
 //! is not exactly a modal model with rounded b̄). Every message names the
 //! flag it is about.
 
-use crate::cli::error::CliError;
 use crate::cli::args::PlantArgs;
+use crate::error::CliError;
 use crate::run::plant::PlantSpec;
 use beamest::model::ModalParams;
 

@@ -22,19 +22,19 @@
 //!   the other laws the RMS of y − ŷ of the model output fit (which also
 //!   holds their bias, so it over-states σ when they are biased).
 
-use crate::io::csv_out::CsvOut;
-use crate::cli::error::{CliError, EXIT_USAGE};
-use crate::io::plot::{self, OutputPanel, Recorder};
-use crate::judge::report::{self, Column};
-use crate::cli::estimator_flags::{self, EstimatorPlan};
-use crate::cli::simulate::{note, write_stdout};
 use crate::cli::args::ReplayArgs;
-use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
+use crate::cli::estimator_flags::{self, EstimatorPlan};
+use crate::error::{note, write_stdout};
+use crate::error::{CliError, EXIT_USAGE};
 use crate::io::csv_in::{Columns, Reader};
+use crate::io::csv_out::CsvOut;
+use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
-use crate::run::Outcome;
-use crate::run::session::{drift_every, guard_config, Session};
+use crate::judge::report::{self, Column};
 use crate::run::estimator::EstimatorKind;
+use crate::run::session::Outcome;
+use crate::run::session::{drift_every, guard_config, Session};
 use crate::run::{Precision, Trace};
 use beamest::crlb::ModelSet;
 use beamest::model::default_output_weight;
@@ -116,7 +116,7 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
     if let Some(p) = &args.plot {
         plot::check_extension(p)?;
     }
-    crate::cli::simulate::check_noise(None, args.noise_sd)?;
+    crate::cli::simulate::plan::check_noise(None, args.noise_sd)?;
     Ok(Plan {
         est,
         modes,

@@ -16,7 +16,7 @@
 //! `eval_every` = 10 samples, 1 kHz) and empty elsewhere, and empty where
 //! there is no estimate (start-up window, failed recovery).
 
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use crate::run::Trace;
 use std::fmt::Write as _;
 use std::fs::File;

@@ -2,12 +2,13 @@
 //! `replay` (without), and the exit status when a run produced no
 //! estimate.
 
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use crate::io::table::{rel, seconds, sig, Column as TableColumn, Table};
 use crate::judge::bound::{BoundRatio, ExperimentBound};
-use crate::run::{Build, ModalSummary, RobustStatus};
-use crate::run::session::{GuardReport, SupervisionReport};
 use crate::run::estimator::EstimatorKind;
+use crate::run::session::ModalSummary;
+use crate::run::session::{GuardReport, SupervisionReport};
+use crate::run::tuned::{Build, RobustStatus};
 use serde::Serialize;
 
 /// Metrics that need the truth (simulation only).

@@ -7,8 +7,9 @@
 //! so the bound are the same for every seed, and computed once.
 
 use crate::judge::bound::{BoundRatio, ExperimentBound};
+use crate::run::error::RunError;
 use crate::run::estimator::EstimatorKind;
-use crate::run::{run_bound, run_many, Precision, RunConfig, RunError, RunReport};
+use crate::run::{run_bound, run_many, Precision, RunConfig, RunReport};
 use serde::Serialize;
 
 /// A statistic of the relative errors, per mode.

@@ -27,8 +27,8 @@ mod plot;
 pub mod state;
 mod tui;
 
-use crate::cli::error::CliError;
 use crate::cli::send::{self, CommandArgs, DeviceArgs};
+use crate::error::CliError;
 use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
 use beamest::protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};

@@ -7,7 +7,7 @@
 //! The font is found as for `beamctl simulate --plot` (`crate::io::plot`).
 
 use super::state::{Point, State};
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use plotters::prelude::*;
 use std::path::Path;
 

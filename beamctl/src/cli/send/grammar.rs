@@ -170,7 +170,7 @@ pub struct CommandLine {
 pub fn parse_line(line: &str) -> Result<CommandArgs, String> {
     CommandLine::try_parse_from(line.split_whitespace())
         .map(|c| c.command)
-        .map_err(|e| crate::cli::error::one_line(&e.render().to_string()))
+        .map_err(|e| crate::error::one_line(&e.render().to_string()))
 }
 
 impl CommandArgs {

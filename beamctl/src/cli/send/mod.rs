@@ -17,7 +17,7 @@
 //! negative one (the reason code and its meaning) exits 1, as does no
 //! answer within `--timeout`.
 
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use crate::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
 use beamest::protocol::budget::uart_bytes_per_s;
 use beamest::protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};

@@ -29,7 +29,7 @@ mod font;
 
 pub use font::ensure_font;
 
-use crate::cli::error::CliError;
+use crate::error::CliError;
 use crate::run::Trace;
 use beamest::model::{ModalParams, MAX_MODES};
 use plotters::coord::Shift;

@@ -6,13 +6,14 @@
 //! and a warning on stderr) and makes that estimator's RMS "n/a"; the exit
 //! status stays 0, because the summary is the result.
 
-use crate::cli::error::CliError;
 use crate::cli::progress::Progress;
-use crate::judge::report::{self, ratio};
-use crate::cli::simulate::{bound_line, note, run_line, write_stdout, JsonRun, Plan};
+use crate::cli::simulate::plan::{bound_line, run_line, JsonRun, Plan};
+use crate::error::CliError;
+use crate::error::{note, write_stdout};
 use crate::io::table::{rel, sig, Column, Table};
-use crate::run::{run_bound, run_many};
+use crate::judge::report::{self, ratio};
 use crate::run::seeds::{summarize, ParamStats, SeedSummary, SeedsReport};
+use crate::run::{run_bound, run_many};
 use crate::run::{Observer, RunConfig, Trace};
 use serde::Serialize;
 use std::io::IsTerminal;
@@ -190,7 +191,7 @@ fn render(plan: &Plan, report: &SeedsReport) -> String {
     type Pick = fn(&ParamStats) -> &Vec<f64>;
     type PickB = fn(&crate::judge::bound::BoundRatio) -> &Vec<f64>;
     type PickC = fn(&crate::judge::bound::ExperimentBound) -> &Vec<f64>;
-    type PickT = fn(&crate::run::ModalSummary) -> &Vec<f64>;
+    type PickT = fn(&crate::run::session::ModalSummary) -> &Vec<f64>;
     let rows: [(&str, &str, Pick, PickB, PickC, PickT); 3] = [
         (
             "ω",
