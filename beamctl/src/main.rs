@@ -23,7 +23,7 @@
 //! (`error: --flag: what is wrong`) with exit code 2 for bad usage and 1 for
 //! failures while running.
 
-use beamctl::cli::args::{CrlbArgs, ModelArgs, ReplayArgs, SimulateArgs};
+use beamctl::cli::args::{CrlbArgs, ReplayArgs, SimulateArgs};
 use beamctl::cli::{crlb, model, monitor, replay, send, simulate};
 use beamctl::error;
 use clap::{Parser, Subcommand};
@@ -49,7 +49,7 @@ enum Command {
     /// Print the physical beam's modal model (Tables I–II → ω_i, ζ_i, b̄_i,
     /// transfer function).
     #[command(long_about = MODEL_ABOUT)]
-    Model(ModelArgs),
+    Model(model::ModelArgs),
     /// Watch a device's estimates live (serial port, TCP or a capture file),
     /// record them, send it commands.
     #[command(long_about = MONITOR_ABOUT)]

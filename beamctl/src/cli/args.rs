@@ -1,9 +1,9 @@
-//! The options of `beamctl simulate`, `replay`, `crlb` and `model` (clap
+//! The options of `beamctl simulate`, `replay` and `crlb` (clap
 //! definitions), and the option types they share: the estimator settings
 //! of `simulate` and `replay`, the simulated plant of `simulate` and
-//! `crlb`, the Cramér–Rao model set and the noise seeds. (`monitor` and
-//! `send` define theirs next to their code: [`crate::cli::monitor`],
-//! [`crate::cli::send`].)
+//! `crlb`, the Cramér–Rao model set and the noise seeds. (`model`,
+//! `monitor` and `send` define theirs next to their code:
+//! [`crate::cli::model`], [`crate::cli::monitor`], [`crate::cli::send`].)
 
 use crate::cli::event_flags;
 use clap::{Args, ValueEnum};
@@ -405,27 +405,4 @@ pub struct CrlbArgs {
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
-}
-
-/// Options of `beamctl model`.
-#[derive(Debug, Clone, Args)]
-pub struct ModelArgs {
-    /// Number of modes, 1..=3.
-    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
-    pub modes: u8,
-
-    /// Print one JSON object on stdout instead of the tables.
-    #[arg(long)]
-    pub json: bool,
-
-    /// Read the beam from a TOML file instead of the paper's Tables I–II.
-    /// Keys (all optional; a missing key takes the paper's value, unknown
-    /// keys are an error): density_kg_m3, area_m2, youngs_modulus_pa,
-    /// inertia_m4, damping_pa_s, length_m, thickness_m [default:
-    /// √(12·inertia_m4/area_m2)], piezo_modulus_pa, piezo_d31_m_v,
-    /// moment_arm_m, actuator_start_m, actuator_end_m, output_position_m
-    /// [default: length_m, the tip], output = "deflection" | "strain" |
-    /// "strain_as_tip_deflection". See beamctl/examples/paper-beam.toml.
-    #[arg(long, value_name = "FILE.toml")]
-    pub beam: Option<PathBuf>,
 }

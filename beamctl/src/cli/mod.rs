@@ -2,7 +2,7 @@
 //! the flags, its run and its output), the flags several of them share
 //! validated into the library's types, and the one-line error reporting.
 //!
-//! * [`args`] — the options of `simulate`, `replay`, `crlb`, `model`;
+//! * [`args`] — the options of `simulate`, `replay`, `crlb`;
 //! * [`simulate`] (its flags validated in [`simulate::plan`], `--seeds` in
 //!   [`simulate::seeds`]), [`replay`],
 //!   [`crlb`], [`model`], [`monitor`], [`send`] — the subcommands;

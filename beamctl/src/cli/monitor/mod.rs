@@ -23,6 +23,7 @@
 //! plot is drawn from what arrived, and a summary of the link's counters
 //! goes to stderr.
 
+mod event;
 mod plot;
 pub mod state;
 mod tui;
@@ -32,6 +33,7 @@ use crate::error::CliError;
 use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
 use beamest::protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
+use event::{Event, KeyAction};
 use state::State;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -107,23 +109,6 @@ pub struct MonitorArgs {
     pub stdin_commands: bool,
 }
 
-/// Everything the event loop waits for.
-#[derive(Debug)]
-pub enum Event {
-    /// From the link's reader thread.
-    Link(Incoming),
-    /// A key in the terminal view.
-    Key(ratatui::crossterm::event::KeyEvent),
-    /// A line from stdin (`--stdin-commands`).
-    Line(String),
-}
-
-impl From<Incoming> for Event {
-    fn from(i: Incoming) -> Self {
-        Self::Link(i)
-    }
-}
-
 /// Why the loop stopped.
 #[derive(Debug)]
 enum End {
@@ -132,16 +117,6 @@ enum End {
     Stream(StreamEnd),
     Version { got: u8, expected: u8 },
     Failure(String),
-}
-
-/// What a key asks for.
-pub enum KeyAction {
-    /// Nothing.
-    None,
-    /// End the monitor.
-    Quit,
-    /// Send this command to the device.
-    Send(CommandArgs),
 }
 
 fn check_seconds(flag: &str, v: f64) -> Result<(), CliError> {

@@ -27,8 +27,8 @@
 //! `estimator --gain 2e4`, `reset`, …), Enter sends, Esc closes; `f`, `r` and `s` send
 //! freeze, resume and a status request.
 
+use super::event::{Event, KeyAction};
 use super::state::State;
-use super::{Event, KeyAction};
 use crate::cli::send::{self, CommandArgs};
 use crate::link::text;
 use beamest::protocol::{StatusFlags, MAX_MODES};
