@@ -8,6 +8,14 @@
 //! [`crate::run::tuned`]). Modal parameters are recovered at the telemetry rate
 //! ([`RunConfig::eval_every`]) and compared here, and only here, with the
 //! truth in force (after a plant step, the new plant's).
+//!
+//! The run machinery, from the bottom up: [`error`] (why a run cannot
+//! start), [`plant`] (which beam, its truth), [`estimator`] (which law, at
+//! which gains), [`tuned`] (one estimator under the tuning rule),
+//! [`session`] (several fed the same samples and evaluated: what `beamctl
+//! replay` runs on a file), [`events`] (a simulated run's events), this
+//! module (the simulated rig of a run and the run loop) and [`seeds`] (one
+//! configuration over several noise seeds).
 
 pub mod error;
 pub mod estimator;
