@@ -4,7 +4,7 @@
 //! The bytes come from a serial port, a TCP socket or a capture file
 //! (`crate::link::transport`), read on a thread; this module's event loop
 //! decodes them (`crate::link::Host`), records them (`--record`,
-//! `--capture`), shows them (the terminal view of [`tui`] on a terminal,
+//! `--capture`), shows them (the terminal view of `tui` on a terminal,
 //! else one line per estimate on stdout), sends the commands typed (keys
 //! and `:` in the terminal view, `--stdin-commands` in plain mode) and
 //! times out the ones that get no acknowledgement.

@@ -7,7 +7,7 @@
 //! 8), with each model's fit %.
 //!
 //! # Design
-//! * Text needs a font ([`font`]). plotters' `ttf` feature would link
+//! * Text needs a font (`font.rs`). plotters' `ttf` feature would link
 //!   fontconfig and freetype; instead plotters renders with `ab_glyph` from
 //!   a TrueType file found at run time: `$BEAMCTL_FONT` if set, else a few
 //!   well-known system paths (DejaVu, Liberation, Noto, Arial), else the
