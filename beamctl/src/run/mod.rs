@@ -27,9 +27,16 @@ pub mod tuned;
 
 use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::judge::fit::{self, Model};
-use crate::run::events::{Detection, Events, ScenarioReport, Settling};
-use crate::run::plant::PlantSpec;
-use crate::run::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
+use crate::run::error::RunError;
+use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::events::{
+    sample_at, scenario, stepped_plant, truth_of, Detection, Events, ScenarioReport, Settling,
+};
+use crate::run::plant::{PlantSpec, Truth};
+use crate::run::session::{
+    drift_every, guard_config, Eval, ModalSummary, Session, SupervisionReport,
+};
+use crate::run::tuned::{Build, RobustStatus};
 use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
@@ -38,13 +45,6 @@ use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use serde::Serialize;
-
-use crate::run::error::RunError;
-use crate::run::estimator::{EstimatorKind, Gains};
-use crate::run::events::{sample_at, scenario, stepped_plant, truth_of};
-use crate::run::plant::Truth;
-use crate::run::session::ModalSummary;
-use crate::run::tuned::{Build, RobustStatus};
 
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
