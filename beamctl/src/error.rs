@@ -1,4 +1,6 @@
-//! One-line error reporting.
+//! One-line error reporting, and the two other ways `beamctl` speaks
+//! outside its outputs: notes on stderr ([`note`]) and stdout written so
+//! that a closed pipe is not an error ([`write_stdout`]).
 //!
 //! Every failure ends up as a single line on stderr, `error: <message>`,
 //! where the message starts with the flag (or file) it is about, and a
@@ -101,6 +103,21 @@ fn clap_message(rendered: &str) -> String {
         joined.to_string()
     };
     format!("{out} (see --help)")
+}
+
+/// Print a notice on stderr.
+pub fn note(msg: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{msg}");
+}
+
+/// Write to stdout; a closed pipe (`| head`) is not an error.
+pub fn write_stdout(text: &str) -> Result<(), CliError> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(CliError::failure(format!("writing to stdout: {e}"))),
+    }
 }
 
 #[cfg(test)]

@@ -1,44 +1,31 @@
-//! The library half of `beamctl`: the simulation run loop, the simulated
-//! beams and the estimator driver that `beamctl simulate` and `beamctl
-//! replay` (and the host tests, which depend on this library) share.
+//! `beamctl`, the host side of the beam estimator: everything but the
+//! argument parsing and dispatch of `src/main.rs`. The host tests depend on
+//! this library.
 //!
-//! * [`runner`] — run estimators against the simulated rig
-//!   ([`beamest::rig::Rig`]) and measure them against the truth;
-//! * [`scenario`] — which beam is simulated and its true parameters;
-//! * [`tuned`] — an estimator under the truth-free tuning rule
-//!   ([`beamest::tuning`]);
-//! * [`session`] — several estimators fed the same samples and evaluated;
-//! * [`gains`] — the laws and their gain sets (defaults, the paper's);
-//! * [`fit`] — model output vs measured output (fit %);
-//! * [`bound`] — the Cramér–Rao bound of an experiment, and error ÷ bound;
-//! * [`seeds`] — one configuration over several noise seeds: RMS errors
-//!   and RMS ÷ bound;
-//! * [`events`] — the events of a simulated run (plant change, excitation
-//!   pause, sensor fault, modes beyond the model) and what they did;
-//! * [`csvin`] — reading recorded samples for `beamctl replay`.
-//! * [`link`] — the host end of the serial link (`beamctl monitor`,
-//!   `beamctl send`) and a fake device that speaks the protocol.
-//!
-//! The command-line front end is `src/main.rs`.
+//! * [`run`] — the run machinery: one estimator session fed sample by
+//!   sample ([`run::session`]), the truth-free tuning rule around each
+//!   estimator ([`run::tuned`]), the simulated rig and its events, and the
+//!   run loop that measures the estimates against the truth
+//!   (`beamctl simulate`, the host tests and the examples) — `beamctl
+//!   replay` feeds the same session from a file;
+//! * [`judge`] — how an estimate is judged: model output fit, the
+//!   Cramér–Rao bound, and the report tables;
+//! * [`io`] — files: recorded samples in (CSV), time series out (CSV),
+//!   text tables, plots;
+//! * [`link`] — the host end of the serial link and a fake device that
+//!   speaks the protocol;
+//! * [`cli`] — the command-line front ends: one module per subcommand
+//!   and the option types they share;
+//! * [`error`] — one-line errors and exit codes, shared by all of them.
 
 // Same numerical-code conventions as the core (see the root src/lib.rs).
 #![allow(clippy::needless_range_loop)]
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_docs)]
 
-pub mod bound;
-pub mod csvin;
-pub mod events;
-pub mod fit;
-pub mod gains;
+pub mod cli;
+pub mod error;
+pub mod io;
+pub mod judge;
 pub mod link;
-pub mod runner;
-pub mod scenario;
-pub mod seeds;
-pub mod session;
-pub mod tuned;
-
-pub use runner::{
-    run, run_many, EstimatorKind, Gains, Observer, Precision, RunConfig, RunError, RunReport, Trace,
-};
-pub use scenario::{PlantSpec, Truth, PAPER_BBAR};
+pub mod run;

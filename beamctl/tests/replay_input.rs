@@ -2,7 +2,7 @@
 //! a one-line error with its line number, missing samples are counted, and
 //! nothing panics, whatever the bytes.
 
-use beamctl::csvin::{Columns, CsvError, Reader};
+use beamctl::io::csv_in::{Columns, CsvError, Reader};
 use proptest::prelude::*;
 use std::io::Cursor;
 

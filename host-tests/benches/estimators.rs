@@ -22,6 +22,9 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::tuned_filter;
+use beamctl::run::RunConfig;
 use beamest::estimator::robust::{Phase, RobustEstimator, DEFAULT_RECORD};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
@@ -36,8 +39,6 @@ use beamest::Real;
 use criterion::measurement::WallTime;
 use criterion::Throughput;
 use criterion::{criterion_group, criterion_main, Bencher, BenchmarkGroup, BenchmarkId, Criterion};
-use host_tests::runner::tuned_filter;
-use host_tests::{PlantSpec, RunConfig};
 
 /// Samples fed before measuring (1 s at 10 kHz): past the initial transient.
 const WARMUP_SAMPLES: usize = 10_000;

@@ -2,10 +2,11 @@
 //! the y-hold order's floor and the five random two-mode plants of the
 //! acceptance tests, in f64 and f32.
 //! `cargo run --release -p host-tests --example accuracy_tables`
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{run, Precision, RunConfig, RunReport};
 use beamest::filter_bank::OutputHold;
 use beamest::tuning::LambdaSource;
-use host_tests::runner::{run, Precision, RunConfig, RunReport};
-use host_tests::scenario::{random_two_mode_plants, PlantSpec};
+use host_tests::scenario::random_two_mode_plants;
 
 fn go(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")

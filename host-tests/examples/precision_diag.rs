@@ -3,10 +3,11 @@
 //! (a) the `f64` regressor split into double words and (b) its own `f32`
 //! filter bank, against the `f64` law.
 //! `cargo run --release -p host-tests --example precision_diag`
+use beamctl::run::plant::*;
+use beamctl::run::*;
 use beamest::estimator::*;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::*;
-use host_tests::runner::*;
 use host_tests::scenario::*;
 fn main() {
     let m = random_two_mode_plants(5, 2026)[3];

@@ -7,11 +7,12 @@
 //!
 //! `cargo run --release -p host-tests --example settings_table`
 
+use beamctl::run::plant::{PlantSpec, Truth};
+use beamctl::run::{run, Precision, RunConfig, RunReport};
 use beamest::filter_bank::SignalScales;
 use beamest::model::ModalParams;
 use beamest::tuning::LambdaSource;
-use host_tests::runner::{run, Precision, RunConfig, RunReport};
-use host_tests::scenario::{random_two_mode_plants, PlantSpec, Truth};
+use host_tests::scenario::random_two_mode_plants;
 
 fn go(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")

@@ -2,8 +2,8 @@
 //! law ([`naive`]), integration tests, examples and criterion benchmarks.
 //!
 //! The run loop and the simulated beams live in the `beamctl` library
-//! (`beamctl::runner`, `beamctl::scenario`), so the CLI does not depend on
-//! this crate; they are re-exported here under their former paths.
+//! (`beamctl::run`, `beamctl::run::plant`), so the CLI does not depend on
+//! this crate; the tests use them from there.
 
 // Same numerical-code conventions as the core (see src/lib.rs).
 #![allow(clippy::needless_range_loop)]
@@ -14,9 +14,3 @@ pub mod noise_study;
 pub mod scenario;
 pub mod scenario_run;
 pub mod sim_rig;
-
-pub use beamctl::runner;
-pub use beamctl::{
-    run, run_many, EstimatorKind, Gains, Precision, RunConfig, RunError, RunReport, Trace,
-};
-pub use scenario::{PlantSpec, Truth};

@@ -1,8 +1,5 @@
-//! Scenario helpers for the tests: the simulated beams of `beamctl::scenario`
-//! (re-exported, so `host_tests::scenario::PlantSpec` keeps working) plus
-//! random plants for convergence sweeps.
-
-pub use beamctl::scenario::*;
+//! Scenario helpers for the tests: random plants for convergence sweeps
+//! (the simulated beams themselves are `beamctl::run::plant`).
 
 use beamest::model::ModalParams;
 use rand::{RngExt, SeedableRng};

@@ -3,14 +3,15 @@
 //! squares (48) on noise-free data — in f64 and f32, with λ and the scales
 //! chosen by the truth-free rule.
 
+use beamctl::run::estimator::EstimatorKind;
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{rig, run, tuned_filter, Precision, RunConfig};
 use beamest::estimator::{Estimator, GradientConfig, GradientEstimator};
 use beamest::filter_bank::Scaling;
 use beamest::model::ModalParams;
 use beamest::rig::Sample;
 use beamest::tuning::carry_over;
 use beamest::Real;
-use host_tests::runner::{rig, run, tuned_filter, EstimatorKind, Precision, RunConfig};
-use host_tests::scenario::PlantSpec;
 
 /// A one-mode plant whose regressor is well excited by the paper's 7 Hz
 /// square wave: ω = 200 rad/s, ζ = 0.2.

@@ -5,11 +5,11 @@
 // Index loops mirror the matrix algebra.
 #![allow(clippy::needless_range_loop)]
 
+use beamctl::run::{rig, tuned_filter, RunConfig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, GradientConfig, UpdateLaw};
 use beamest::filter_bank::{FilterBank, FilterConfig, Scaling};
 use beamest::rig::Sample;
 use beamest::tuning::LambdaSource;
-use host_tests::runner::{rig, tuned_filter, RunConfig};
 
 const TS: f64 = 1e-4;
 

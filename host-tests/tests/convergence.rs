@@ -2,9 +2,11 @@
 //! (issue 2): the estimators see only the held u and the sampled y, through
 //! their own filter bank.
 
+use beamctl::run::estimator::{EstimatorKind, Gains};
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{run, Precision, RunConfig, RunReport};
 use beamest::beam::BeamParams;
-use host_tests::runner::{run, EstimatorKind, Gains, Precision, RunConfig, RunReport};
-use host_tests::scenario::{random_two_mode_plants, PlantSpec};
+use host_tests::scenario::random_two_mode_plants;
 
 fn simulate(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")

@@ -1,10 +1,10 @@
 //! The Cramér–Rao bound as `beamctl` computes it for a configured
-//! experiment (`beamctl::runner::run_bound`, behind `beamctl crlb` and the
+//! experiment (`beamctl::run::run_bound`, behind `beamctl crlb` and the
 //! error ÷ bound of `beamctl simulate`), checked against a Monte Carlo run of
 //! an efficient estimator, and against the figures of
 //! `host-tests/examples/crlb_monte_carlo.rs`.
 
-use beamctl::runner::{rig, run_bound, RunConfig};
+use beamctl::run::{rig, run_bound, RunConfig};
 use beamest::crlb::{FisherAccumulator, ModelSet};
 use beamest::model::{paper_plant_tf, PAPER_OMEGA, PAPER_ZETA};
 use host_tests::noise_study::{fit_output_error, paper_tf_params, Record};

@@ -31,7 +31,8 @@
 
 use std::collections::VecDeque;
 
-use beamctl::runner::{self, build_estimator, EstimatorKind, Gains, Precision, RunConfig};
+use beamctl::run::estimator::{build_estimator, EstimatorKind, Gains};
+use beamctl::run::{self, Precision, RunConfig};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::drivers::Rail;
@@ -386,7 +387,7 @@ where
     let t = truth();
     // beamctl simulate itself (its own Y0 rule) and the runner's loop at the
     // firmware's λ and scales, without and with the converters.
-    let report = runner::run(
+    let report = run::run(
         &RunConfig {
             precision,
             lambda: LambdaSource::Fixed(bench::LAMBDA_RAD_S),

@@ -210,12 +210,12 @@ fn robust_noise_free_accuracy() {
 
 #[test]
 fn robust_one_and_three_modes_noise_free() {
+    use beamctl::run::plant::PlantSpec;
     use beamest::estimator::{Robust1, Robust3};
     use beamest::excitation::SquareWave;
     use beamest::filter_bank::{FilterConfig, SignalScales};
     use beamest::modal::modal_from_tf;
     use beamest::model::TransferFunction;
-    use host_tests::PlantSpec;
     // The documented default beams: the paper's first mode; the paper's two
     // plus ω3 = 687.4 rad/s. λ = √(ω_min·ω_max) of the nominal plant, scales
     // from the first 0.5 s of data; 5 s of data.

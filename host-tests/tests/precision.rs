@@ -1,12 +1,13 @@
 //! Single-precision acceptance tests (issue 3): the f32 estimator must be as
 //! good as a naive f64 one, for hours.
 
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{run, Precision, RunConfig, RunReport};
 use beamest::excitation::SquareWave;
 use beamest::modal::modal_from_tf;
 use beamest::Real;
 use host_tests::naive::NaiveAdaptive;
-use host_tests::runner::{run, Precision, RunConfig, RunReport};
-use host_tests::scenario::{random_two_mode_plants, PlantSpec};
+use host_tests::scenario::random_two_mode_plants;
 
 fn simulate(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")

@@ -1,5 +1,7 @@
 //! Bad input never corrupts estimator state and never panics.
 
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{tuned_filter, RunConfig};
 use beamest::estimator::{
     Adaptive2, AdaptiveConfig, Estimator, GradientConfig, GradientEstimator, LeastSquaresConfig,
     LeastSquaresEstimator, StepStatus,
@@ -8,8 +10,6 @@ use beamest::excitation::SquareWave;
 use beamest::filter_bank::FilterConfig;
 use beamest::modal::modal_from_tf;
 use beamest::Real;
-use host_tests::runner::{tuned_filter, RunConfig};
-use host_tests::scenario::PlantSpec;
 use proptest::prelude::*;
 
 /// The λ and scales the truth-free rule settles on for the paper's run

@@ -3,10 +3,10 @@
 //! converges. Every value handed to an estimator here is a literal or comes
 //! from the data; the truth is read only to score the result.
 
+use beamctl::run::plant::PlantSpec;
+use beamctl::run::{run, Precision, RunConfig, RunReport};
 use beamest::filter_bank::SignalScales;
 use beamest::tuning::LambdaSource;
-use host_tests::runner::{run, Precision, RunConfig, RunReport};
-use host_tests::scenario::PlantSpec;
 
 fn simulate(cfg: &RunConfig) -> RunReport {
     run(cfg, &mut |_| {}).expect("valid configuration")

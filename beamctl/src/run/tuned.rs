@@ -41,8 +41,8 @@
 //! truth-free choice (`tuning: "restarted"`). docs/SETTINGS.md has the
 //! measurements.
 
-use crate::gains::{build_estimator, build_robust, EstimatorKind, Gains, HostRobust};
-use crate::runner::RunError;
+use crate::run::error::RunError;
+use crate::run::estimator::{build_estimator, build_robust, EstimatorKind, Gains, HostRobust};
 use beamest::estimator::robust::{Phase as RobustPhase, DEFAULT_RECORD};
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::filter_bank::FilterConfig;

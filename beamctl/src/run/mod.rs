@@ -2,30 +2,49 @@
 //!
 //! The estimators see only what the firmware would: the held input u and
 //! the sampled output y (plus optional noise, and the run's events:
-//! [`crate::events`]), screened by the sensor guard ([`beamest::guard`],
-//! via [`crate::session`]), through their own filter banks, with λ and the
+//! [`crate::run::events`]), screened by the sensor guard ([`beamest::guard`],
+//! via [`crate::run::session`]), through their own filter banks, with λ and the
 //! signal scales chosen by the truth-free rule ([`beamest::tuning`], via
-//! [`crate::tuned`]). Modal parameters are recovered at the telemetry rate
+//! [`crate::run::tuned`]). Modal parameters are recovered at the telemetry rate
 //! ([`RunConfig::eval_every`]) and compared here, and only here, with the
 //! truth in force (after a plant step, the new plant's).
+//!
+//! The run machinery, from the bottom up: [`error`] (why a run cannot
+//! start), [`plant`] (which beam, its truth), [`estimator`] (which law, at
+//! which gains), [`tuned`] (one estimator under the tuning rule),
+//! [`session`] (several fed the same samples and evaluated: what `beamctl
+//! replay` runs on a file), [`events`] (a simulated run's events), this
+//! module (the simulated rig of a run and the run loop) and [`seeds`] (one
+//! configuration over several noise seeds).
 
-use crate::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
-use crate::events::{self, Detection, Events, ScenarioReport, Settling};
-use crate::fit::{self, Model};
-use crate::scenario::PlantSpec;
-use crate::session::{drift_every, guard_config, Eval, Session, SupervisionReport};
+pub mod error;
+pub mod estimator;
+pub mod events;
+pub mod plant;
+pub mod seeds;
+pub mod session;
+pub mod tuned;
+
+use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
+use crate::judge::fit::{self, Model};
+use crate::run::error::RunError;
+use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::events::{
+    sample_at, scenario, stepped_plant, truth_of, Detection, Events, ScenarioReport, Settling,
+};
+use crate::run::plant::{PlantSpec, Truth};
+use crate::run::session::{
+    drift_every, guard_config, Eval, ModalSummary, Session, SupervisionReport,
+};
+use crate::run::tuned::{Build, RobustStatus};
 use beamest::crlb::ModelSet;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
-use beamest::model::{ModalParams, TransferFunction};
+use beamest::model::ModalParams;
 use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use serde::Serialize;
-
-pub use crate::gains::{build_estimator, EstimatorKind, Gains};
-pub use crate::session::Outcome;
-pub use crate::tuned::{Build, RobustStatus};
 
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -75,7 +94,7 @@ pub struct RunConfig {
     /// Evaluate modal parameters every this many samples (10 → 1 kHz).
     pub eval_every: usize,
     /// Events of the run: plant change, excitation pause, sensor fault,
-    /// modes beyond the model ([`crate::events`]).
+    /// modes beyond the model ([`crate::run::events`]).
     pub events: Events,
     /// The converter's rails in units of y, [min, max]: the sensor guard's
     /// saturation and open-bridge tests, and what a saturated or open
@@ -84,7 +103,7 @@ pub struct RunConfig {
     /// The guard's level corrections (DC-removing high-pass on u and y,
     /// offset-step removal; [`beamest::guard`]).
     pub level_correction: bool,
-    /// The guard's residual monitor ([`crate::session::Session::with_monitor`]).
+    /// The guard's residual monitor ([`crate::run::session::Session::with_monitor`]).
     pub residual_monitor: bool,
 }
 
@@ -126,82 +145,6 @@ impl RunConfig {
             scales: self.scales,
             ..TuningConfig::new(self.ts_s, self.lambda)
         }
-    }
-}
-
-/// Why a run could not start.
-#[derive(Debug, Clone, PartialEq)]
-pub enum RunError {
-    /// Invalid plant.
-    Plant(String),
-    /// Invalid estimator configuration.
-    Estimator(String),
-    /// Invalid excitation or timing.
-    Setup(String),
-}
-
-impl std::fmt::Display for RunError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Plant(s) => write!(f, "invalid plant: {s}"),
-            Self::Estimator(s) => write!(f, "invalid estimator settings: {s}"),
-            Self::Setup(s) => write!(f, "invalid run settings: {s}"),
-        }
-    }
-}
-
-impl std::error::Error for RunError {}
-
-/// Modal parameters and polynomial of an estimate or of the truth.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ModalSummary {
-    /// ω_i (rad/s).
-    pub omega: Vec<f64>,
-    /// ζ_i.
-    pub zeta: Vec<f64>,
-    /// b̄_i.
-    pub bbar: Vec<f64>,
-    /// [a_{2n−1}, …, a_0].
-    pub a: Vec<f64>,
-    /// [b_{2n−2}, …, b_0].
-    pub b: Vec<f64>,
-}
-
-impl ModalSummary {
-    /// From a recovery result (NaN where it failed) and the polynomial.
-    pub fn new(m: Option<&ModalParams<f64>>, tf: &TransferFunction<f64>) -> Self {
-        let n = tf.modes;
-        let (omega, zeta, bbar) = match m {
-            Some(m) => (
-                m.omega_rad_s[..n].to_vec(),
-                m.zeta[..n].to_vec(),
-                m.bbar[..n].to_vec(),
-            ),
-            None => (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]),
-        };
-        Self {
-            omega,
-            zeta,
-            bbar,
-            a: tf.a[..2 * n].to_vec(),
-            b: tf.b[..2 * n - 1].to_vec(),
-        }
-    }
-
-    /// No estimate at all for an `n`-mode model (all NaN).
-    pub fn empty(n: usize) -> Self {
-        Self {
-            omega: vec![f64::NAN; n],
-            zeta: vec![f64::NAN; n],
-            bbar: vec![f64::NAN; n],
-            a: vec![f64::NAN; 2 * n],
-            b: vec![f64::NAN; 2 * n - 1],
-        }
-    }
-
-    /// True if ω and ζ of every mode are finite.
-    pub fn is_valid(&self) -> bool {
-        self.omega.iter().chain(&self.zeta).all(|v| v.is_finite())
     }
 }
 
@@ -253,7 +196,7 @@ pub struct RunReport {
     pub time_to_0p1pct_s: Option<f64>,
     /// λmin of the scaled P at the end (Lemma 1), None for the baselines.
     pub excitation_min_eig: Option<f64>,
-    /// The feedthrough D (see [`Outcome::feedthrough`]); absent for the
+    /// The feedthrough D (see [`session::Outcome::feedthrough`]); absent for the
     /// estimators without one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub feedthrough: Option<f64>,
@@ -270,14 +213,14 @@ pub struct RunReport {
     pub state_ok: bool,
     /// The final filter pole λ (rad/s).
     pub lambda_rad_s: Option<f64>,
-    /// How the tuning rule ended (see [`Outcome::tuning`]).
+    /// How the tuning rule ended (see [`session::Outcome::tuning`]).
     pub tuning: &'static str,
     /// Every estimator the tuning rule built.
     pub builds: Vec<Build>,
-    /// Model output vs measured output, % (see [`Outcome::fit_percent`]).
+    /// Model output vs measured output, % (see [`session::Outcome::fit_percent`]).
     pub fit_percent: Option<f64>,
     /// Movement over the last 10% of the run (see
-    /// [`Outcome::drift_last_10pct`]).
+    /// [`session::Outcome::drift_last_10pct`]).
     pub drift_last_10pct: Option<f64>,
     /// σ of the white noise added to y (None: noise-free).
     pub noise_sd: Option<f64>,
@@ -289,13 +232,13 @@ pub struct RunReport {
     /// The robust estimator's phase, a-posteriori noise RMS and model
     /// updates (None for the paper's laws).
     pub robust: Option<RobustStatus>,
-    /// The supervisor's state at the end (see [`Outcome::supervision`]).
+    /// The supervisor's state at the end (see [`session::Outcome::supervision`]).
     pub supervision: Option<SupervisionReport>,
     /// The final estimate's physical-validity flags (see
-    /// [`Outcome::validity`]).
+    /// [`session::Outcome::validity`]).
     pub validity: Vec<&'static str>,
     /// The sensor guard's counters.
-    pub guard: crate::session::GuardReport,
+    pub guard: crate::run::session::GuardReport,
     /// With events: what they did (tracking time, fault latency).
     pub scenario: Option<ScenarioReport>,
 }
@@ -420,26 +363,6 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
     })
 }
 
-/// An f64 copy of a transfer function.
-pub fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
-    TransferFunction {
-        modes: tf.modes,
-        a: tf.a.map(|v| v.to_f64()),
-        b: tf.b.map(|v| v.to_f64()),
-    }
-}
-
-/// An f64 copy of modal parameters.
-pub fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
-    ModalParams {
-        modes: m.modes,
-        omega_rad_s: m.omega_rad_s.map(|v| v.to_f64()),
-        zeta: m.zeta.map(|v| v.to_f64()),
-        bbar: m.bbar.map(|v| v.to_f64()),
-        output_weight: m.output_weight.map(|v| v.to_f64()),
-    }
-}
-
 /// The noise-free rig of a run: plant and square wave.
 pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
     let plant = cfg
@@ -467,7 +390,7 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     let Some(snr) = cfg.snr_db else {
         return Ok(None);
     };
-    let mut probe = events::events_rig(cfg, false)?;
+    let mut probe = events_rig(cfg, false)?;
     let n = samples(cfg).max(1);
     let mut acc = 0.0;
     for _ in 0..n {
@@ -480,7 +403,7 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
 /// The simulated rig of a run with its events ([`RunConfig::events`]) and
 /// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
 pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
-    let rig = events::events_rig(cfg, true)?;
+    let rig = events_rig(cfg, true)?;
     Ok(match noise_sd(cfg)? {
         Some(sd) => {
             let noise = GaussianNoise::new(sd, cfg.seed)
@@ -526,6 +449,110 @@ pub fn run_bound(cfg: &RunConfig, set: ModelSet) -> Result<Option<ExperimentBoun
     .map_err(|e| RunError::Setup(format!("Cramér–Rao bound: {e}")))
 }
 
+/// The noise-free rig of a run with its events (`with_fault`: the sensor
+/// fault too; without it, the beam as it moves, for the SNR).
+pub(crate) fn events_rig(
+    cfg: &RunConfig,
+    with_fault: bool,
+) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
+    let rig = crate::run::clean_rig(cfg)?;
+    let ev = &cfg.events;
+    let truth = cfg.plant.truth();
+    let setup = |e: String| RunError::Setup(e);
+    let mut sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, 1.0, cfg.range).map_err(setup)?;
+    if with_fault && ev.fault.is_some() {
+        // Default fault levels are relative to the moving beam's RMS.
+        let mut probe = events_rig(cfg, false)?;
+        let n = crate::run::samples(cfg).max(1);
+        let acc: f64 = (0..n).map(|_| probe.tick().y.powi(2)).sum();
+        let rms = (acc / n as f64).sqrt();
+        sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, rms, cfg.range).map_err(setup)?;
+    } else {
+        sc.fault = None;
+    }
+    let mut r = ScenarioRig::new(rig, sc).map_err(|e| RunError::Setup(e.to_string()))?;
+    if let Some(m) = &ev.extra_modes {
+        let p = beamest::rig::ModalPlant::from_modal(m, cfg.ts_s)
+            .map_err(|e| RunError::Plant(format!("extra modes: {e}")))?;
+        r = r
+            .with_extra_modes(p)
+            .map_err(|e| RunError::Setup(e.to_string()))?;
+    }
+    Ok(r)
+}
+
+/// The truth in force: before and (with a plant step) after it.
+pub struct Truths {
+    /// Before the step (or throughout).
+    pub before: Truth,
+    /// The step's sample and the plant after it.
+    pub after: Option<(u64, Truth)>,
+}
+
+impl Truths {
+    /// From the run's plant and step.
+    ///
+    /// # Errors
+    /// An invalid plant or step.
+    pub fn new(cfg: &RunConfig) -> Result<Self, RunError> {
+        let before = cfg.plant.truth();
+        let after = match &cfg.events.step {
+            Some(step) => {
+                let n = before.modal.modes;
+                let plant = cfg
+                    .plant
+                    .plant(cfg.ts_s)
+                    .map_err(|e| RunError::Plant(format!("{e:?}")))?;
+                let p = stepped_plant(&plant, step, &before).map_err(RunError::Setup)?;
+                let t = truth_of(&p, &before.modal.output_weight[..n]).map_err(RunError::Setup)?;
+                Some((sample_at(step.at_s, cfg.ts_s), t))
+            }
+            None => None,
+        };
+        Ok(Self { before, after })
+    }
+
+    /// The truth at sample `k`.
+    pub fn at(&self, k: u64) -> &Truth {
+        match &self.after {
+            Some((at, t)) if k >= *at => t,
+            _ => &self.before,
+        }
+    }
+}
+
+/// The `scenario` object of a run with events.
+pub fn scenario_report(
+    cfg: &RunConfig,
+    tracking: (Option<f64>, Option<f64>),
+    detection: &Detection,
+    fault_window: Option<beamest::rig::Window>,
+    total: u64,
+) -> ScenarioReport {
+    let ev = &cfg.events;
+    let ts = cfg.ts_s;
+    let stepped = ev.step.is_some();
+    ScenarioReport {
+        step_at_s: ev.step.as_ref().map(|s| s.at_s),
+        tracking_1pct_s: tracking.0.filter(|_| stepped),
+        tracking_0p1pct_s: tracking.1.filter(|_| stepped),
+        excitation_off_s: ev.excitation_off.map(|(a, b)| [a, b]),
+        fault: ev.fault.map(|f| f.kind.name()),
+        fault_window_s: fault_window.map(|w| {
+            [
+                w.from as f64 * ts,
+                w.until.unwrap_or(total).min(total) as f64 * ts,
+            ]
+        }),
+        fault_detection_latency_s: match (detection.first, fault_window) {
+            (Some((k, _)), Some(w)) => Some((k - w.from) as f64 * ts),
+            _ => None,
+        },
+        fault_detected_as: detection.first.map(|(_, w)| w),
+        truth_modes: cfg.plant.modes() + ev.extra_modes.map_or(0, |m| m.modes),
+    }
+}
+
 /// Samples a run processes.
 pub fn samples(cfg: &RunConfig) -> u64 {
     (cfg.duration_s / cfg.ts_s).round() as u64
@@ -552,7 +579,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     if cfg.eval_every == 0 {
         return Err(RunError::Setup("eval_every must be at least 1".into()));
     }
-    let truths = events::Truths::new(cfg)?;
+    let truths = Truths::new(cfg)?;
     let weights = &truths.before.modal.output_weight[..truths.before.modal.modes];
     let mut session = Session::<T, D, NP, NS>::new(kinds, cfg.gains, &cfg.tuning(), weights)?
         .with_guard(&guard_config(cfg.ts_s, cfg.range, cfg.level_correction))?
@@ -644,7 +671,7 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             .as_ref()
             .map(|b| b.ratio(&rel_error.omega, &rel_error.zeta, &rel_error.bbar));
         let scenario = (!cfg.events.is_empty()).then(|| {
-            events::scenario_report(
+            scenario_report(
                 cfg,
                 (score.t1.after_start(), score.t01.after_start()),
                 &detection,

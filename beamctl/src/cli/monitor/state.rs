@@ -3,7 +3,7 @@
 //! log of commands and their answers. The terminal view and the plain
 //! output are both drawn from a [`State`].
 
-use beamctl::link::{text, Host};
+use crate::link::{text, Host};
 use beamest::protocol::{Estimate, Frame, Message, MAX_MODES};
 use std::collections::VecDeque;
 use std::time::Instant;

@@ -17,7 +17,7 @@
 //! there is no estimate (start-up window, failed recovery).
 
 use crate::error::CliError;
-use beamctl::Trace;
+use crate::run::Trace;
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -93,8 +93,8 @@ impl CsvOut {
     /// evaluation).
     pub fn screening(&mut self, s: &beamest::guard::Screening) {
         let flag = match (s.fault, s.level) {
-            (Some(f), _) => beamctl::session::fault_name(f),
-            (None, Some(l)) => beamctl::session::level_name(l),
+            (Some(f), _) => crate::run::session::fault_name(f),
+            (None, Some(l)) => crate::run::session::level_name(l),
             (None, None) => return,
         };
         self.guard = flag;

@@ -1,9 +1,10 @@
 //! The estimator flags `simulate` and `replay` share (law, precision,
 //! gains, where λ comes from), validated into what the runs use.
 
+use crate::cli::args::{EstimatorArgs, EstimatorChoice, PrecisionChoice};
 use crate::error::CliError;
-use crate::{EstimatorArgs, EstimatorChoice, PrecisionChoice};
-use beamctl::{EstimatorKind, Gains, Precision};
+use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::Precision;
 use beamest::tuning::LambdaSource;
 use std::f64::consts::PI;
 
@@ -109,11 +110,15 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
             ),
         )
     } else if let Some(path) = &args.beam {
-        let params = crate::model::load(path)?;
+        let params = crate::cli::model::load(path)?;
         let m = params.modal(modes).map_err(|e| {
             CliError::usage(
                 "--beam",
-                format!("{}: {}", path.display(), crate::model::explain(e, &params)),
+                format!(
+                    "{}: {}",
+                    path.display(),
+                    crate::cli::model::explain(e, &params)
+                ),
             )
         })?;
         let (lo, hi) = (m.omega_rad_s[0], m.omega_rad_s[modes - 1]);
@@ -150,5 +155,5 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
 }
 
 fn short(v: f64) -> String {
-    crate::table::short(v, 4)
+    crate::io::table::short(v, 4)
 }

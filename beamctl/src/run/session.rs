@@ -7,10 +7,10 @@
 //! outcome carries its counters, the supervisor's state and the final
 //! estimate's physical validity.
 
-use crate::fit::{Fit, Model};
-use crate::gains::{EstimatorKind, Gains};
-use crate::runner::{to_f64_modal, to_f64_tf, ModalSummary, RunError};
-use crate::tuned::{Build, RobustStatus, Totals, Tuned};
+use crate::judge::fit::{Fit, Model};
+use crate::run::error::RunError;
+use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::tuned::{Build, RobustStatus, Totals, Tuned};
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::guard::{
     model_for_monitor, GuardConfig, GuardCounts, GuardError, LevelEvent, ResidualMonitor,
@@ -22,6 +22,79 @@ use beamest::model::{ModalParams, TransferFunction};
 use beamest::tuning::TuningConfig;
 use beamest::Real;
 use serde::Serialize;
+
+/// Modal parameters and polynomial of an estimate or of the truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModalSummary {
+    /// ω_i (rad/s).
+    pub omega: Vec<f64>,
+    /// ζ_i.
+    pub zeta: Vec<f64>,
+    /// b̄_i.
+    pub bbar: Vec<f64>,
+    /// [a_{2n−1}, …, a_0].
+    pub a: Vec<f64>,
+    /// [b_{2n−2}, …, b_0].
+    pub b: Vec<f64>,
+}
+
+impl ModalSummary {
+    /// From a recovery result (NaN where it failed) and the polynomial.
+    pub fn new(m: Option<&ModalParams<f64>>, tf: &TransferFunction<f64>) -> Self {
+        let n = tf.modes;
+        let (omega, zeta, bbar) = match m {
+            Some(m) => (
+                m.omega_rad_s[..n].to_vec(),
+                m.zeta[..n].to_vec(),
+                m.bbar[..n].to_vec(),
+            ),
+            None => (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]),
+        };
+        Self {
+            omega,
+            zeta,
+            bbar,
+            a: tf.a[..2 * n].to_vec(),
+            b: tf.b[..2 * n - 1].to_vec(),
+        }
+    }
+
+    /// No estimate at all for an `n`-mode model (all NaN).
+    pub fn empty(n: usize) -> Self {
+        Self {
+            omega: vec![f64::NAN; n],
+            zeta: vec![f64::NAN; n],
+            bbar: vec![f64::NAN; n],
+            a: vec![f64::NAN; 2 * n],
+            b: vec![f64::NAN; 2 * n - 1],
+        }
+    }
+
+    /// True if ω and ζ of every mode are finite.
+    pub fn is_valid(&self) -> bool {
+        self.omega.iter().chain(&self.zeta).all(|v| v.is_finite())
+    }
+}
+
+/// An f64 copy of a transfer function.
+pub fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
+    TransferFunction {
+        modes: tf.modes,
+        a: tf.a.map(|v| v.to_f64()),
+        b: tf.b.map(|v| v.to_f64()),
+    }
+}
+
+/// An f64 copy of modal parameters.
+pub fn to_f64_modal<T: Real>(m: &ModalParams<T>) -> ModalParams<f64> {
+    ModalParams {
+        modes: m.modes,
+        omega_rad_s: m.omega_rad_s.map(|v| v.to_f64()),
+        zeta: m.zeta.map(|v| v.to_f64()),
+        bbar: m.bbar.map(|v| v.to_f64()),
+        output_weight: m.output_weight.map(|v| v.to_f64()),
+    }
+}
 
 /// One estimator's estimate at an evaluation instant.
 #[derive(Debug, Clone)]
@@ -491,7 +564,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             .map(|e| to_f64_tf(&e.transfer_function()))
     }
 
-    /// The identified model of estimator `i` for [`crate::fit::fit`], if any.
+    /// The identified model of estimator `i` for [`crate::judge::fit::fit`], if any.
     pub fn model(&self, i: usize, ts_s: f64) -> Option<Model> {
         Model::new(&self.transfer_function(i)?, ts_s)
     }
@@ -502,7 +575,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     }
 
     /// The truth-free part of estimator `i`'s report. `end_s` is the time
-    /// of the last sample, `fit` the model-output fit (see [`crate::fit::fit`]).
+    /// of the last sample, `fit` the model-output fit (see [`crate::judge::fit::fit`]).
     pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();

@@ -7,9 +7,9 @@
 //! is not exactly a modal model with rounded b̄). Every message names the
 //! flag it is about.
 
+use crate::cli::args::PlantArgs;
 use crate::error::CliError;
-use crate::PlantArgs;
-use beamctl::PlantSpec;
+use crate::run::plant::PlantSpec;
 use beamest::model::ModalParams;
 
 /// Pick the plant and its mode count from `--modes` and the lists.

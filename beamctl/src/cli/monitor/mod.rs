@@ -2,9 +2,9 @@
 //! commands.
 //!
 //! The bytes come from a serial port, a TCP socket or a capture file
-//! (`beamctl::link::transport`), read on a thread; this module's event loop
-//! decodes them (`beamctl::link::Host`), records them (`--record`,
-//! `--capture`), shows them (the terminal view of [`tui`] on a terminal,
+//! (`crate::link::transport`), read on a thread; this module's event loop
+//! decodes them (`crate::link::Host`), records them (`--record`,
+//! `--capture`), shows them (the terminal view of `tui` on a terminal,
 //! else one line per estimate on stdout), sends the commands typed (keys
 //! and `:` in the terminal view, `--stdin-commands` in plain mode) and
 //! times out the ones that get no acknowledgement.
@@ -23,15 +23,17 @@
 //! plot is drawn from what arrived, and a summary of the link's counters
 //! goes to stderr.
 
+mod event;
 mod plot;
 pub mod state;
 mod tui;
 
+use crate::cli::send::{self, CommandArgs, DeviceArgs};
 use crate::error::CliError;
-use crate::send::{self, CommandArgs, DeviceArgs};
-use beamctl::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
+use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
 use beamest::protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
+use event::{Event, KeyAction};
 use state::State;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -52,6 +54,7 @@ const ERROR_LINE_EVERY: Duration = Duration::from_secs(1);
 #[derive(Debug, Clone, Args)]
 #[command(group(ArgGroup::new("source").args(["port", "tcp", "file"]).required(true)))]
 pub struct MonitorArgs {
+    /// The device to watch.
     #[command(flatten)]
     pub device: DeviceArgs,
 
@@ -106,23 +109,6 @@ pub struct MonitorArgs {
     pub stdin_commands: bool,
 }
 
-/// Everything the event loop waits for.
-#[derive(Debug)]
-pub enum Event {
-    /// From the link's reader thread.
-    Link(Incoming),
-    /// A key in the terminal view.
-    Key(ratatui::crossterm::event::KeyEvent),
-    /// A line from stdin (`--stdin-commands`).
-    Line(String),
-}
-
-impl From<Incoming> for Event {
-    fn from(i: Incoming) -> Self {
-        Self::Link(i)
-    }
-}
-
 /// Why the loop stopped.
 #[derive(Debug)]
 enum End {
@@ -131,13 +117,6 @@ enum End {
     Stream(StreamEnd),
     Version { got: u8, expected: u8 },
     Failure(String),
-}
-
-/// What a key asks for.
-pub enum KeyAction {
-    None,
-    Quit,
-    Send(CommandArgs),
 }
 
 fn check_seconds(flag: &str, v: f64) -> Result<(), CliError> {
@@ -170,7 +149,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
         ));
     }
     if let Some(p) = &args.plot {
-        crate::plot::check_writable(p)?;
+        crate::io::plot::check_writable(p)?;
     }
     let mut recorder = match &args.record {
         Some(p) => Some(Recorder::create(p).map_err(|m| CliError::usage("--record", m))?),
@@ -327,7 +306,7 @@ impl Loop<'_> {
                         return End::Failure(format!("--capture: {e}"));
                     }
                 }
-                next_capture_flush = now + beamctl::link::record::FLUSH_EVERY;
+                next_capture_flush = now + crate::link::record::FLUSH_EVERY;
             }
         }
     }

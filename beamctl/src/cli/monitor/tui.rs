@@ -27,10 +27,10 @@
 //! `estimator --gain 2e4`, `reset`, …), Enter sends, Esc closes; `f`, `r` and `s` send
 //! freeze, resume and a status request.
 
+use super::event::{Event, KeyAction};
 use super::state::State;
-use super::{Event, KeyAction};
-use crate::send::{self, CommandArgs};
-use beamctl::link::text;
+use crate::cli::send::{self, CommandArgs};
+use crate::link::text;
 use beamest::protocol::{StatusFlags, MAX_MODES};
 use ratatui::crossterm::event::{self as ct, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -391,8 +391,8 @@ fn command_pane(st: &State, area: Rect) -> Paragraph<'static> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::link::fake::{FakeConfig, FakeDevice};
-    use beamctl::link::Host;
+    use crate::link::fake::{FakeConfig, FakeDevice};
+    use crate::link::Host;
     use ratatui::backend::TestBackend;
     use ratatui::Terminal;
 

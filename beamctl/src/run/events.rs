@@ -8,15 +8,12 @@
 //! a step, the default fault levels, the scale of the extra modes); the
 //! estimators and the sensor guard see the samples only.
 
-use crate::runner::{RunConfig, RunError};
-use crate::scenario::Truth;
+use crate::run::plant::Truth;
 use beamest::beam::BeamParams;
-use beamest::excitation::SquareWave;
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, MAX_MODES};
 use beamest::rig::{
-    beam_modes, ExcitationOff, FaultKind, ModalPlant, PlantStep, Scenario, ScenarioRig,
-    SensorFault, Window,
+    beam_modes, ExcitationOff, FaultKind, ModalPlant, PlantStep, Scenario, SensorFault, Window,
 };
 use serde::Serialize;
 
@@ -343,116 +340,12 @@ impl Detection {
             return;
         }
         let what = match (s.fault, s.level) {
-            (Some(f), _) => Some(crate::session::fault_name(f)),
-            (None, Some(l)) => Some(crate::session::level_name(l)),
+            (Some(f), _) => Some(crate::run::session::fault_name(f)),
+            (None, Some(l)) => Some(crate::run::session::level_name(l)),
             (None, None) => None,
         };
         if let Some(w) = what {
             self.first = Some((k, w));
         }
     }
-}
-
-/// The truth in force: before and (with a plant step) after it.
-pub struct Truths {
-    /// Before the step (or throughout).
-    pub before: Truth,
-    /// The step's sample and the plant after it.
-    pub after: Option<(u64, Truth)>,
-}
-
-impl Truths {
-    /// From the run's plant and step.
-    ///
-    /// # Errors
-    /// An invalid plant or step.
-    pub fn new(cfg: &RunConfig) -> Result<Self, RunError> {
-        let before = cfg.plant.truth();
-        let after = match &cfg.events.step {
-            Some(step) => {
-                let n = before.modal.modes;
-                let plant = cfg
-                    .plant
-                    .plant(cfg.ts_s)
-                    .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-                let p = stepped_plant(&plant, step, &before).map_err(RunError::Setup)?;
-                let t = truth_of(&p, &before.modal.output_weight[..n]).map_err(RunError::Setup)?;
-                Some((sample_at(step.at_s, cfg.ts_s), t))
-            }
-            None => None,
-        };
-        Ok(Self { before, after })
-    }
-
-    /// The truth at sample `k`.
-    pub fn at(&self, k: u64) -> &Truth {
-        match &self.after {
-            Some((at, t)) if k >= *at => t,
-            _ => &self.before,
-        }
-    }
-}
-
-/// The `scenario` object of a run with events.
-pub fn scenario_report(
-    cfg: &RunConfig,
-    tracking: (Option<f64>, Option<f64>),
-    detection: &Detection,
-    fault_window: Option<beamest::rig::Window>,
-    total: u64,
-) -> ScenarioReport {
-    let ev = &cfg.events;
-    let ts = cfg.ts_s;
-    let stepped = ev.step.is_some();
-    ScenarioReport {
-        step_at_s: ev.step.as_ref().map(|s| s.at_s),
-        tracking_1pct_s: tracking.0.filter(|_| stepped),
-        tracking_0p1pct_s: tracking.1.filter(|_| stepped),
-        excitation_off_s: ev.excitation_off.map(|(a, b)| [a, b]),
-        fault: ev.fault.map(|f| f.kind.name()),
-        fault_window_s: fault_window.map(|w| {
-            [
-                w.from as f64 * ts,
-                w.until.unwrap_or(total).min(total) as f64 * ts,
-            ]
-        }),
-        fault_detection_latency_s: match (detection.first, fault_window) {
-            (Some((k, _)), Some(w)) => Some((k - w.from) as f64 * ts),
-            _ => None,
-        },
-        fault_detected_as: detection.first.map(|(_, w)| w),
-        truth_modes: cfg.plant.modes() + ev.extra_modes.map_or(0, |m| m.modes),
-    }
-}
-
-/// The noise-free rig of a run with its events (`with_fault`: the sensor
-/// fault too; without it, the beam as it moves, for the SNR).
-pub(crate) fn events_rig(
-    cfg: &RunConfig,
-    with_fault: bool,
-) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
-    let rig = crate::runner::clean_rig(cfg)?;
-    let ev = &cfg.events;
-    let truth = cfg.plant.truth();
-    let setup = |e: String| RunError::Setup(e);
-    let mut sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, 1.0, cfg.range).map_err(setup)?;
-    if with_fault && ev.fault.is_some() {
-        // Default fault levels are relative to the moving beam's RMS.
-        let mut probe = events_rig(cfg, false)?;
-        let n = crate::runner::samples(cfg).max(1);
-        let acc: f64 = (0..n).map(|_| probe.tick().y.powi(2)).sum();
-        let rms = (acc / n as f64).sqrt();
-        sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, rms, cfg.range).map_err(setup)?;
-    } else {
-        sc.fault = None;
-    }
-    let mut r = ScenarioRig::new(rig, sc).map_err(|e| RunError::Setup(e.to_string()))?;
-    if let Some(m) = &ev.extra_modes {
-        let p = beamest::rig::ModalPlant::from_modal(m, cfg.ts_s)
-            .map_err(|e| RunError::Plant(format!("extra modes: {e}")))?;
-        r = r
-            .with_extra_modes(p)
-            .map_err(|e| RunError::Setup(e.to_string()))?;
-    }
-    Ok(r)
 }

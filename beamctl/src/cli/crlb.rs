@@ -1,15 +1,16 @@
 //! `beamctl crlb`: the Cramér–Rao bound of the experiment `beamctl
-//! simulate` would run with the same flags ([`beamctl::bound`]), before it
+//! simulate` would run with the same flags ([`crate::judge::bound`]), before it
 //! is run.
 
+use crate::cli::args::CrlbArgs;
+use crate::cli::simulate::plan::{check_duration, check_noise};
+use crate::error::write_stdout;
 use crate::error::CliError;
-use crate::report;
-use crate::simulate::{check_duration, check_noise, write_stdout};
-use crate::table::{rel, sig, Column, Table};
-use crate::CrlbArgs;
-use beamctl::bound::{model_set_description, ExperimentBound, NoiseLevel};
-use beamctl::runner::{excitation, samples};
-use beamctl::RunConfig;
+use crate::io::table::{rel, sig, Column, Table};
+use crate::judge::bound::{model_set_description, ExperimentBound, NoiseLevel};
+use crate::judge::report;
+use crate::run::RunConfig;
+use crate::run::{excitation, samples};
 use serde::Serialize;
 
 /// Run `beamctl crlb`.
@@ -17,7 +18,7 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
     let base = RunConfig::default();
     check_duration(args.duration, base.ts_s)?;
     check_noise(args.snr_db, args.noise_sd)?;
-    let (plant, modes, label) = crate::plant::resolve(&args.plant, base.ts_s)?;
+    let (plant, modes, label) = crate::cli::plant_flags::resolve(&args.plant, base.ts_s)?;
     let cfg = RunConfig {
         plant,
         duration_s: args.duration,
@@ -33,7 +34,7 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
     let truth = cfg.plant.truth();
     let mut u = excitation(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
     let n = samples(&cfg);
-    let bound = beamctl::bound::experiment_bound(
+    let bound = crate::judge::bound::experiment_bound(
         &truth.tf,
         &truth.modal.output_weight[..modes],
         cfg.ts_s,
@@ -102,7 +103,7 @@ fn render(
             Column::num("relative"),
         ],
     );
-    let rows: [(&str, &str, &beamctl::bound::ParamBound); 3] = [
+    let rows: [(&str, &str, &crate::judge::bound::ParamBound); 3] = [
         ("ω", " (rad/s)", &b.omega),
         ("ζ", "", &b.zeta),
         ("b̄", "", &b.bbar),

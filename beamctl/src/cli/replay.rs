@@ -3,12 +3,12 @@
 //!
 //! # Design
 //! * **Same code as the firmware and `simulate`.** Samples go through
-//!   [`beamctl::session::Session`]: the same estimators under the same
+//!   [`crate::run::session::Session`]: the same estimators under the same
 //!   truth-free tuning rule, stepped one sample at a time in the chosen
 //!   precision, so a CSV written by `beamctl simulate --csv` replays to the
 //!   simulation's estimates bit for bit.
 //! * **Two threads.** One reads and parses the file
-//!   ([`beamctl::csvin::Reader`], no allocation per row) into batches of
+//!   ([`crate::io::csv_in::Reader`], no allocation per row) into batches of
 //!   [`BATCH`] samples; the other steps the estimators. The batches are
 //!   kept (16 bytes per sample) for the model-output fit, which needs the
 //!   final model and so a second look at the record.
@@ -22,19 +22,20 @@
 //!   the other laws the RMS of y − ŷ of the model output fit (which also
 //!   holds their bias, so it over-states σ when they are biased).
 
-use crate::csvout::CsvOut;
+use crate::cli::args::ReplayArgs;
+use crate::cli::estimator_flags::{self, EstimatorPlan};
+use crate::error::{note, write_stdout};
 use crate::error::{CliError, EXIT_USAGE};
-use crate::plot::{self, OutputPanel, Recorder};
-use crate::report::{self, Column};
-use crate::settings::{self, EstimatorPlan};
-use crate::simulate::{note, write_stdout};
-use crate::ReplayArgs;
-use beamctl::bound::{experiment_bound, ExperimentBound, NoiseLevel};
-use beamctl::csvin::{Columns, Reader};
-use beamctl::fit;
-use beamctl::runner::Outcome;
-use beamctl::session::{drift_every, guard_config, Session};
-use beamctl::{EstimatorKind, Precision, Trace};
+use crate::io::csv_in::{Columns, Reader};
+use crate::io::csv_out::CsvOut;
+use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
+use crate::judge::fit;
+use crate::judge::report::{self, Column};
+use crate::run::estimator::EstimatorKind;
+use crate::run::session::Outcome;
+use crate::run::session::{drift_every, guard_config, Session};
+use crate::run::{Precision, Trace};
 use beamest::crlb::ModelSet;
 use beamest::model::default_output_weight;
 use beamest::tuning::TuningConfig;
@@ -66,7 +67,7 @@ struct Plan {
 
 fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
     let modes = usize::from(args.modes);
-    let est = settings::plan(&args.est, modes)?;
+    let est = estimator_flags::plan(&args.est, modes)?;
     if let Some(ts) = args.ts {
         if !(ts.is_finite() && ts > 0.0) {
             return Err(CliError::usage(
@@ -115,7 +116,7 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
     if let Some(p) = &args.plot {
         plot::check_extension(p)?;
     }
-    crate::simulate::check_noise(None, args.noise_sd)?;
+    crate::cli::simulate::plan::check_noise(None, args.noise_sd)?;
     Ok(Plan {
         est,
         modes,
@@ -123,7 +124,7 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
         columns,
         ts_s: args.ts,
         crlb: args.crlb.then(|| (args.model_set.set(), args.noise_sd)),
-        range: crate::events_cli::range(&args.guard)?,
+        range: crate::cli::event_flags::range(&args.guard)?,
         level_correction: args.guard.level_correction,
         residual_monitor: args.guard.residual_monitor,
     })
@@ -169,7 +170,7 @@ struct Replayed {
 /// Run `beamctl replay`.
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
-    let input = |e: beamctl::csvin::CsvError| CliError {
+    let input = |e: crate::io::csv_in::CsvError| CliError {
         message: format!("{}: {e}", args.file.display()),
         code: EXIT_USAGE,
     };
@@ -257,7 +258,7 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     } else {
         Vec::new()
     };
-    let file_error = |e: beamctl::csvin::CsvError| CliError {
+    let file_error = |e: crate::io::csv_in::CsvError| CliError {
         message: format!("{}: {e}", path.display()),
         code: EXIT_USAGE,
     };
@@ -466,7 +467,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         first.file,
         first.samples,
         first.ts_s,
-        crate::table::short(first.duration_s, 6),
+        crate::io::table::short(first.duration_s, 6),
         plan.modes,
         if plan.modes == 1 { "" } else { "s" },
         plan.est.lambda_label,
@@ -505,7 +506,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     if let Some((set, _)) = plan.crlb {
         out.push_str(&format!(
             "bound:  Cramér–Rao at each final estimate, {}, that model driven from rest by the recorded u\n",
-            beamctl::bound::model_set_description(set, plan.modes)
+            crate::judge::bound::model_set_description(set, plan.modes)
         ));
     }
     out.push('\n');

@@ -3,11 +3,12 @@
 //! estimate.
 
 use crate::error::CliError;
-use crate::table::{rel, seconds, sig, Column as TableColumn, Table};
-use beamctl::bound::{BoundRatio, ExperimentBound};
-use beamctl::runner::{Build, ModalSummary, RobustStatus};
-use beamctl::session::{GuardReport, SupervisionReport};
-use beamctl::EstimatorKind;
+use crate::io::table::{rel, seconds, sig, Column as TableColumn, Table};
+use crate::judge::bound::{BoundRatio, ExperimentBound};
+use crate::run::estimator::EstimatorKind;
+use crate::run::session::ModalSummary;
+use crate::run::session::{GuardReport, SupervisionReport};
+use crate::run::tuned::{Build, RobustStatus};
 use serde::Serialize;
 
 /// Metrics that need the truth (simulation only).
@@ -305,7 +306,7 @@ fn lambda_path(builds: &[Build]) -> String {
     }
     builds
         .iter()
-        .map(|b| crate::table::short(b.lambda_rad_s, 4))
+        .map(|b| crate::io::table::short(b.lambda_rad_s, 4))
         .collect::<Vec<_>>()
         .join(" → ")
 }

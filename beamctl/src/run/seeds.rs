@@ -1,14 +1,15 @@
 //! One configuration over several noise seeds: the RMS and mean of each
 //! estimator's relative errors over the seeds and, with the Cramér–Rao
-//! bound of the experiment ([`crate::bound`]), RMS ÷ bound — the figure an
+//! bound of the experiment ([`crate::judge::bound`]), RMS ÷ bound — the figure an
 //! efficient estimator brings to 1 (`beamctl simulate --seeds`).
 //!
 //! The seeds change only the noise realisation: plant, excitation, σ and
 //! so the bound are the same for every seed, and computed once.
 
-use crate::bound::{BoundRatio, ExperimentBound};
-use crate::gains::EstimatorKind;
-use crate::runner::{run_bound, run_many, Precision, RunConfig, RunError, RunReport};
+use crate::judge::bound::{BoundRatio, ExperimentBound};
+use crate::run::error::RunError;
+use crate::run::estimator::EstimatorKind;
+use crate::run::{run_bound, run_many, Precision, RunConfig, RunReport};
 use serde::Serialize;
 
 /// A statistic of the relative errors, per mode.
@@ -81,7 +82,7 @@ pub fn run_seeds(
                 crlb: None,
                 ..cfg.clone()
             };
-            run_many(&c, kinds, &mut |_: &crate::Trace<'_>| {})
+            run_many(&c, kinds, &mut |_: &crate::run::Trace<'_>| {})
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(summarize(seeds, per_seed, bound))
@@ -126,12 +127,12 @@ pub fn summarize(
 fn summary(seeds: &[u64], runs: Vec<RunReport>, bound: Option<&ExperimentBound>) -> SeedSummary {
     let first = &runs[0];
     let n = first.truth.omega.len();
-    let signed = |r: &RunReport, pick: fn(&crate::runner::ModalSummary) -> &Vec<f64>| {
+    let signed = |r: &RunReport, pick: fn(&crate::run::ModalSummary) -> &Vec<f64>| {
         (0..n)
             .map(|i| pick(&r.estimate)[i] / pick(&r.truth)[i] - 1.0)
             .collect::<Vec<f64>>()
     };
-    let stat = |pick: fn(&crate::runner::ModalSummary) -> &Vec<f64>, rms: bool| {
+    let stat = |pick: fn(&crate::run::ModalSummary) -> &Vec<f64>, rms: bool| {
         let mut out = vec![0.0; n];
         for r in &runs {
             for (o, e) in out.iter_mut().zip(signed(r, pick)) {

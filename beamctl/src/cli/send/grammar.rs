@@ -421,11 +421,11 @@ impl TelemetryArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::link::fake::FakeDevice;
-    use beamctl::link::text;
+    use crate::link::fake::FakeDevice;
+    use crate::link::text;
 
     fn status() -> Status {
-        FakeDevice::new(beamctl::link::fake::FakeConfig::default()).status()
+        FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
     }
 
     fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {

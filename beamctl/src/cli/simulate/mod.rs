@@ -1,5 +1,5 @@
 //! `beamctl simulate`: validate the flags into [`RunConfig`]s, run them
-//! through [`beamctl::run`] and report (table or JSON, plus optional CSV
+//! through [`crate::run`] and report (table or JSON, plus optional CSV
 //! and PNG).
 //!
 //! # Design
@@ -9,199 +9,27 @@
 //!   mode count is known.
 //! * The plant flags are resolved by `plant.rs` (shared with `crlb`).
 //! * With noise the experiment's Cramér–Rao bound is computed once
-//!   ([`beamctl::runner::run_bound`]) and each estimator's error is divided
+//!   ([`crate::run::run_bound`]) and each estimator's error is divided
 //!   by it; `--seeds` is `multiseed.rs`.
 //! * The runner's observer is called at 1 kHz; it feeds the CSV writer, the
 //!   plot recorder and the progress bar without allocating per call (apart
 //!   from the CSV cell strings).
 
-use crate::csvout::CsvOut;
-use crate::error::CliError;
-use crate::plot::{self, OutputPanel, Recorder};
-use crate::progress::Progress;
-use crate::report;
-use crate::settings::{self, EstimatorPlan};
-use crate::SimulateArgs;
-use beamctl::fit::{self, Model};
-use beamctl::runner::{run_many, samples, scenario_rig};
-use beamctl::{Observer, RunConfig, RunReport, Trace};
+pub mod plan;
+pub mod seeds;
+
+use crate::cli::args::SimulateArgs;
+use crate::cli::progress::Progress;
+use crate::error::{note, write_stdout, CliError};
+use crate::io::csv_out::CsvOut;
+use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::judge::fit::{self, Model};
+use crate::judge::report;
+use crate::run::{run_many, samples, scenario_rig};
+use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
-use serde::Serialize;
-use std::io::{IsTerminal, Write};
-
-/// Largest accepted `--duration` (s); 10¹⁰ samples already take hours.
-const MAX_DURATION_S: f64 = 1.0e6;
-
-/// Everything a `simulate` invocation will do, validated.
-#[derive(Debug, Clone)]
-pub struct Plan {
-    /// Estimator settings (laws, precision, gains, λ source).
-    pub est: EstimatorPlan,
-    /// Run configuration (its `kind` is not used: `est.kinds` run side by
-    /// side).
-    pub base: RunConfig,
-    /// Number of modes N.
-    pub modes: usize,
-    /// Human description of the plant.
-    pub plant_label: String,
-    /// `--seeds`: run every one of these seeds.
-    pub seeds: Option<Vec<u64>>,
-}
-
-impl Plan {
-    /// Samples one run processes (as the runner counts them).
-    pub fn samples_per_run(&self) -> u64 {
-        samples(&self.base)
-    }
-}
-
-/// Runs longer than this (simulated seconds) evaluate modal parameters at
-/// 100 Hz instead of 1 kHz unless a CSV is requested.
-const LONG_RUN_S: f64 = 60.0;
-
-/// Check `--duration` (s) against the sample period `ts`.
-pub fn check_duration(duration: f64, ts: f64) -> Result<(), CliError> {
-    finite("--duration", duration)?;
-    if duration <= 0.0 {
-        return Err(CliError::usage(
-            "--duration",
-            format!("must be > 0 s (got {duration})"),
-        ));
-    }
-    if duration < ts {
-        return Err(CliError::usage(
-            "--duration",
-            format!("must be at least one sample period, {ts} s (got {duration})"),
-        ));
-    }
-    if duration > MAX_DURATION_S {
-        return Err(CliError::usage(
-            "--duration",
-            format!("must be at most {MAX_DURATION_S} s (got {duration})"),
-        ));
-    }
-    Ok(())
-}
-
-/// Check a noise level: `--snr-db` finite, `--noise-sd` finite and > 0.
-pub fn check_noise(snr_db: Option<f64>, noise_sd: Option<f64>) -> Result<(), CliError> {
-    if let Some(snr) = snr_db {
-        finite("--snr-db", snr)?;
-    }
-    if let Some(sd) = noise_sd {
-        if !(sd.is_finite() && sd > 0.0) {
-            return Err(CliError::usage(
-                "--noise-sd",
-                format!("the noise standard deviation must be a finite number > 0 (got {sd})"),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Validate the flags.
-pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
-    let base_default = RunConfig::default();
-    let ts = base_default.ts_s;
-
-    check_duration(args.duration, ts)?;
-    check_noise(args.snr_db, args.noise_sd)?;
-    let noisy = args.snr_db.is_some() || args.noise_sd.is_some();
-    if !noisy {
-        if args.seeds.is_some() {
-            return Err(CliError::usage(
-                "--seeds",
-                "needs measurement noise (--snr-db or --noise-sd): without it every seed is the same run",
-            ));
-        }
-        if args.model_set.is_some() {
-            return Err(CliError::usage(
-                "--model-set",
-                "the Cramér–Rao bound needs measurement noise (--snr-db or --noise-sd); `beamctl crlb` computes it before a run",
-            ));
-        }
-    }
-    if let Some(seeds) = &args.seeds {
-        if seeds.0.is_empty() {
-            return Err(CliError::usage("--seeds", "no seed given"));
-        }
-    }
-    if let Some(p) = &args.plot {
-        plot::check_extension(p)?;
-    }
-
-    let (plant, modes, plant_label) = crate::plant::resolve(&args.plant, ts)?;
-    let est = settings::plan(&args.est, modes)?;
-    let range = crate::events_cli::range(&args.guard)?;
-    let events = crate::events_cli::events(
-        &args.scenario,
-        args.duration,
-        &plant,
-        range,
-        args.est.beam.as_deref(),
-    )?;
-    if !events.is_empty() && args.model_set.is_some() {
-        return Err(CliError::usage(
-            "--model-set",
-            "the Cramér–Rao bound is not computed with a scenario (plant step, excitation pause, fault, extra modes): the experiment is not the stationary one it describes",
-        ));
-    }
-    let base = RunConfig {
-        plant,
-        precision: est.precision,
-        gains: est.gains,
-        duration_s: args.duration,
-        lambda: est.lambda,
-        snr_db: args.snr_db,
-        noise_sd: args.noise_sd,
-        crlb: (noisy && events.is_empty())
-            .then(|| args.model_set.unwrap_or(crate::ModelSetChoice::Tf).set()),
-        seed: args.seed,
-        // Modal recovery costs ~4–7 µs: at 1 kHz it would dominate an hour
-        // of simulation, so long runs without --csv evaluate at 100 Hz
-        // (convergence times are then resolved to 10 ms).
-        eval_every: if args.csv.is_none() && args.duration > LONG_RUN_S {
-            100
-        } else {
-            base_default.eval_every
-        },
-        events,
-        range,
-        level_correction: args.guard.level_correction,
-        residual_monitor: args.guard.residual_monitor,
-        ..base_default
-    };
-    Ok(Plan {
-        est,
-        base,
-        modes,
-        plant_label,
-        seeds: args.seeds.as_ref().map(|s| s.0.clone()),
-    })
-}
-
-fn finite(flag: &str, v: f64) -> Result<(), CliError> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(CliError::usage(
-            flag,
-            format!("must be a finite number (got {v})"),
-        ))
-    }
-}
-
-/// One run's report with the settings that produced it (the JSON object).
-#[derive(Debug, Serialize)]
-pub struct JsonRun<'a> {
-    #[serde(flatten)]
-    pub report: &'a RunReport,
-    pub modes: usize,
-    pub gains: &'static str,
-    pub ts_s: f64,
-    pub snr_db: Option<f64>,
-    pub seed: u64,
-}
+use plan::{bound_line, plan, run_line, JsonRun, Plan};
+use std::io::IsTerminal;
 
 /// Feeds the CSV writer, the plot recorders and the progress bar.
 struct SimObserver<'a> {
@@ -247,7 +75,7 @@ impl Observer for SimObserver<'_> {
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
-        return crate::multiseed::run(&plan, seeds, args.json);
+        return seeds::run(&plan, seeds, args.json);
     }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
@@ -290,7 +118,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     }
     if let Some(p) = &args.plot {
         // The truth in force: after a plant step, the new plant's.
-        let truths = beamctl::events::Truths::new(&plan.base)
+        let truths = crate::run::Truths::new(&plan.base)
             .map_err(|e| CliError::failure(format!("simulation: {e}")))?;
         let truth = plot::TruthLines {
             before: &truths.before.modal,
@@ -404,55 +232,12 @@ pub fn model_of(a: &[f64], b: &[f64], ts_s: f64) -> Option<Model> {
     Model::new(&tf, ts_s)
 }
 
-/// Print a notice on stderr.
-pub fn note(msg: &str) {
-    let _ = writeln!(std::io::stderr().lock(), "{msg}");
-}
-
-/// Write to stdout; a closed pipe (`| head`) is not an error.
-pub fn write_stdout(text: &str) -> Result<(), CliError> {
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        Err(e) => Err(CliError::failure(format!("writing to stdout: {e}"))),
-    }
-}
-
 fn noise_label(cfg: &RunConfig) -> String {
     match (cfg.snr_db, cfg.noise_sd) {
         (_, Some(sd)) => format!(", noise σ = {sd} (seed {})", cfg.seed),
         (Some(snr), None) => format!(", SNR {snr} dB (seed {})", cfg.seed),
         (None, None) => String::new(),
     }
-}
-
-/// The noise part of the heading: "none", or the level and σ (and the
-/// seed, unless several run).
-pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> String {
-    let sigma = sigma.map_or(String::new(), |s| {
-        format!("σ = {}", crate::table::sig(s, 4))
-    });
-    let seed = seed.map_or(String::new(), |s| format!(", seed {s}"));
-    match (cfg.snr_db, cfg.noise_sd) {
-        (_, Some(_)) => format!("white, {sigma}{seed}"),
-        (Some(snr), None) => format!("white, SNR {snr} dB ({sigma}){seed}"),
-        (None, None) => "none".to_string(),
-    }
-}
-
-/// The line naming the bound's model set, σ and SNR.
-pub fn bound_line(b: &beamctl::bound::ExperimentBound, modes: usize) -> String {
-    let set = match b.model_set {
-        "modal" => beamest::crlb::ModelSet::Modal,
-        _ => beamest::crlb::ModelSet::TransferFunction,
-    };
-    format!(
-        "bound:  Cramér–Rao, {}; σ = {}, SNR {:.1} dB over the run\n",
-        beamctl::bound::model_set_description(set, modes),
-        crate::table::sig(b.sigma, 4),
-        b.snr_db
-    )
 }
 
 /// The JSON document: one object, or an array for several estimators.
@@ -550,7 +335,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
 }
 
 /// The "events:" heading lines of a run with a scenario.
-pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
+pub fn scenario_lines(sc: &crate::run::events::ScenarioReport) -> String {
     let mut parts = Vec::new();
     if let Some(at) = sc.step_at_s {
         parts.push(format!(
@@ -564,7 +349,7 @@ pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
         let detected = match (sc.fault_detection_latency_s, sc.fault_detected_as) {
             (Some(l), Some(w)) => format!(
                 "flagged as {w} after {} ms",
-                crate::table::short(l * 1e3, 4)
+                crate::io::table::short(l * 1e3, 4)
             ),
             _ => "not flagged by the guard".to_string(),
         };
@@ -574,30 +359,11 @@ pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
     format!("events: {}\n", parts.join("; "))
 }
 
-/// The "run:" heading line.
-pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>) -> String {
-    let cfg = &plan.base;
-    format!(
-        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n",
-        cfg.duration_s,
-        cfg.ts_s * 1e3,
-        samples,
-        cfg.u_amplitude,
-        cfg.u_freq_hz,
-        plan.est.lambda_label,
-        match cfg.precision {
-            beamctl::Precision::F64 => "f64",
-            beamctl::Precision::F32 => "f32",
-        },
-        cfg.gains.name(),
-        noise_text(cfg, sigma, seed)
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::{EstimatorKind, PlantSpec};
+    use crate::run::estimator::EstimatorKind;
+    use crate::run::plant::PlantSpec;
     use clap::Parser;
 
     fn args(extra: &[&str]) -> SimulateArgs {

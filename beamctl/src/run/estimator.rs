@@ -9,7 +9,7 @@
 //! start-up law takes the preset's proposed-law gains and its output-error
 //! law keeps [`RobustConfig::default`]'s.
 
-use crate::runner::RunError;
+use crate::run::error::RunError;
 use beamest::estimator::robust::DEFAULT_RECORD;
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, Feedthrough, GradientConfig, GradientEstimator,

@@ -18,7 +18,7 @@
 //! answer within `--timeout`.
 
 use crate::error::CliError;
-use beamctl::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
+use crate::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
 use beamest::protocol::budget::uart_bytes_per_s;
 use beamest::protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
 use clap::{ArgGroup, Args};
@@ -64,6 +64,7 @@ impl DeviceArgs {
 #[derive(Debug, Clone, Args)]
 #[command(group(ArgGroup::new("device").args(["port", "tcp"]).required(true)))]
 pub struct SendArgs {
+    /// The device to send to.
     #[command(flatten)]
     pub device: DeviceArgs,
 
@@ -71,6 +72,7 @@ pub struct SendArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
     pub timeout: f64,
 
+    /// The command to send.
     #[command(subcommand)]
     pub command: CommandArgs,
 }
@@ -320,11 +322,11 @@ fn command_name(c: &CommandArgs) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamctl::link::fake::FakeDevice;
+    use crate::link::fake::FakeDevice;
     use beamest::protocol::Status;
 
     fn status() -> Status {
-        FakeDevice::new(beamctl::link::fake::FakeConfig::default()).status()
+        FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
     }
 
     fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {

@@ -7,7 +7,7 @@
 //! 8), with each model's fit %.
 //!
 //! # Design
-//! * Text needs a font ([`font`]). plotters' `ttf` feature would link
+//! * Text needs a font (`font.rs`). plotters' `ttf` feature would link
 //!   fontconfig and freetype; instead plotters renders with `ab_glyph` from
 //!   a TrueType file found at run time: `$BEAMCTL_FONT` if set, else a few
 //!   well-known system paths (DejaVu, Liberation, Noto, Arial), else the
@@ -30,7 +30,7 @@ mod font;
 pub use font::ensure_font;
 
 use crate::error::CliError;
-use beamctl::Trace;
+use crate::run::Trace;
 use beamest::model::{ModalParams, MAX_MODES};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -136,7 +136,7 @@ fn decimate<T>(v: &mut Vec<T>, stride: usize) {
 }
 
 /// The measured y and each model's output over a window (see
-/// `beamctl::fit`).
+/// `crate::judge::fit`).
 #[derive(Debug, Clone)]
 pub struct OutputPanel {
     /// Time (s).

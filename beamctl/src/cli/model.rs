@@ -12,15 +12,15 @@
 //! `output_position_m` to `length_m` (the tip). Unknown keys are an error.
 //! The mirror struct lives here so the core stays serde-free.
 
+use crate::error::write_stdout;
 use crate::error::CliError;
-use crate::simulate::write_stdout;
-use crate::table::{short, sig, Column, Table};
-use crate::ModelArgs;
+use crate::io::table::{short, sig, Column, Table};
 use beamest::beam::{
     rectangular_thickness_m, BeamError, BeamModal, BeamOutput, BeamParam, BeamParams,
 };
+use clap::Args;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// [`BeamOutput`] as spelled in TOML and JSON.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -52,6 +52,29 @@ impl From<BeamOutput> for OutputKind {
             BeamOutput::StrainAsTipDeflection => OutputKind::StrainAsTipDeflection,
         }
     }
+}
+
+/// Options of `beamctl model`.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Number of modes, 1..=3.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
+    pub modes: u8,
+
+    /// Print one JSON object on stdout instead of the tables.
+    #[arg(long)]
+    pub json: bool,
+
+    /// Read the beam from a TOML file instead of the paper's Tables I–II.
+    /// Keys (all optional; a missing key takes the paper's value, unknown
+    /// keys are an error): density_kg_m3, area_m2, youngs_modulus_pa,
+    /// inertia_m4, damping_pa_s, length_m, thickness_m [default:
+    /// √(12·inertia_m4/area_m2)], piezo_modulus_pa, piezo_d31_m_v,
+    /// moment_arm_m, actuator_start_m, actuator_end_m, output_position_m
+    /// [default: length_m, the tip], output = "deflection" | "strain" |
+    /// "strain_as_tip_deflection". See beamctl/examples/paper-beam.toml.
+    #[arg(long, value_name = "FILE.toml")]
+    pub beam: Option<PathBuf>,
 }
 
 /// The beam file: [`BeamParams`]' fields, all optional.
@@ -274,6 +297,7 @@ pub fn run(args: &ModelArgs) -> Result<(), CliError> {
     write_stdout(&text)
 }
 
+/// The beam of a TOML file (`--beam`; keys: [`BeamFile`]).
 pub fn load(path: &Path) -> Result<BeamParams, CliError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::usage("--beam", format!("cannot read {}: {e}", path.display())))?;
@@ -454,7 +478,7 @@ mod tests {
 
     #[test]
     fn sample_file_is_the_paper_beam() {
-        let text = include_str!("../examples/paper-beam.toml");
+        let text = include_str!("../../examples/paper-beam.toml");
         let p = parse_beam(text, "paper-beam.toml").unwrap();
         let q = BeamParams::paper();
         assert_eq!(p.output, q.output);

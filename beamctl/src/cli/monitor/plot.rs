@@ -4,7 +4,7 @@
 //! the values after the first 5 % of the run (the start-up transient),
 //! widened by 10 % (at least ±0.5 % of the median).
 //!
-//! The font is found as for `beamctl simulate --plot` (`crate::plot`).
+//! The font is found as for `beamctl simulate --plot` (`crate::io::plot`).
 
 use super::state::{Point, State};
 use crate::error::CliError;
@@ -28,7 +28,7 @@ pub fn write(path: &Path, st: &State) -> Result<bool, CliError> {
     if st.history.is_empty() {
         return Err(CliError::failure("--plot: no estimates received"));
     }
-    let text = crate::plot::ensure_font();
+    let text = crate::io::plot::ensure_font();
     let n = st.modes().max(1);
     let stride = st.history.len().div_ceil(MAX_POINTS).max(1);
     let pts: Vec<&Point> = st.history.iter().step_by(stride).collect();

@@ -1,19 +1,20 @@
 //! `beamctl simulate --seeds`: the same experiment over several noise
 //! realisations, each estimator's RMS and mean relative error over them,
-//! and RMS ÷ the experiment's Cramér–Rao bound ([`beamctl::seeds`]).
+//! and RMS ÷ the experiment's Cramér–Rao bound ([`crate::run::seeds`]).
 //!
 //! A seed on which an estimator produced no estimate is listed (table, JSON
 //! and a warning on stderr) and makes that estimator's RMS "n/a"; the exit
 //! status stays 0, because the summary is the result.
 
+use crate::cli::progress::Progress;
+use crate::cli::simulate::plan::{bound_line, run_line, JsonRun, Plan};
 use crate::error::CliError;
-use crate::progress::Progress;
-use crate::report::{self, ratio};
-use crate::simulate::{bound_line, note, run_line, write_stdout, JsonRun, Plan};
-use crate::table::{rel, sig, Column, Table};
-use beamctl::runner::{run_bound, run_many};
-use beamctl::seeds::{summarize, ParamStats, SeedSummary, SeedsReport};
-use beamctl::{Observer, RunConfig, Trace};
+use crate::error::{note, write_stdout};
+use crate::io::table::{rel, sig, Column, Table};
+use crate::judge::report::{self, ratio};
+use crate::run::seeds::{summarize, ParamStats, SeedSummary, SeedsReport};
+use crate::run::{run_bound, run_many};
+use crate::run::{Observer, RunConfig, Trace};
 use serde::Serialize;
 use std::io::IsTerminal;
 
@@ -99,7 +100,7 @@ fn to_json(plan: &Plan, report: &SeedsReport) -> Result<String, CliError> {
         snr_db: Option<f64>,
         seeds: &'a [u64],
         noise_sd: Option<f64>,
-        crlb: &'a Option<beamctl::bound::ExperimentBound>,
+        crlb: &'a Option<crate::judge::bound::ExperimentBound>,
         estimators: Vec<Summary<'a>>,
     }
     let estimators = report
@@ -188,9 +189,9 @@ fn render(plan: &Plan, report: &SeedsReport) -> String {
         t.group(s.estimator.name(), g);
     }
     type Pick = fn(&ParamStats) -> &Vec<f64>;
-    type PickB = fn(&beamctl::bound::BoundRatio) -> &Vec<f64>;
-    type PickC = fn(&beamctl::bound::ExperimentBound) -> &Vec<f64>;
-    type PickT = fn(&beamctl::runner::ModalSummary) -> &Vec<f64>;
+    type PickB = fn(&crate::judge::bound::BoundRatio) -> &Vec<f64>;
+    type PickC = fn(&crate::judge::bound::ExperimentBound) -> &Vec<f64>;
+    type PickT = fn(&crate::run::session::ModalSummary) -> &Vec<f64>;
     let rows: [(&str, &str, Pick, PickB, PickC, PickT); 3] = [
         (
             "ω",

@@ -2,12 +2,12 @@
 //! `--step-zeta`, `--excitation-off`, `--fault`, `--fault-at`,
 //! `--fault-for`, `--fault-level`, `--truth-modes`) and the sensor-guard
 //! flags of `simulate` and `replay` (`--range`, `--level-correction`),
-//! validated into [`beamctl::events::Events`] and the guard's settings.
+//! validated into [`crate::run::events::Events`] and the guard's settings.
 //! Every message is one line naming the flag it is about.
 
 use crate::error::CliError;
-use beamctl::events::{extra_beam_modes, Events, FaultChoice, FaultEvent, StepEvent};
-use beamctl::PlantSpec;
+use crate::run::events::{extra_beam_modes, Events, FaultChoice, FaultEvent, StepEvent};
+use crate::run::plant::PlantSpec;
 use beamest::beam::BeamParams;
 use clap::{Args, ValueEnum};
 use std::path::Path;
@@ -341,7 +341,7 @@ pub fn events(
         }
         if n > modes {
             let params = match beam {
-                Some(p) => crate::model::load(p)?,
+                Some(p) => crate::cli::model::load(p)?,
                 None => BeamParams::paper(),
             };
             let extra = extra_beam_modes(&params, modes + 1, n, &plant.truth())

@@ -1,0 +1,9 @@
+//! Files and text: recorded samples in ([`csv_in`], `beamctl replay`), the
+//! time series of a run out ([`csv_out`], `--csv`), aligned text tables
+//! ([`table`]) and PNG plots ([`plot`]). (The monitor's recordings are
+//! written by [`crate::link::record`].)
+
+pub mod csv_in;
+pub mod csv_out;
+pub mod plot;
+pub mod table;
