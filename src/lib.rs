@@ -16,8 +16,8 @@
 //! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
 //!   them with the excitation per sample; the converter chip models and
-//!   [`rig::ConverterRig`], the simulated bench behind the real drivers;
-//! * [`drivers`] — the ADS131M02 ADC and AD5761R DAC on embedded-hal 1.0;
+//!   [`rig::ConverterRig`], the simulated bench behind the real drivers
+//!   (the `ads131m02` and `ad5761r` crates, `crates/`);
 //! * [`excitation`] — square wave (the paper's, Section IV.A), multisine,
 //!   PRBS and chirp for the piezo, inside a safe voltage window;
 //! * [`guard`] — the sensor guard: float-level checks of each sample
@@ -99,7 +99,6 @@ pub mod beam;
 pub mod board;
 pub(crate) mod compensated;
 pub mod crlb;
-pub mod drivers;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;
@@ -160,6 +159,12 @@ fn defmt_formats() {
     is_format::<tuning::TuningError>();
     is_format::<tuning::TuningConfig>();
     is_format::<tuning::Phase>();
+    // The converter drivers' types, formatted through their own `defmt`
+    // features (switched on by this crate's).
+    is_format::<ads131m02::Frame>();
+    is_format::<ads131m02::Error<rig::chips::ModelBusError>>();
+    is_format::<ad5761r::ControlReadback>();
+    is_format::<ad5761r::Error<rig::chips::ModelBusError>>();
 }
 
 #[cfg(test)]

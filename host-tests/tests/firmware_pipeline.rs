@@ -31,10 +31,9 @@
 
 use std::collections::VecDeque;
 
+use ad5761r::Ad5761r;
+use ads131m02::{Ads131m02, Rail};
 use beamctl::runner::{self, build_estimator, EstimatorKind, Gains, Precision, RunConfig};
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
-use beamest::drivers::Rail;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputTiming};

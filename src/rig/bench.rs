@@ -32,8 +32,6 @@
 use super::converter::{ConverterModels, ConverterRig, RigError};
 use super::plant::{ModalPlant, PlantError};
 use super::timing::ConverterTiming;
-use crate::drivers::ad5761r;
-use crate::drivers::ads131m02::{self, PgaGain};
 use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
 use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
@@ -45,6 +43,7 @@ use crate::pipeline::{
 use crate::protocol::budget::uart_bytes_per_s;
 use crate::protocol::{self, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
 use crate::scalar::Real;
+use ads131m02::PgaGain;
 
 /// Sample rate (Hz): the paper's Ts = 0.1 ms.
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;

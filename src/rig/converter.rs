@@ -51,8 +51,8 @@ use super::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use super::noise::GaussianNoise;
 use super::plant::ModalPlant;
 use super::timing::{ConverterTiming, TimedPlant};
-use crate::drivers::ads131m02::VREF_VOLTS;
 use crate::pipeline::{AnalogFrontEnd, ConversionConfig, ConversionError};
+use ads131m02::VREF_VOLTS;
 
 /// The two converter models of the rig.
 #[derive(Debug, Default)]
@@ -249,12 +249,12 @@ impl<'a> ConverterRig<'a> {
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
-    use crate::drivers::ad5761r::{self, Ad5761r};
-    use crate::drivers::ads131m02::Ads131m02;
     use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
     use crate::pipeline::{bring_up, PiezoDac, StrainAdc};
     use crate::rig::bench::{adc_config, conversion};
     use crate::rig::chips::ads131m02::quantize;
+    use ad5761r::Ad5761r;
+    use ads131m02::Ads131m02;
 
     struct NoDelay;
 

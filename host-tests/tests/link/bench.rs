@@ -13,8 +13,8 @@
 
 use std::collections::VecDeque;
 
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
+use ad5761r::Ad5761r;
+use ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;

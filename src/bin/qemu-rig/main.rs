@@ -45,12 +45,12 @@ mod report;
 mod robust;
 mod sample;
 
+use ad5761r::Ad5761r;
+use ads131m02::Ads131m02;
 use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::{BuildKind, DeviceLink, Settings, Tuned};
