@@ -19,6 +19,7 @@
 
 use std::hint::black_box;
 
+use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Feedthrough2};
 use beamest::excitation::{
     ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
@@ -30,7 +31,6 @@ use beamest::pipeline::{
     PipelineConfig, PrefilterConfig, Sink, StrainAdc,
 };
 use beamest::plant::ModalPlant;
-use beamest::rig::bench::conversion;
 use beamest::Real;
 
 /// Samples in the measured loop.

@@ -10,6 +10,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
 use beamest::excitation::{Excitation, SafeWindow, Shape, SquareWave};
 use beamest::filter_bank::{FilterConfig, SignalScales};
@@ -21,7 +22,6 @@ use beamest::pipeline::{
     PrefilterState, StrainAdc, TelemetryRecord,
 };
 use beamest::plant::ModalPlant;
-use beamest::rig::bench::conversion;
 use beamest::Real;
 use heapless::spsc::Queue;
 use host_tests::sim_rig::{Injected, SimAdc, SimDac, SimRig};

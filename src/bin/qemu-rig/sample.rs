@@ -41,6 +41,7 @@
 
 use ad5761r::Ad5761r;
 use ads131m02::{Ads131m02, Rail};
+use beamest::bench::ConverterRig;
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::{self as board, Handoff};
@@ -49,7 +50,6 @@ use beamest::link::StartupCollector;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use beamest::rig::ConverterRig;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;

@@ -27,7 +27,7 @@
 //! The digital filter itself: it converts the voltages it is given. The
 //! filter's averaging of a moving input (sinc³ over the last three
 //! periods: group delay and droop) is simulated by the rig on the analog
-//! side ([`crate::rig::timing`], on in `rig::bench`), which hands this
+//! side ([`crate::rig::timing`], on in [`crate::bench`]), which hands this
 //! model the filtered voltages. Not modelled at all: the filter's settling
 //! after a reset, a channel enable or a gain change, phase calibration,
 //! offset/gain calibration registers (stored, not applied), global chop,
