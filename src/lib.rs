@@ -15,9 +15,12 @@
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
-//!   them with the excitation per sample; the converter chip models and
-//!   [`rig::ConverterRig`], the simulated bench behind the real drivers;
-//! * [`drivers`] — the ADS131M02 ADC and AD5761R DAC on embedded-hal 1.0;
+//!   them with the excitation per sample; the converter chip models behind
+//!   the real drivers (the `ads131m02` and `ad5761r` crates, `crates/`);
+//! * [`bench`](mod@bench) — the simulated bench assembled above the rig and the
+//!   sample task: [`bench::ConverterRig`] (the beam between the chip
+//!   models with the pipeline's front end) and the settings of the QEMU
+//!   image and the firmware host tests;
 //! * [`excitation`] — square wave (the paper's, Section IV.A), multisine,
 //!   PRBS and chirp for the piezo, inside a safe voltage window;
 //! * [`guard`] — the sensor guard: float-level checks of each sample
@@ -96,10 +99,10 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod beam;
+pub mod bench;
 #[cfg(any(feature = "board-qemu", feature = "board-nucleo"))]
 pub mod board;
 pub mod crlb;
-pub mod drivers;
 pub mod estimator;
 pub mod excitation;
 pub mod filter_bank;
@@ -157,6 +160,12 @@ fn defmt_formats() {
     is_format::<tuning::TuningError>();
     is_format::<tuning::TuningConfig>();
     is_format::<tuning::Phase>();
+    // The converter drivers' types, formatted through their own `defmt`
+    // features (switched on by this crate's).
+    is_format::<ads131m02::Frame>();
+    is_format::<ads131m02::Error<rig::chips::ModelBusError>>();
+    is_format::<ad5761r::ControlReadback>();
+    is_format::<ad5761r::Error<rig::chips::ModelBusError>>();
 }
 
 #[cfg(test)]

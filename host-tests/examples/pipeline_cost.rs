@@ -19,6 +19,7 @@
 
 use std::hint::black_box;
 
+use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Feedthrough2};
 use beamest::excitation::{
     ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
@@ -29,7 +30,6 @@ use beamest::pipeline::{
     AdcFlags, AdcReading, DacLatch, DacOutcome, FaultKind, InputSource, NoSink, PiezoDac, Pipeline,
     PipelineConfig, PrefilterConfig, Sink, StrainAdc,
 };
-use beamest::rig::bench::conversion;
 use beamest::rig::ModalPlant;
 use beamest::Real;
 

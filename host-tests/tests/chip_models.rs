@@ -6,11 +6,8 @@ mod common;
 
 use std::cell::{Cell, RefCell};
 
-use beamest::drivers::ad5761r::{self, Ad5761r, BipolarCoding, OutputRange, Reference, ScaleLevel};
-use beamest::drivers::ads131m02::{
-    self, Ads131m02, Command, Config, CrcType, Error, PgaGain, Register, WordLength,
-};
-use beamest::drivers::Rail;
+use ad5761r::{Ad5761r, BipolarCoding, OutputRange, Reference, ScaleLevel};
+use ads131m02::{Ads131m02, Command, Config, CrcType, Error, PgaGain, Rail, Register, WordLength};
 use beamest::rig::chips::ads131m02::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
 use common::{crc16_bitwise, CCITT, DAC_SPANS};
@@ -373,10 +370,10 @@ fn dac_codes_round_trip_to_the_model_voltage_within_one_lsb() {
             }
             // Saturation at both rails: reported, output at the rail.
             let w = d.write_volts((hi + 1.0) as f32).unwrap();
-            assert_eq!(w.clamped, Some(Rail::High));
+            assert_eq!(w.clamped, Some(ad5761r::Rail::High));
             assert!((model.borrow().output_volts() - (hi - lsb)).abs() < 1e-9);
             let w = d.write_volts((lo - 1.0) as f32).unwrap();
-            assert_eq!(w.clamped, Some(Rail::Low));
+            assert_eq!(w.clamped, Some(ad5761r::Rail::Low));
             assert!((model.borrow().output_volts() - lo).abs() < 1e-9);
         }
     }

@@ -2,7 +2,7 @@
 //! per-sample [`Pipeline`] with the real ADS131M02 and AD5761R drivers,
 //! whose SPI devices are the behavioural chip models of the simulated bench
 //! ([`ConverterRig`]: the paper's beam between the two models, settings in
-//! `beamest::rig::bench`, with the board's converter timing: each
+//! `beamest::bench`, with the board's converter timing: each
 //! conversion the ADS131M02's sinc³ average, the DAC 15 µs after DRDY).
 //! The estimator models that timing on its u channel
 //! (`bench::output_timing`), as the board's configuration does.
@@ -31,11 +31,11 @@
 
 use std::collections::VecDeque;
 
+use ad5761r::Ad5761r;
+use ads131m02::{Ads131m02, Rail};
 use beamctl::run::estimator::{build_estimator, EstimatorKind, Gains};
 use beamctl::run::{self, Precision, RunConfig};
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
-use beamest::drivers::Rail;
+use beamest::bench::{self, ConverterModels};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputTiming};
@@ -46,7 +46,7 @@ use beamest::pipeline::{
 };
 use beamest::rig::chips::ads131m02::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use beamest::rig::{bench, ConverterModels, Rig, TimedPlant};
+use beamest::rig::{Rig, TimedPlant};
 use beamest::tuning::LambdaSource;
 use beamest::Real;
 use heapless::spsc::Queue;
@@ -357,7 +357,7 @@ where
     });
     assert_eq!(fw.counters, Counters::default());
     assert!(checked > 20_000);
-    // The bench's figures (module docs of `rig::bench`): ±33 DAC codes
+    // The bench's figures (module docs of `bench`): ±33 DAC codes
     // around mid-scale, ≈ 267,000 bridge codes at the peak.
     assert_eq!(dac_codes, (0x8000 - 33, 0x8000 + 33));
     assert!((260_000..275_000).contains(&peak_code), "{peak_code}");

@@ -10,6 +10,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
 use beamest::excitation::{Excitation, SafeWindow, Shape, SquareWave};
 use beamest::filter_bank::{FilterConfig, SignalScales};
@@ -20,7 +21,6 @@ use beamest::pipeline::{
     Linearisation, NoSink, PiezoDac, Pipeline, PipelineConfig, Prefilter, PrefilterConfig,
     PrefilterState, StrainAdc, TelemetryRecord,
 };
-use beamest::rig::bench::conversion;
 use beamest::rig::ModalPlant;
 use beamest::Real;
 use heapless::spsc::Queue;

@@ -20,8 +20,9 @@
 //! pipeline at the swap, as settled; and the guard flagged the resting
 //! beam's repeated ADC code as a stuck sensor (82,180 samples).
 
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
+use ad5761r::Ad5761r;
+use ads131m02::Ads131m02;
+use beamest::bench::{self, ConverterModels};
 use beamest::estimator::robust::{Pending, Phase, UpdateError};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Estimator, Robust2};
 use beamest::filter_bank::{FilterConfig, SignalScales};
@@ -30,7 +31,6 @@ use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{bring_up, NoSink, Pipeline};
 use beamest::protocol::{EstimatorKind, EstimatorSettings};
-use beamest::rig::{bench, ConverterModels};
 use heapless::spsc::Queue;
 
 struct NoDelay;

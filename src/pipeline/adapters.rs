@@ -33,7 +33,7 @@
 //! transfer function of that code: the request quantised to 16 bits and
 //! limited to the range) and whether the request was beyond a rail.
 //!
-//! [`Conversion::saturation`]: crate::drivers::ads131m02::Conversion::saturation
+//! [`Conversion::saturation`]: ads131m02::Conversion::saturation
 
 use core::fmt;
 
@@ -42,8 +42,8 @@ use embedded_hal::spi::SpiDevice;
 
 use super::convert::{AdcScale, ADS131M02_VREF_V};
 use super::converters::{AdcFlags, AdcReading, DacOutcome, Fault, FaultKind, PiezoDac, StrainAdc};
-use crate::drivers::ad5761r::{self, Ad5761r, ControlReadback};
-use crate::drivers::ads131m02::{self, Ads131m02};
+use ad5761r::{Ad5761r, ControlReadback};
+use ads131m02::Ads131m02;
 
 impl<E> Fault for ads131m02::Error<E> {
     fn kind(&self) -> FaultKind {
@@ -242,11 +242,10 @@ pub fn bring_up<A: SpiDevice, D: SpiDevice>(
 #[allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use super::*;
-    use crate::drivers::ad5761r::{ConfigError, OutputRange};
-    use crate::drivers::ads131m02::{Command, PgaGain, Register, Status};
-    use crate::drivers::Rail;
     use crate::rig::chips::ads131m02::quantize;
     use crate::rig::chips::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
+    use ad5761r::{ConfigError, OutputRange};
+    use ads131m02::{Command, PgaGain, Rail, Register, Status};
     use core::cell::RefCell;
 
     struct NoDelay;
@@ -383,7 +382,7 @@ mod tests {
         assert_eq!(r.flags, AdcFlags::default());
         // Saturation of either channel is flagged (and the code clipped).
         let r = convert_and_read(&mut adc, &model, [1.0, 0.1]).unwrap();
-        assert_eq!(r.bridge, ads131m02::conversion::CODE_MAX);
+        assert_eq!(r.bridge, ads131m02::CODE_MAX);
         assert!(r.flags.bridge_saturated && !r.flags.monitor_saturated);
         let r = convert_and_read(&mut adc, &model, [0.0, -2.0]).unwrap();
         assert!(!r.flags.bridge_saturated && r.flags.monitor_saturated);

@@ -16,16 +16,14 @@
 //! * [`chips`] — behavioural models of the converters (ADS131M02 ADC,
 //!   AD5761R DAC) behind `SpiDevice`, so the real drivers run against the
 //!   simulated beam;
-//! * [`converter`] — [`ConverterRig`]: the plant between those two models
-//!   with the analog front end (amplifier, bridge, monitor), one DRDY
-//!   period per tick — the rig the QEMU image and the firmware host tests
-//!   run behind the real drivers;
 //! * [`timing`] — [`TimedPlant`]: the beam as the converters see it, the
 //!   ADS131M02's sinc³ averaging and the DAC's update latency simulated
-//!   exactly ([`ConverterTiming`]);
-//! * [`bench`](mod@bench) — the settings of that simulated bench (the paper's beam,
-//!   the converters' configuration and timing, the front end, the
-//!   excitation).
+//!   exactly ([`ConverterTiming`]).
+//!
+//! The rig depends on the foundations (model, numerics), the converter
+//! drivers' encodings and the excitation only: the assembly of a bench
+//! around it, with the sample task's front end, pipeline and link, is
+//! [`crate::bench`].
 //!
 //! The rig runs in the emulated board's sample interrupt, so the whole
 //! module keeps the sample path's panic-free lints.
@@ -36,16 +34,13 @@
     clippy::indexing_slicing
 )]
 
-pub mod bench;
 pub mod chips;
-pub mod converter;
 pub mod noise;
 pub mod plant;
 pub mod scenario;
 pub mod sim;
 pub mod timing;
 
-pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
 pub use plant::{ModalPlant, PlantError};
 pub use scenario::{

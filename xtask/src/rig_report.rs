@@ -28,8 +28,8 @@
 
 use std::collections::HashMap;
 
+use beamest::bench;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::rig::bench;
 
 /// Pass criterion: relative error of every ω and ζ after the default run.
 pub const TOLERANCE: f64 = 1e-3;

@@ -1,5 +1,5 @@
 //! The QEMU image's device on the host: the simulated bench behind the real
-//! drivers (`rig::bench`, `ConverterRig`), the per-sample pipeline in
+//! drivers (`bench`, `ConverterRig`), the per-sample pipeline in
 //! `f32`, the truth-free tuning rule (start-up window, automatic λ), and
 //! the device end of the serial link (`beamest::link::DeviceLink`) — the
 //! same sequence and settings the firmware runs, with a host on the other
@@ -13,8 +13,9 @@
 
 use std::collections::VecDeque;
 
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
+use ad5761r::Ad5761r;
+use ads131m02::Ads131m02;
+use beamest::bench::{self, ConverterModels, ConverterRig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
@@ -26,7 +27,6 @@ use beamest::protocol::{
     encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
 };
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use beamest::rig::{bench, ConverterModels, ConverterRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use heapless::spsc::{Consumer, Producer, Queue};
 

@@ -67,11 +67,11 @@ compile_error!(
 mod link;
 mod rig;
 
+use ad5761r::Ad5761r;
 use beamest::board::nucleo::converters::Adc;
 use beamest::board::nucleo::cycles::{self, Spans};
 use beamest::board::nucleo::shared::Shared;
 use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
-use beamest::drivers::ad5761r::Ad5761r;
 use beamest::estimator::Adaptive2;
 use beamest::link::{BuildKind, DeviceLink, StartupCollector, Tuned};
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};

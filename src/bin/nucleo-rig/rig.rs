@@ -6,7 +6,6 @@
 //! U0, Y0 and λ come from the data through the truth-free tuning rule
 //! (`beamest::tuning`, set up in `link::tuning`).
 
-use beamest::drivers::{ad5761r, ads131m02};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, ConfigError};
 use beamest::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
 use beamest::filter_bank::{FilterConfig, OutputTiming, SignalScales};

@@ -8,7 +8,7 @@
 //!   5 s); both converters brought up through their drivers against the
 //!   chip models (AD5761R reset, control written and read back; ADS131M02
 //!   reset with the ID check, configured and read back); the rig, a frozen
-//!   pipeline and the sample task built from `beamest::rig::bench`.
+//!   pipeline and the sample task built from `beamest::bench`.
 //! * Timer 0 interrupt, 10 kHz, highest priority: [`sample::SampleTask`] —
 //!   rig tick, then `Pipeline::tick` (the drivers' SPI frames to the
 //!   models, the estimator step, telemetry records and raw blocks into
@@ -45,17 +45,17 @@ mod report;
 mod robust;
 mod sample;
 
+use ad5761r::Ad5761r;
+use ads131m02::Ads131m02;
+use beamest::bench::{self, ConverterModels};
 use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
 use beamest::link::{DeviceLink, Settings};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::protocol::{EstimatorKind, EstimatorSettings};
-use beamest::rig::{bench, ConverterModels};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;

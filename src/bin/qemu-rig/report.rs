@@ -40,6 +40,7 @@
     clippy::indexing_slicing
 )]
 
+use beamest::bench;
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
 use beamest::board::qemu::uart::{self, UartTx};
@@ -50,7 +51,6 @@ use beamest::modal::modal_from_tf;
 use beamest::model::ModalParams;
 use beamest::pipeline::{recover, Recovered};
 use beamest::protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
-use beamest::rig::bench;
 use beamest::tuning::{Phase, Settled};
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::Queue;

@@ -39,18 +39,17 @@
     clippy::indexing_slicing
 )]
 
+use ad5761r::Ad5761r;
+use ads131m02::{Ads131m02, Rail};
+use beamest::bench::ConverterRig;
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::{self as board, Handoff};
-use beamest::drivers::ad5761r::Ad5761r;
-use beamest::drivers::ads131m02::Ads131m02;
-use beamest::drivers::Rail;
 use beamest::estimator::{Adaptive2, Either, Estimator, Robust2, StepStatus};
 use beamest::link::StartupCollector;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use beamest::rig::ConverterRig;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;

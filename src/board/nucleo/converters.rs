@@ -8,8 +8,8 @@
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
 
-use crate::drivers::ads131m02::{self, Ads131m02};
 use crate::pipeline::{lost_configuration, AdcReading, StrainAdc};
+use ads131m02::Ads131m02;
 
 /// The ADS131M02 as the pipeline's [`StrainAdc`], tracking lost settings.
 pub struct Adc<SPI> {

@@ -73,7 +73,6 @@ use embassy_stm32::{pac, peripherals};
 use embedded_hal::delay::DelayNs;
 use embedded_hal_bus::spi::ExclusiveDevice;
 
-use crate::drivers::{ad5761r, ads131m02};
 use cycles::CycleDelay;
 
 /// NVIC priorities (STM32H7: 4 priority bits; lower = more urgent).

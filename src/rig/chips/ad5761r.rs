@@ -5,7 +5,7 @@
 //!   clocked; fewer than 24 bits abort the write, the "SYNC interrupt"
 //!   behaviour of ADI's serial DACs): DB19:16 command, DB15:0 data; a word
 //!   with DB20 set is ignored (DB20 must be 0, Table 14).
-//! * Commands (see [`crate::drivers::ad5761r::registers`] for sources):
+//! * Commands (see the `ad5761r` crate's [`Command`] for sources):
 //!   write input register, update DAC from input, write and update, write
 //!   control (SC/BO cleared), software data reset, daisy-chain enable,
 //!   readback of input/DAC/control, software full reset.
@@ -29,13 +29,16 @@
 //! RESET pins (so CV has no effect), short-circuit and brown-out detection
 //! (SC/BO read 0), thermal shutdown.
 //!
-//! [`Transfer`]: crate::drivers::ad5761r::Transfer
+//! [`Command`]: ad5761r::Command
+//! [`Transfer`]: ad5761r::Transfer
 
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 
+use ad5761r::{
+    Command, OutputRange, ScaleLevel, CONTROL_MASK, INTERNAL_VREF_VOLTS, OVERRANGE_FACTOR,
+};
+
 use super::{clock_operations, ModelBusError};
-use crate::drivers::ad5761r::registers::{Command, OutputRange, ScaleLevel, CONTROL_MASK};
-use crate::drivers::ad5761r::transfer::{INTERNAL_VREF_VOLTS, OVERRANGE_FACTOR};
 
 /// The AD5761R model. See the module docs.
 #[derive(Clone, Debug)]

@@ -27,7 +27,7 @@
 //! The digital filter itself: it converts the voltages it is given. The
 //! filter's averaging of a moving input (sinc³ over the last three
 //! periods: group delay and droop) is simulated by the rig on the analog
-//! side ([`crate::rig::timing`], on in `rig::bench`), which hands this
+//! side ([`crate::rig::timing`], on in [`crate::bench`]), which hands this
 //! model the filtered voltages. Not modelled at all: the filter's settling
 //! after a reset, a channel enable or a gain change, phase calibration,
 //! offset/gain calibration registers (stored, not applied), global chop,
@@ -39,15 +39,12 @@
 
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 
-use super::{clock_operations, ModelBusError};
-use crate::drivers::ads131m02::command::Command;
-use crate::drivers::ads131m02::conversion::{CODE_MAX, CODE_MIN, VREF_VOLTS};
-use crate::drivers::ads131m02::frame::{FrameFormat, MAX_WORD_BYTES};
-use crate::drivers::ads131m02::registers::{
-    pga_gain_of, word_length_of, CrcType, Register, Status,
+use ads131m02::{
+    Command, FrameFormat, Gain, Mode, Rail, Register, Status, CODE_MAX, CODE_MIN, MAX_WORD_BYTES,
+    RESET_REPLY, VREF_VOLTS,
 };
-use crate::drivers::ads131m02::RESET_REPLY;
-use crate::drivers::Rail;
+
+use super::{clock_operations, ModelBusError};
 
 /// Registers the model answers one RREG with: the 6-bit address space. An
 /// RREG of more (the count field allows 128) gets a frame cut at this
@@ -189,10 +186,10 @@ impl Ads131m02Model {
             return;
         }
         let clock = self.reg(Register::Clock);
-        let gain = self.reg(Register::Gain);
-        for ch in 0..2 {
+        let gains = Gain::from_bits(self.reg(Register::Gain)).pga;
+        for (ch, gain) in gains.into_iter().enumerate() {
             let enabled = clock & (1 << (8 + ch)) != 0;
-            let g = pga_gain_of(gain >> (4 * ch)).factor();
+            let g = gain.factor();
             let volts = self.inputs_volts.get(ch).copied().unwrap_or(0.0);
             let code = match (enabled, self.stuck, self.saturate) {
                 (false, _, _) => 0,
@@ -223,15 +220,11 @@ impl Ads131m02Model {
 
     /// The frame format MODE currently sets.
     pub fn format(&self) -> FrameFormat {
-        let mode = self.reg(Register::Mode);
+        let mode = Mode::from_bits(self.reg(Register::Mode));
         FrameFormat {
-            word_length: word_length_of(mode >> 8),
-            crc_type: if mode & (1 << 11) != 0 {
-                CrcType::Ansi
-            } else {
-                CrcType::Ccitt
-            },
-            rx_crc: mode & (1 << 12) != 0,
+            word_length: mode.word_length,
+            crc_type: mode.crc_type,
+            rx_crc: mode.rx_crc_enable,
         }
     }
 

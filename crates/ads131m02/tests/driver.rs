@@ -4,11 +4,11 @@
 
 mod common;
 
-use beamest::drivers::ads131m02::{
-    crc16, Ads131m02, Command, Config, CrcType, Error, PgaGain, Register, Response, WordLength,
+use ads131m02::{
+    crc16, Ads131m02, Command, Config, CrcType, Error, PgaGain, Rail, Register, Response, Status,
+    WordLength,
 };
-use beamest::drivers::Rail;
-use common::{crc16_bitwise, frame, status, FailingSpi, Fmt, ANSI, CCITT, RESET_FMT};
+use common::{crc16_bitwise, frame, status, FailOnce, FailingSpi, Fmt, ANSI, CCITT, RESET_FMT};
 use embedded_hal::spi::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as DelayTx};
 use embedded_hal_mock::eh1::spi::{Mock, Transaction};
@@ -354,6 +354,86 @@ fn spi_errors_are_reported() {
     let e = d.read_frame().unwrap_err();
     assert!(format!("{e}").contains("SPI error"));
     let _: &dyn core::error::Error = &e;
+}
+
+#[test]
+fn an_answer_owed_by_a_failed_operation_is_no_sample() {
+    let read_clock = Command::read(Register::Clock);
+    let mut ex = Vec::new();
+    // RREG CLOCK (A180h) completes: the device latches it.
+    ex.extend(frame(
+        RESET_FMT.din(0xA180, &[]),
+        RESET_FMT.dout(STATUS_AFTER_RESET, 0, 0),
+    ));
+    // (The NULL that should collect the answer fails on the bus.)
+    // The next frame carries the register, not STATUS: no sample.
+    ex.extend(frame(RESET_FMT.din(0, &[]), RESET_FMT.dout(0x030E, 7, 7)));
+    // And the frame after it is a normal one again.
+    ex.extend(frame(
+        RESET_FMT.din(0, &[]),
+        RESET_FMT.dout(STATUS_AFTER_RESET, 5, -5),
+    ));
+    let spi = FailOnce {
+        mock: Mock::new(&ex),
+        fail_at: 2,
+        seen: 0,
+    };
+    let mut d = Ads131m02::new(spi);
+    assert_eq!(
+        d.read_register(Register::Clock),
+        Err(Error::Spi(ErrorKind::Other))
+    );
+    assert_eq!(d.pending(), read_clock);
+    assert_eq!(
+        d.read_frame(),
+        Err(Error::OwedResponse {
+            command: read_clock
+        })
+    );
+    let f = d.read_frame().unwrap();
+    assert_eq!([f.channels[0].code(), f.channels[1].code()], [5, -5]);
+    d.destroy().mock.done();
+}
+
+#[test]
+fn error_messages_name_the_chip_and_are_distinct() {
+    let s = Status::from_bits(STATUS_AFTER_RESET).unwrap();
+    let errors: [Error<ErrorKind>; 14] = [
+        Error::Spi(ErrorKind::Other),
+        Error::Crc {
+            received: 1,
+            computed: 2,
+        },
+        Error::UnexpectedResponse {
+            command: Command::Null,
+            response: 0xFFFF,
+        },
+        Error::OwedResponse {
+            command: Command::Lock,
+        },
+        Error::ResetReply(0x0011),
+        Error::IdMismatch(0x2400),
+        Error::InputCrc(s),
+        Error::ResyncFault(s),
+        Error::UnexpectedReset(s),
+        Error::StatusMismatch(s),
+        Error::NoNewData(s),
+        Error::StuckData { frames: 3 },
+        Error::ConfigMismatch {
+            register: Register::Mode,
+            wrote: 1,
+            read: 0,
+        },
+        Error::InvalidArgument,
+    ];
+    let messages: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
+    for (i, m) in messages.iter().enumerate() {
+        assert!(m.starts_with("ADS131M02: "), "{m}");
+        assert!(!m.contains('\n'), "{m}");
+        for other in &messages[i + 1..] {
+            assert_ne!(m, other);
+        }
+    }
 }
 
 #[test]

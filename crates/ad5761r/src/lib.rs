@@ -1,15 +1,17 @@
-//! ADI AD5761R driver: 16-bit, bipolar/unipolar voltage-output DAC with a
-//! 2.5 V internal reference.
+//! Platform-agnostic driver for the ADI AD5761R: 16-bit, bipolar/unipolar
+//! voltage-output DAC with a 2.5 V internal reference, on `embedded-hal`
+//! 1.0 alone (`no_std`, no allocation). The README has the wiring and a
+//! usage example.
 //!
-//! Source: AD5761R/AD5721R data sheet Rev. C; [`registers`] says which facts
-//! were read in it and which come from ADI's own drivers.
+//! Source: AD5761R/AD5721R data sheet Rev. C; the `registers` module says
+//! which facts were read in it and which come from ADI's own drivers.
 //!
 //! # Protocol
 //! * One 24-bit word per SYNC-low period (one [`SpiDevice`] transaction):
-//!   DB19:16 command, DB15:0 data, MSB first. The device latches SDI on
-//!   SCLK falling edges; [`SPI_MODE`] is mode 1, which a working third-party
-//!   driver uses. The data-sheet timing diagram was not available here:
-//!   check CPOL on the rig with a scope.
+//!   DB19:16 command, DB15:0 data, MSB first (Table 14). The device latches
+//!   SDI on SCLK falling edges; [`SPI_MODE`] is mode 1, which a working
+//!   third-party driver uses. The data-sheet timing diagram could not be
+//!   read: check CPOL on hardware with a scope.
 //! * A readback command (1010/1011/1100) makes the device shift the register
 //!   out of SDO during the **next** frame, echoing the command in DB19:16
 //!   (Table 15). The driver sends the readback, then a NOP whose SDO word it
@@ -18,24 +20,46 @@
 //! * Writes ([`Ad5761r::write_volts`], [`Ad5761r::write_code`]) are
 //!   write-only transactions (command 0011, write and update DAC register):
 //!   no SDO is read on the sample path.
+//! * Volts ↔ code: [`Transfer`], V_OUT = V_REF·(M·D/2¹⁶ − C) per range
+//!   (Table 13 for the bipolar codings); a request beyond a rail writes
+//!   that rail and says so ([`DacWrite::clamped`]), it never wraps.
 //!
 //! # Power-up and safety
-//! The project's design notes (and the data sheet's description, as
-//! summarised there) have the output clamped until the control register is
-//! written; the exact power-on output was not verified here. [`Ad5761r::init`]
+//! The data sheet's description, as summarised in the design notes this
+//! driver was written from, has the output clamped until the control
+//! register is written; the exact power-on output was not verified. [`Ad5761r::init`]
 //! does a software full reset, so the output starts from the power-on state
 //! whatever ran before, then writes the control register with the
 //! configured power-up level. Pick [`ScaleLevel::Mid`] for the symmetric
 //! bipolar ranges: zero scale there is the *negative* rail (−10 V on ±10 V).
 //!
 //! # Pins
-//! The driver owns only the SPI device. LDAC, CLEAR and RESET are not used:
+//! The driver owns only the SPI device ([`Ad5761r::new`] takes it,
+//! [`Ad5761r::destroy`] gives it back). LDAC, CLEAR and RESET are not used:
 //! command 0011 updates the output without LDAC, and the software resets
-//! replace the RESET pin; tie LDAC low, CLEAR and RESET high on the board.
+//! replace the RESET pin; tie LDAC low, CLEAR and RESET high (or drive
+//! them from the application).
+//!
+//! # Sample path
+//! [`Ad5761r::write_volts`] is one multiply-add, two compares, a cast and
+//! one 3-byte write: no allocation, no formatting, no panic, no fallible
+//! indexing (the crate denies `unwrap`, `expect`, `panic!` and indexing).
+//!
+//! # Features
+//! * `defmt`: derive `defmt::Format` on every public type.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
-pub mod error;
-pub mod registers;
-pub mod transfer;
+mod error;
+mod registers;
+mod transfer;
 
 use embedded_hal::spi::SpiDevice;
 
@@ -43,7 +67,31 @@ pub use error::{ConfigError, Error};
 pub use registers::{
     BipolarCoding, Command, ControlReadback, ControlRegister, OutputRange, ScaleLevel, CONTROL_MASK,
 };
-pub use transfer::{DacWrite, Transfer, INTERNAL_VREF_VOLTS};
+pub use transfer::{DacWrite, NotFinite, Transfer, INTERNAL_VREF_VOLTS, OVERRANGE_FACTOR};
+
+/// The README's usage example, compiled as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;
+
+/// Which end of the DAC's range a request went beyond.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Rail {
+    /// The lowest output voltage (straight-binary code 0000h).
+    Low,
+    /// The highest output voltage (straight-binary code FFFFh).
+    High,
+}
+
+impl core::fmt::Display for Rail {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Rail::Low => "low rail",
+            Rail::High => "high rail",
+        })
+    }
+}
 
 /// SPI mode used for the AD5761R (see the module docs).
 pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;

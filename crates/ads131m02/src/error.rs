@@ -70,7 +70,7 @@ pub enum Error<E> {
         read: u16,
     },
     /// A request the driver cannot encode (e.g. RREG of 0 or more than
-    /// [`super::MAX_READ_REGISTERS`] registers).
+    /// [`crate::MAX_READ_REGISTERS`] registers).
     InvalidArgument,
 }
 

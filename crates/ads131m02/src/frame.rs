@@ -123,7 +123,7 @@ impl FrameFormat {
 
 /// Encode a 24-bit code (sign-extended in an `i32`) as the first
 /// `word_length.bytes()` bytes of the returned array.
-pub fn encode_data(word_length: WordLength, code: i32) -> [u8; MAX_WORD_BYTES] {
+fn encode_data(word_length: WordLength, code: i32) -> [u8; MAX_WORD_BYTES] {
     let c = (code & 0x00FF_FFFF) as u32;
     match word_length {
         // Truncated to the 16 MSBs.
@@ -136,7 +136,7 @@ pub fn encode_data(word_length: WordLength, code: i32) -> [u8; MAX_WORD_BYTES] {
 
 /// Decode a data word (the first `word_length.bytes()` bytes of `w`) to
 /// the 24-bit code scale, sign-extended.
-pub fn decode_data(word_length: WordLength, w: [u8; MAX_WORD_BYTES]) -> i32 {
+fn decode_data(word_length: WordLength, w: [u8; MAX_WORD_BYTES]) -> i32 {
     let [a, b, c, d] = w;
     match word_length {
         WordLength::Bits16 => i32::from_be_bytes([a, b, 0, 0]) >> 8,

@@ -1,6 +1,16 @@
-//! The simulated bench: the paper's beam (Section IV.A) behind a realistic
-//! front end — one set of settings for the QEMU image and the host tests
-//! that run the firmware's data path, so both simulate the same rig.
+//! The simulated bench, assembled: the rig's beam and converter chip models
+//! ([`crate::rig`]) behind the sample task's front end ([`ConverterRig`]),
+//! with one set of settings for the QEMU image and the host tests that run
+//! the firmware's data path (pipeline, link), so both simulate the same
+//! bench. It stands above the simulator and the sample task, which know
+//! nothing of each other.
+//!
+//! * [`ConverterRig`] — the plant between the two chip models with the
+//!   analog front end (amplifier, bridge, monitor: the pipeline's
+//!   conversion run backwards), one DRDY period per tick;
+//! * the settings below: the paper's beam (Section IV.A), the converters'
+//!   configuration and timing, the front end, the excitation, the
+//!   estimator's filter, the pipeline and the link.
 //!
 //! | part | setting | why |
 //! |---|---|---|
@@ -29,11 +39,17 @@
 //! the timing biases ζ by +0.5 % (docs/RIG.md, "The ADS131M02's filter
 //! delay"; `host-tests/tests/firmware_pipeline.rs` checks both ways).
 
-use super::converter::{ConverterModels, ConverterRig, RigError};
-use super::plant::{ModalPlant, PlantError};
-use super::timing::ConverterTiming;
-use crate::drivers::ad5761r;
-use crate::drivers::ads131m02::{self, PgaGain};
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+mod converter;
+
+pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
+
 use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
 use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
@@ -44,7 +60,9 @@ use crate::pipeline::{
 };
 use crate::protocol::budget::uart_bytes_per_s;
 use crate::protocol::{self, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
+use crate::rig::{ConverterTiming, ModalPlant, PlantError};
 use crate::scalar::Real;
+use ads131m02::PgaGain;
 
 /// Sample rate (Hz): the paper's Ts = 0.1 ms.
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;

@@ -108,7 +108,7 @@ impl Register {
 
 /// Expected high byte of the ID register: reserved nibble 2h and
 /// `CHANCNT[3:0]` = 2 (Table 8-12, "22xxh").
-pub const ID_HIGH_BYTE: u8 = 0x22;
+pub(crate) const ID_HIGH_BYTE: u8 = 0x22;
 
 macro_rules! bit_enum {
     ($(#[$m:meta])* $name:ident : $mask:literal { $($(#[$vm:meta])* $var:ident = $val:literal),+ $(,)? }) => {
@@ -308,7 +308,7 @@ pub struct Status {
 }
 
 /// STATUS bits 7:2 are reserved on the two-channel part (Table 8-12).
-pub const STATUS_RESERVED_MASK: u16 = 0x00FC;
+const STATUS_RESERVED_MASK: u16 = 0x00FC;
 
 impl Status {
     /// Encode to the 16-bit register value.
@@ -412,7 +412,7 @@ impl Mode {
 }
 
 /// Infallible decode of a 2-bit WLENGTH field (all four codes are named).
-pub(crate) const fn word_length_of(bits: u16) -> WordLength {
+const fn word_length_of(bits: u16) -> WordLength {
     match bits & 0b11 {
         0 => WordLength::Bits16,
         1 => WordLength::Bits24,
@@ -477,7 +477,7 @@ const fn osr_of(bits: u16) -> Osr {
 }
 
 /// Infallible decode of a 3-bit PGAGAIN field (all eight codes are named).
-pub(crate) const fn pga_gain_of(bits: u16) -> PgaGain {
+const fn pga_gain_of(bits: u16) -> PgaGain {
     match bits & 0b111 {
         0 => PgaGain::G1,
         1 => PgaGain::G2,

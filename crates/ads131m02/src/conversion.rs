@@ -9,7 +9,7 @@
 //! conversion is reported as saturated, never as a value.
 
 use super::registers::{PgaGain, WordLength};
-use crate::drivers::Rail;
+use crate::Rail;
 
 /// Internal reference voltage V_REF in volts (§8.3.4).
 pub const VREF_VOLTS: f64 = 1.2;
@@ -26,7 +26,7 @@ pub fn lsb_volts(gain: PgaGain) -> f64 {
 
 /// The largest code a word of `word_length` can carry (16-bit words drop
 /// the 8 LSBs, so their full scale is 7FFF00h on the 24-bit scale).
-pub const fn positive_full_scale(word_length: WordLength) -> i32 {
+const fn positive_full_scale(word_length: WordLength) -> i32 {
     match word_length {
         WordLength::Bits16 => CODE_MAX & !0xFF,
         _ => CODE_MAX,

@@ -32,7 +32,7 @@
 //! `Rig::tick` and of the host runner (test
 //! `host-tests/tests/firmware_pipeline.rs`, sample for sample) when the
 //! timing is [`ConverterTiming::IDEAL`] (the default of
-//! [`ConverterRig::new`]); `rig::bench::converter_rig` sets the board's
+//! [`ConverterRig::new`]); [`crate::bench::converter_rig`] sets the board's
 //! timing, which the estimator then models (`FilterConfig::timing`).
 //!
 //! Faults are injected in the models ([`ConverterModels::adc`]: bad CRC,
@@ -47,12 +47,11 @@
 use core::cell::RefCell;
 use core::fmt;
 
-use super::chips::{Ad5761rModel, Ads131m02Model, Shared};
-use super::noise::GaussianNoise;
-use super::plant::ModalPlant;
-use super::timing::{ConverterTiming, TimedPlant};
-use crate::drivers::ads131m02::VREF_VOLTS;
+use ads131m02::VREF_VOLTS;
+
 use crate::pipeline::{AnalogFrontEnd, ConversionConfig, ConversionError};
+use crate::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use crate::rig::{ConverterTiming, GaussianNoise, ModalPlant, TimedPlant};
 
 /// The two converter models of the rig.
 #[derive(Debug, Default)]
@@ -249,12 +248,12 @@ impl<'a> ConverterRig<'a> {
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
-    use crate::drivers::ad5761r::{self, Ad5761r};
-    use crate::drivers::ads131m02::Ads131m02;
+    use crate::bench::{adc_config, conversion};
     use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
     use crate::pipeline::{bring_up, PiezoDac, StrainAdc};
-    use crate::rig::bench::{adc_config, conversion};
     use crate::rig::chips::ads131m02::quantize;
+    use ad5761r::Ad5761r;
+    use ads131m02::Ads131m02;
 
     struct NoDelay;
 

@@ -1,17 +1,19 @@
-//! TI ADS131M02 driver: 24-bit, 2-channel, simultaneous-sampling ΔΣ ADC.
+//! Platform-agnostic driver for the TI ADS131M02: 24-bit, 2-channel,
+//! simultaneous-sampling ΔΣ ADC, on `embedded-hal` 1.0 alone (`no_std`, no
+//! allocation). The README has the wiring and a usage example.
 //!
 //! Sources: ADS131M02 data sheet SBAS853A (TI, Jan 2020, rev. Apr 2021).
-//! Where the search tools here could not return the M02's own page, the
-//! identical section of a sibling ADS131M0x data sheet was read and is
-//! named in the module that uses it; every constant cites its table.
+//! Where the M02's own page could not be read, the identical section of a
+//! sibling ADS131M0x data sheet was read and is named in the module that
+//! uses it; every constant cites its table.
 //!
 //! # Protocol, as modelled here
 //! * SPI mode 1 (CPOL 0, CPHA 1), MSB first ([`SPI_MODE`]); one frame per
 //!   CS-low period, so one [`SpiDevice::transaction`] per frame.
 //! * The first DOUT word of a frame answers the command of the **previous**
 //!   frame (Table 8-11). The driver remembers the command it sent last
-//!   (`pending`) and checks every frame's first word against it
-//!   ([`Command::decode_response`]); a word that does not answer it is
+//!   ([`Ads131m02::pending`]) and checks every frame's first word against
+//!   it ([`Command::decode_response`]); a word that does not answer it is
 //!   [`Error::UnexpectedResponse`], a RESET not answered by FF22h is
 //!   [`Error::ResetReply`].
 //! * Every frame's output CRC is checked ([`Error::Crc`]); every STATUS
@@ -26,41 +28,60 @@
 //!   pipelines its three writes, each frame checking the previous answer.
 //! * MODE changes (word length, CRC type, input CRC) are assumed to apply
 //!   from the frame after the WREG that writes them; the data-sheet text
-//!   that states this was not available here, so the behaviour is the
-//!   driver's (and the chip model's) assumption — confirm it on the rig.
+//!   that states this could not be read, so the behaviour is the driver's
+//!   assumption — confirm it on hardware.
 //!
 //! # Pins
-//! The driver owns only the SPI device. DRDY is the board's sample
-//! interrupt, so it belongs to the board code, which calls
+//! The driver owns only the SPI device ([`Ads131m02::new`] takes it,
+//! [`Ads131m02::destroy`] gives it back). DRDY is the application's sample
+//! interrupt, so it stays with the application, which calls
 //! [`Ads131m02::read_frame`] from that interrupt. The SYNC/RESET pin must
 //! be held high; the software RESET command does what a pin reset does and
 //! is the only reset that is acknowledged (FF22h), so the driver uses it.
 //! If the MCU restarts while the ADC runs with a non-default word length,
-//! the RESET frame is mis-framed: pulse SYNC/RESET (board code) or
+//! the RESET frame is mis-framed: pulse SYNC/RESET (application code) or
 //! power-cycle before [`Ads131m02::reset`].
 //!
 //! # Sample path
 //! [`Ads131m02::read_frame`] is one 12-byte (24-bit words) transfer, one
 //! table-driven CRC and a few comparisons: no allocation, no formatting, no
-//! panic, no fallible indexing (the lints in [`crate::drivers`]).
+//! panic, no fallible indexing (the crate denies `unwrap`, `expect`,
+//! `panic!` and indexing).
+//!
+//! # Features
+//! * `defmt`: derive `defmt::Format` on every public type.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
-pub mod command;
-pub mod conversion;
-pub mod error;
-pub mod frame;
-pub mod registers;
+mod command;
+mod conversion;
+mod error;
+mod frame;
+mod registers;
 
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
 
 pub use command::{Command, Response, MAX_READ_REGISTERS, RESET_REPLY};
-pub use conversion::{Conversion, Saturated, VREF_VOLTS};
+pub use conversion::{lsb_volts, Conversion, Saturated, CODE_MAX, CODE_MIN, VREF_VOLTS};
 pub use error::Error;
-pub use frame::{crc16, FrameFormat};
+pub use frame::{crc16, FrameFormat, FRAME_WORDS, MAX_FRAME_BYTES, MAX_WORD_BYTES};
 pub use registers::{
     Clock, CrcType, DrdyFormat, DrdySelect, Gain, Mode, Osr, PgaGain, PowerMode, Register, Status,
     WordLength,
 };
+
+/// The README's usage example, compiled as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;
 
 /// SPI mode of the ADS131M02: CPOL 0, CPHA 1, MSB first (SBAS853A §8.5.1
 /// Interface; TI application note SBAA858 states mode 1 for the ADS131M0x
@@ -71,9 +92,29 @@ pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;
 /// next frame, in µs (§6.7 Switching Characteristics: 5 µs).
 pub const T_REGACQ_US: u32 = 5;
 
+/// Which end of the ADC's range a code sits at (Table 8-10: the output
+/// clips at 7FFFFFh and 800000h).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Rail {
+    /// Negative full scale, 800000h.
+    Low,
+    /// Positive full scale, 7FFFFFh (7FFFh in 16-bit words).
+    High,
+}
+
+impl core::fmt::Display for Rail {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Rail::Low => "low rail",
+            Rail::High => "high rail",
+        })
+    }
+}
+
 /// Bytes of the longest frame the driver clocks: the answer to an RREG of
 /// [`MAX_READ_REGISTERS`] registers (ack + registers + CRC) in 32-bit words.
-const LONG_FRAME_BYTES: usize = (MAX_READ_REGISTERS + 2) * frame::MAX_WORD_BYTES;
+const LONG_FRAME_BYTES: usize = (MAX_READ_REGISTERS + 2) * MAX_WORD_BYTES;
 
 /// Writable bits of MODE, CLOCK and GAIN1 (Table 8-12), compared after
 /// configuration.
@@ -247,7 +288,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     pub fn reset(&mut self, delay: &mut impl DelayNs) -> Result<u16, Error<SPI::Error>> {
         // The RESET frame must be complete to be latched: as long as the
         // answer to a multi-register read still owed, if there is one.
-        let words = frame::FRAME_WORDS.max(self.pending.response_register_words() + 2);
+        let words = FRAME_WORDS.max(self.pending.response_register_words() + 2);
         let mut buf = [0u8; LONG_FRAME_BYTES];
         let tx = buf
             .get_mut(..words * self.format.word_bytes())
@@ -479,7 +520,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             let rx = buf.get_mut(..n).ok_or(Error::InvalidArgument)?;
             return Ok((self.transact(rx, cmd, data)?, [0; 2]));
         }
-        let mut buf = [0u8; frame::MAX_FRAME_BYTES];
+        let mut buf = [0u8; MAX_FRAME_BYTES];
         let n = self.format.frame_bytes();
         let rx = buf.get_mut(..n).ok_or(Error::InvalidArgument)?;
         let response = self.transact(rx, cmd, data)?;

@@ -2,7 +2,7 @@
 //! wrapped.
 //!
 //! Transfer function V_OUT = V_REF·(M·D/2¹⁶ − C) with D the straight-binary
-//! code and (M, C) per range ([`super::registers::OutputRange::m_c_tenths`]); in two's
+//! code and (M, C) per range ([`crate::OutputRange::m_c_tenths`]); in two's
 //! complement coding the code written is D XOR 8000h (Table 13). The 5 %
 //! overrange (OVR) is modelled as M and C both scaled by 1.05 (a span 5 %
 //! wider on each side of the range's own zero); that scaling is this
@@ -10,13 +10,15 @@
 //! sheet's overrange table, which was not available here.
 
 use super::registers::{BipolarCoding, ControlRegister};
-use crate::drivers::Rail;
+use crate::Rail;
 
 /// Internal reference voltage, volts (data sheet front page: "2.5 V
 /// reference").
 pub const INTERNAL_VREF_VOLTS: f32 = 2.5;
 
-/// Overrange factor applied to M and C when OVR is set (see module docs).
+/// Overrange factor applied to M and C when OVR is set: the span 5 % wider
+/// on each side of the range's own zero. This is the driver's reading of
+/// "5 % overrange", not checked against the data sheet's overrange table.
 pub const OVERRANGE_FACTOR: f32 = 1.05;
 
 /// A code to write, and whether the requested voltage was beyond a rail.

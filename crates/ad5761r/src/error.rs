@@ -9,7 +9,7 @@ use core::fmt;
 pub enum Error<E> {
     /// The SPI transaction failed.
     Spi(E),
-    /// A voltage was requested before [`super::Ad5761r::init`]: the
+    /// A voltage was requested before [`crate::Ad5761r::init`]: the
     /// transfer function (range, coding) is unknown.
     NotConfigured,
     /// The requested voltage is NaN or infinite; nothing was written.

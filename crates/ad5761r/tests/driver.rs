@@ -4,11 +4,10 @@
 
 mod common;
 
-use beamest::drivers::ad5761r::{
-    Ad5761r, BipolarCoding, Config, ConfigError, DacWrite, Error, OutputRange, Reference,
+use ad5761r::{
+    Ad5761r, BipolarCoding, Config, ConfigError, DacWrite, Error, OutputRange, Rail, Reference,
     ScaleLevel,
 };
-use beamest::drivers::Rail;
 use common::{frame, write, FailingSpi, DAC_SPANS};
 use embedded_hal::spi::ErrorKind;
 use embedded_hal_mock::eh1::spi::{Mock, Transaction};
@@ -210,4 +209,32 @@ fn spi_errors_are_reported() {
     let e = d.read_dac().unwrap_err();
     assert!(e.to_string().contains("SPI error"));
     let _: &dyn core::error::Error = &e;
+}
+
+#[test]
+fn error_messages_name_the_chip_and_are_distinct() {
+    let errors: [Error<ErrorKind>; 6] = [
+        Error::Spi(ErrorKind::Other),
+        Error::NotConfigured,
+        Error::NotFinite,
+        Error::InvalidConfig(ConfigError::ReferenceVoltage),
+        Error::ConfigMismatch {
+            wrote: 0x268,
+            read: 0x068,
+        },
+        Error::UnexpectedReadback {
+            command: 0xC,
+            word: 0x0B_0268,
+        },
+    ];
+    let messages: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
+    for (i, m) in messages.iter().enumerate() {
+        assert!(m.starts_with("AD5761R: "), "{m}");
+        assert!(!m.contains('\n'), "{m}");
+        for other in &messages[i + 1..] {
+            assert_ne!(m, other);
+        }
+    }
+    assert_eq!(Rail::Low.to_string(), "low rail");
+    assert_eq!(Rail::High.to_string(), "high rail");
 }
