@@ -1,8 +1,7 @@
 //! How an estimate is judged: against the measurement (model output fit,
-//! [`fit`]), against the best any unbiased estimator can do (the
-//! Cramér–Rao bound, [`bound`]), and the tables and JSON that report it
-//! ([`report`]).
+//! [`fit`]) and against the best any unbiased estimator can do (the
+//! Cramér–Rao bound, [`bound`]). The tables and JSON that report it are
+//! [`crate::io::report`].
 
 pub mod bound;
 pub mod fit;
-pub mod report;
