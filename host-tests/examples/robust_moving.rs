@@ -7,13 +7,13 @@
 //! (`timing`: the bench's converters simulated; `modelled`: the estimator
 //! models them, `FilterConfig::timing`.)
 
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::estimator::{Estimator, Robust2};
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::bench;
 use beamest::rig::timing::{ConverterTiming, TimedPlant};
 use beamest::scalar::Real;

@@ -20,6 +20,7 @@
 //! pipeline at the swap, as settled; and the guard flagged the resting
 //! beam's repeated ADC code as a stuck sensor (82,180 samples).
 
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::robust::{Pending, Phase, UpdateError};
@@ -29,7 +30,6 @@ use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{bring_up, NoSink, Pipeline};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::{bench, ConverterModels};
 use heapless::spsc::Queue;
 

@@ -25,10 +25,10 @@
 
 use crate::model::ModalParams;
 use crate::pipeline::{self, Counters, Recovered, TelemetryRecord};
-use crate::protocol::{
+use crate::scalar::Real;
+use beam_protocol::{
     DeviceCounters, Estimate, EstimatorKind, ModeEstimate, StatusFlags, MAX_MODES,
 };
-use crate::scalar::Real;
 
 /// The firmware's rules for the flags that need a threshold.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -333,7 +333,7 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     let theta = record
         .theta
         .iter()
-        .take(crate::protocol::MAX_THETA)
+        .take(beam_protocol::MAX_THETA)
         .map(|v| v.to_f64() as f32)
         .collect();
     Estimate {

@@ -41,12 +41,12 @@ use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{
+use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorSettings, Excitation, Frame,
     LinkCounters, Message, RejectReason, Status, StatusFlags, TelemetryRates, Waveform,
     MAX_ENCODED_LEN,
 };
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
 use crate::qemu::{command, wait, Serial};
 use crate::{stream, QEMU};

@@ -34,11 +34,11 @@ use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{
+use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorKind, EstimatorSettings, Excitation,
     Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
 };
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
 use crate::e2e::{session, LinkHost};
 

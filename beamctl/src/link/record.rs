@@ -22,7 +22,7 @@
 
 use super::host::Host;
 use super::text;
-use beamest::protocol::{
+use beam_protocol::{
     Command, DecodeError, Estimate, Frame, Message, RawSamples, Status, MAX_MODES, MAX_THETA,
 };
 use std::fs::File;
@@ -248,7 +248,7 @@ impl Recorder {
             Message::Ack(a) => {
                 row.set(cols, "command_seq", a.command_seq);
                 row.set(cols, "result", text::result_name(a.result));
-                if let beamest::protocol::AckResult::Rejected(r) = a.result {
+                if let beam_protocol::AckResult::Rejected(r) = a.result {
                     row.set(cols, "detail", r.describe());
                 }
             }

@@ -4,7 +4,7 @@
 //! [`command_text`] writes a command in the syntax `beamctl send` accepts,
 //! so a line of a record or of the monitor's log can be sent again as is.
 
-use beamest::protocol::{
+use beam_protocol::{
     AckResult, Command, EstimatorKind, EstimatorSettings, Excitation, LinkCounters, Status,
     StatusFlags, TelemetryRates, Waveform,
 };
@@ -248,7 +248,7 @@ pub fn counters_text(c: &LinkCounters) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamest::protocol::RejectReason;
+    use beam_protocol::RejectReason;
 
     #[test]
     fn flags_by_name() {

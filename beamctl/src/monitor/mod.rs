@@ -29,8 +29,8 @@ mod tui;
 
 use crate::error::CliError;
 use crate::send::{self, CommandArgs, DeviceArgs};
+use beam_protocol::{Command, DecodeError, Message};
 use beamctl::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
-use beamest::protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
 use state::State;
 use std::fs::File;

@@ -3,8 +3,8 @@
 //! log of commands and their answers. The terminal view and the plain
 //! output are both drawn from a [`State`].
 
+use beam_protocol::{Estimate, Frame, Message, MAX_MODES};
 use beamctl::link::{text, Host};
-use beamest::protocol::{Estimate, Frame, Message, MAX_MODES};
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -135,7 +135,7 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
     let t = host
         .time_s(e.sample_index)
         .map_or_else(|| "?".to_string(), |t| t.to_string());
-    let list = |f: &dyn Fn(&beamest::protocol::ModeEstimate) -> f32| {
+    let list = |f: &dyn Fn(&beam_protocol::ModeEstimate) -> f32| {
         if e.modes.is_empty() {
             "-".to_string()
         } else {

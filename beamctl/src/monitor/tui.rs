@@ -30,8 +30,8 @@
 use super::state::State;
 use super::{Event, KeyAction};
 use crate::send::{self, CommandArgs};
+use beam_protocol::{StatusFlags, MAX_MODES};
 use beamctl::link::text;
-use beamest::protocol::{StatusFlags, MAX_MODES};
 use ratatui::crossterm::event::{self as ct, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style, Stylize};

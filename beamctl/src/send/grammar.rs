@@ -3,7 +3,7 @@
 //! [`Command`], with the settings not given taken from the device's last
 //! Status.
 
-use beamest::protocol::{
+use beam_protocol::{
     Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
 };
 use clap::{Args, Parser, Subcommand, ValueEnum};

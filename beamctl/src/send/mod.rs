@@ -18,9 +18,9 @@
 //! answer within `--timeout`.
 
 use crate::error::CliError;
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
 use beamctl::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
-use beamest::protocol::budget::uart_bytes_per_s;
-use beamest::protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
 use clap::{ArgGroup, Args};
 
 mod grammar;
@@ -320,8 +320,8 @@ fn command_name(c: &CommandArgs) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use beam_protocol::Status;
     use beamctl::link::fake::FakeDevice;
-    use beamest::protocol::Status;
 
     fn status() -> Status {
         FakeDevice::new(beamctl::link::fake::FakeConfig::default()).status()
@@ -339,8 +339,8 @@ mod tests {
         let c = build("excitation --freq 6000", Some(&s)).unwrap();
         // No Status yet: nothing to check against.
         assert_eq!(check_locally(&c, &host, &tcp), Ok(None));
-        let mut buf = [0u8; beamest::protocol::MAX_ENCODED_LEN];
-        let n = beamest::protocol::encode(&s, 0, &mut buf).unwrap();
+        let mut buf = [0u8; beam_protocol::MAX_ENCODED_LEN];
+        let n = beam_protocol::encode(&s, 0, &mut buf).unwrap();
         host.receive(&buf[..n], Instant::now());
         assert_eq!(check_locally(&c, &host, &tcp), Err(RejectReason::Frequency));
         // The piezo window is not in a Status: left to the device.

@@ -13,6 +13,9 @@
 
 use std::collections::VecDeque;
 
+use beam_protocol::{
+    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
+};
 use beamest::drivers::ad5761r::Ad5761r;
 use beamest::drivers::ads131m02::Ads131m02;
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
@@ -22,9 +25,6 @@ use beamest::link::{
     estimator_configs, with_theta0, Device, DeviceLink, Settings, StartupCollector, Tuned, TxSink,
 };
 use beamest::pipeline::{bring_up, Pipeline, RawBlock, TelemetryRecord, Tick};
-use beamest::protocol::{
-    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
-};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::rig::{bench, ConverterModels, ConverterRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
@@ -185,7 +185,7 @@ pub struct Bench<'a> {
 /// Build the bench with `excitation` instead of the bench's square wave
 /// (if given) and run `f` on it.
 pub fn with_bench<R>(
-    excitation: Option<beamest::protocol::Excitation>,
+    excitation: Option<beam_protocol::Excitation>,
     f: impl FnOnce(&mut Bench<'_>) -> R,
 ) -> R {
     let models = ConverterModels::new();

@@ -45,6 +45,7 @@ mod report;
 mod robust;
 mod sample;
 
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
@@ -55,7 +56,6 @@ use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::{BuildKind, DeviceLink, Settings, Tuned};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::{bench, ConverterModels};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use cortex_m_rt::entry;
@@ -190,7 +190,7 @@ fn main() -> ! {
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
         board::UART_BAUD,
-        beamest::protocol::VERSION,
+        beam_protocol::VERSION,
         Fixed(link.settings().telemetry.estimate_rate_hz.into(), 0),
         Fixed(link.settings().telemetry.status_rate_hz.into(), 0),
         Fixed(f64::from(run_samples) * bench::TS_S, 1),

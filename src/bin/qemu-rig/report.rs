@@ -13,6 +13,7 @@
     clippy::indexing_slicing
 )]
 
+use beam_protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
 use beamest::board::qemu::uart::{self, UartTx};
@@ -21,7 +22,6 @@ use beamest::link::{DeviceLink, Sent, Transmitter, TxSink};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{recover, Recovered};
-use beamest::protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::rig::bench;
 use beamest::tuning::{Phase, Settled};
 use cortex_m_semihosting::hprintln;
