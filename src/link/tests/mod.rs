@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::excitation::{Excitation, SafeWindow, Shape};
-use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts, RAW_BLOCK_LEN};
+use crate::pipeline::{PipelineError, StepCounts, RAW_BLOCK_LEN};
 use beam_protocol::budget::uart_bytes_per_s;
 use beam_protocol::{
     encode, Estimate, EstimatorKind, Excitation as PExcitation, Frame, Message, Waveform,
@@ -481,7 +481,8 @@ fn record(index: u64, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
         lambda_rad_s: 100.0,
         u_v: 0.0,
         y: 0.0,
-        flags: PF(0),
+        flags: beam_protocol::StatusFlags::default(),
+        supervised: false,
         steps: StepCounts::default(),
         counters,
     }
