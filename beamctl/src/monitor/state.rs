@@ -152,7 +152,7 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
     format!(
         "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_min={level} flags={}",
         e.sample_index,
-        text::estimator_name(e.estimator),
+        e.estimator.name(),
         list(&|m| m.omega_rad_s),
         list(&|m| m.zeta),
         list(&|m| m.b_bar),

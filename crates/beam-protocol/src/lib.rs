@@ -89,7 +89,7 @@ pub use frame::{
 };
 pub use telemetry::{
     Ack, AckResult, DeviceCounters, Estimate, EstimatorKind, FirmwareVersion, ModeEstimate,
-    RawSamples, Status, StatusFlags, UySample,
+    RawSamples, Status, StatusFlags, UnknownEstimator, UySample,
 };
 pub use validate::Limits;
 

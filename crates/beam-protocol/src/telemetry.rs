@@ -3,6 +3,9 @@
 //! struct as its fields in declaration order); `docs/PROTOCOL.md` lists each
 //! field's bytes.
 
+use core::fmt;
+use core::str::FromStr;
+
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
@@ -42,6 +45,48 @@ impl EstimatorKind {
     /// This kind's bit in [`Limits::estimators`](super::Limits::estimators).
     pub const fn bit(self) -> u8 {
         1 << (self as u8)
+    }
+
+    /// The kind's name, as the host tools write and read it: `adaptive`,
+    /// `gradient`, `ls`, `robust`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Adaptive => "adaptive",
+            Self::Gradient => "gradient",
+            Self::LeastSquares => "ls",
+            Self::Robust => "robust",
+        }
+    }
+}
+
+impl fmt::Display for EstimatorKind {
+    /// The [`name`](Self::name).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is no [`EstimatorKind`]'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownEstimator;
+
+impl fmt::Display for UnknownEstimator {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("not an estimator kind (adaptive, gradient, ls, robust)")
+    }
+}
+
+impl core::error::Error for UnknownEstimator {}
+
+impl FromStr for EstimatorKind {
+    type Err = UnknownEstimator;
+
+    /// The kind of this [`name`](Self::name) (exact match).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or(UnknownEstimator)
     }
 }
 
@@ -415,6 +460,18 @@ mod tests {
                 "{theta} {modes}"
             );
         }
+    }
+
+    #[test]
+    fn estimator_names_round_trip() {
+        for k in EstimatorKind::ALL {
+            assert_eq!(k.name().parse(), Ok(k));
+        }
+        assert_eq!(
+            "least-squares".parse::<EstimatorKind>(),
+            Err(UnknownEstimator)
+        );
+        assert_eq!(EstimatorKind::LeastSquares.to_string(), "ls");
     }
 
     #[test]
