@@ -35,9 +35,9 @@
 //!   window, the filter pole λ from the user's band or the data, re-centred
 //!   on the estimated band;
 //! * [`scalar`] — the `f32`/`f64` abstraction;
-//! * [`protocol`] — the serial link: messages, framing and the stream decoder
-//!   shared by the firmware and the host (`docs/PROTOCOL.md`);
-//! * [`link`] — the device end of the serial link: telemetry records →
+//! * [`link`] — the device end of the serial link (its messages, framing
+//!   and stream decoder are the [`beam_protocol`] crate, shared with the
+//!   host; `docs/PROTOCOL.md`): telemetry records →
 //!   frames in a bounded TX ring, command frames → validated changes of the
 //!   pipeline between samples, acknowledgements (any board).
 //!
@@ -113,7 +113,6 @@ pub mod modal;
 pub mod model;
 pub mod pipeline;
 pub mod poly;
-pub mod protocol;
 pub mod rig;
 pub mod scalar;
 pub mod supervise;

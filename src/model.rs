@@ -18,6 +18,8 @@ use crate::scalar::Real;
 
 /// Largest number of modes the core supports.
 pub const MAX_MODES: usize = 3;
+// Every model the core supports fits in the wire's estimate messages.
+const _: () = assert!(MAX_MODES <= beam_protocol::MAX_MODES);
 /// Largest model order (2 per mode).
 pub const MAX_ORDER: usize = 2 * MAX_MODES;
 

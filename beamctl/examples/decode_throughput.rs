@@ -24,10 +24,10 @@
 //!
 //! Each figure is the median of 5 runs over 600 s of device time.
 
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{Decoder, TelemetryRates};
 use beamctl::link::fake::{FakeConfig, FakeDevice};
 use beamctl::link::{Host, Recorder};
-use beamest::protocol::budget::uart_bytes_per_s;
-use beamest::protocol::{Decoder, TelemetryRates};
 use std::time::Instant;
 
 const DEVICE_SECONDS: u64 = 600;

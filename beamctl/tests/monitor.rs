@@ -6,11 +6,11 @@
 //! consistency (every estimate printed is recorded, indices step exactly),
 //! never against wall-clock times.
 
-use beamctl::link::fake::{FakeConfig, FakeDevice, ServeOptions};
-use beamctl::link::record::columns;
-use beamest::protocol::{
+use beam_protocol::{
     encode_raw, Command, Decoder, Excitation, Header, Kind, LinkCounters, TelemetryRates, Waveform,
 };
+use beamctl::link::fake::{FakeConfig, FakeDevice, ServeOptions};
+use beamctl::link::record::columns;
 use std::io::Write;
 use std::net::{Shutdown, TcpListener};
 use std::path::{Path, PathBuf};

@@ -7,6 +7,7 @@
 //! (`timing`: the bench's converters simulated; `modelled`: the estimator
 //! models them, `FilterConfig::timing`.)
 
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::bench;
 use beamest::estimator::{Estimator, Robust2};
 use beamest::excitation::SquareWave;
@@ -14,7 +15,6 @@ use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::rig::timing::{ConverterTiming, TimedPlant};
 use beamest::scalar::Real;
 

@@ -22,6 +22,7 @@
 
 use ad5761r::Ad5761r;
 use ads131m02::Ads131m02;
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::bench::{self, ConverterModels};
 use beamest::estimator::robust::{Pending, Phase, UpdateError};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Estimator, Robust2};
@@ -30,7 +31,6 @@ use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{bring_up, NoSink, Pipeline};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use heapless::spsc::Queue;
 
 struct NoDelay;

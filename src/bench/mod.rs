@@ -58,11 +58,11 @@ use crate::pipeline::{
     adc_scales, BridgeConfig, ConversionConfig, DacLatch, Eq17, InputSource, Linearisation,
     OutputQuantity, PipelineConfig,
 };
-use crate::protocol::budget::uart_bytes_per_s;
-use crate::protocol::{self, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
 use crate::rig::{ConverterTiming, ModalPlant, PlantError};
 use crate::scalar::Real;
 use ads131m02::PgaGain;
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
 
 /// Sample rate (Hz): the paper's Ts = 0.1 ms.
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
@@ -243,8 +243,8 @@ pub fn link_config(baud: u32) -> LinkConfig {
 /// samples).
 pub fn link_settings() -> Settings {
     Settings {
-        excitation: protocol::Excitation {
-            waveform: protocol::Waveform::Square {
+        excitation: beam_protocol::Excitation {
+            waveform: beam_protocol::Waveform::Square {
                 freq_hz: EXCITATION_HZ as f32,
             },
             amplitude_v: EXCITATION_V as f32,
@@ -288,13 +288,13 @@ mod tests {
     fn link_settings_describe_the_bench() {
         let s = link_settings();
         let l = link_limits(921_600);
-        assert!(protocol::Command::SetExcitation(s.excitation)
+        assert!(beam_protocol::Command::SetExcitation(s.excitation)
             .validate(&l)
             .is_ok());
-        assert!(protocol::Command::SetEstimator(s.estimator)
+        assert!(beam_protocol::Command::SetEstimator(s.estimator)
             .validate(&l)
             .is_ok());
-        assert!(protocol::Command::SetTelemetry(s.telemetry)
+        assert!(beam_protocol::Command::SetTelemetry(s.telemetry)
             .validate(&l)
             .is_ok());
         assert_eq!(
@@ -317,8 +317,8 @@ mod tests {
         };
         let mut planned =
             Excitation::<f32>::new(&Shape::Off, 0.0, 0.0, window, SAMPLE_RATE_HZ).unwrap();
-        let off = protocol::Excitation {
-            waveform: protocol::Waveform::Off,
+        let off = beam_protocol::Excitation {
+            waveform: beam_protocol::Waveform::Off,
             amplitude_v: 0.0,
             offset_v: 0.0,
         };

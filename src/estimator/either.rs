@@ -1,5 +1,5 @@
 //! One of two estimators, chosen at run time: a firmware that switches
-//! laws by command ([`crate::protocol::EstimatorKind`]) steps an
+//! laws by command ([`beam_protocol::EstimatorKind`]) steps an
 //! `Either<A, B>` and its sample path stays free of dynamic dispatch (one
 //! branch per call).
 

@@ -5,7 +5,7 @@
 //! [`estimator_configs`]).
 //!
 //! # Between samples, expensive work outside the lock
-//! A command is validated first ([`Command::validate`](crate::protocol::Command::validate)),
+//! A command is validated first ([`Command::validate`](beam_protocol::Command::validate)),
 //! then everything expensive is prepared in the low-priority context with
 //! the sample interrupt running: a new waveform ([`Waveform::new`] scans a
 //! multisine's whole period), a new estimator (its matrix exponentials).
@@ -24,8 +24,8 @@ use crate::excitation::{
 use crate::filter_bank::{FilterConfig, FilterConfigError};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
-use crate::protocol::{self, EstimatorSettings, RejectReason};
 use crate::scalar::Real;
+use beam_protocol::{self as protocol, EstimatorSettings, RejectReason};
 
 /// What the link changes in the running sample task. Implemented by
 /// [`Pipeline`]; each call is made with the sample interrupt masked

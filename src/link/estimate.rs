@@ -2,33 +2,33 @@
 //! record with its status flags, and the mapping of the pipeline's
 //! counters onto the protocol's [`DeviceCounters`].
 //!
-//! # Flags (pipeline → protocol, `docs/PROTOCOL.md` §4.1)
+//! # Flags (`docs/PROTOCOL.md` §4.1)
+//! The sample task sets the bits it knows in the record's own
+//! [`StatusFlags`] ([`TelemetryRecord::flags`]): FROZEN_BY_COMMAND,
+//! FROZEN_AUTO, STATE_DEGRADED, INPUT_GONE, CHANGE_DETECTED, SENSOR_LEVEL,
+//! TELEMETRY_DROPPED (records dropped) and, for a supervised estimator,
+//! EXCITED. The estimate keeps them and adds:
+//!
 //! | protocol bit | set when |
 //! |---|---|
-//! | EXCITED | a supervised estimator's own decision (the record's `SUPERVISED` without `NOT_EXCITED`: input present and Lemma 1 in the loop, [`crate::supervise`]); otherwise λmin(P) of the record ≥ [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1, the same test [`crate::supervise::lemma1_excited`]) |
-//! | FROZEN_BY_COMMAND | the record's `FROZEN` (adaptation frozen by command) |
-//! | FROZEN_AUTO | the record's `QUARANTINE` (the law was held: quarantine after a rejected sample, a deliberate hold after an overrun, a resume, a new estimator or a detected change, or the input gone) |
-//! | INPUT_GONE | the record's `INPUT_GONE` (adaptation frozen: the excitation stopped) |
-//! | CHANGE_DETECTED | the record's `CHANGE_DETECTED` (the plant changed; the estimator discounted its past) |
-//! | SENSOR_LEVEL | the record's `SENSOR_LEVEL` (an offset step of y removed, or a drift flagged) |
+//! | EXCITED | (an estimator without supervision) λmin(P) of the record ≥ [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1, the same test [`crate::supervise::lemma1_excited`]) |
 //! | CONVERGED | [`Convergence`]: every ω̂, ζ̂ within [`FlagRules::converged_rel_tol`] of its value at the start of a window of [`FlagRules::converged_window_samples`] |
 //! | PHYSICALLY_VALID | modes recovered, as many as the model has, ω > 0, 0 < ζ < 1, ω strictly ascending, all finite |
 //! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions, an open bridge |
 //! | ADC_SATURATED | since the previous record: a bridge or monitor conversion at full scale |
 //! | DAC_SATURATED | since the previous record: a DAC write limited at a rail or failed, or an excitation sample clamped at the safe window |
-//! | TELEMETRY_DROPPED | since the previous estimate: a record or raw block dropped on a full queue, or a frame dropped on a full TX ring |
-//! | STATE_DEGRADED | the record's `STATE_BAD` (the estimator's integrity check failed) |
+//! | TELEMETRY_DROPPED | (also) since the previous estimate: a record or raw block dropped on a full queue, or a frame dropped on a full TX ring |
 //!
 //! The "since the previous record" bits come from the differences of the
 //! cumulative counters each record carries, so they are exact even when
 //! records in between were dropped.
 
 use crate::model::ModalParams;
-use crate::pipeline::{self, Counters, Recovered, TelemetryRecord};
-use crate::protocol::{
+use crate::pipeline::{Counters, Recovered, TelemetryRecord};
+use crate::scalar::Real;
+use beam_protocol::{
     DeviceCounters, Estimate, EstimatorKind, ModeEstimate, StatusFlags, MAX_MODES,
 };
-use crate::scalar::Real;
 
 /// The firmware's rules for the flags that need a threshold.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -255,43 +255,21 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
         .as_ref()
         .is_some_and(|m| physically_valid(m, ctx.model_modes));
     let lmin = recovered.excitation_min_eig.map(|v| v.to_f64() as f32);
-    let pf = record.flags;
     let now = &record.counters;
     let prev = ctx.previous;
     let grew = |f: fn(&Counters) -> u32| f(now) != f(prev);
 
-    let mut flags = StatusFlags::default();
-    let trace = record
-        .has_information
-        .then(|| information_trace(&record.information))
-        .map(|t| t.to_f64() as f32);
-    let lemma1 = matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l >= rules.excitation_rel_threshold * t);
-    let excited = if pf.has(pipeline::StatusFlags::SUPERVISED) {
-        !pf.has(pipeline::StatusFlags::NOT_EXCITED)
-    } else {
-        lemma1
-    };
-    flags.set(StatusFlags::EXCITED, excited);
-    flags.set(
-        StatusFlags::INPUT_GONE,
-        pf.has(pipeline::StatusFlags::INPUT_GONE),
-    );
-    flags.set(
-        StatusFlags::CHANGE_DETECTED,
-        pf.has(pipeline::StatusFlags::CHANGE_DETECTED),
-    );
-    flags.set(
-        StatusFlags::SENSOR_LEVEL,
-        pf.has(pipeline::StatusFlags::SENSOR_LEVEL),
-    );
-    flags.set(
-        StatusFlags::FROZEN_BY_COMMAND,
-        pf.has(pipeline::StatusFlags::FROZEN),
-    );
-    flags.set(
-        StatusFlags::FROZEN_AUTO,
-        pf.has(pipeline::StatusFlags::QUARANTINE) || pf.has(pipeline::StatusFlags::INPUT_GONE),
-    );
+    // The sample task's bits as they are; the link adds those that need
+    // the recovery, the thresholds or the counters' differences.
+    let mut flags = record.flags;
+    if !record.supervised {
+        let trace = record
+            .has_information
+            .then(|| information_trace(&record.information))
+            .map(|t| t.to_f64() as f32);
+        let lemma1 = matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l >= rules.excitation_rel_threshold * t);
+        flags.set(StatusFlags::EXCITED, lemma1);
+    }
     let converged =
         convergence.observe(record.sample_index, modal.as_ref().filter(|_| valid), rules);
     flags.set(StatusFlags::CONVERGED, converged);
@@ -299,16 +277,9 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     flags.set(StatusFlags::SENSOR_FAULT, grew(sensor_faults));
     flags.set(StatusFlags::ADC_SATURATED, grew(adc_saturations));
     flags.set(StatusFlags::DAC_SATURATED, grew(dac_saturations));
-    flags.set(
-        StatusFlags::TELEMETRY_DROPPED,
-        grew(queue_drops)
-            || pf.has(pipeline::StatusFlags::RECORDS_DROPPED)
-            || ctx.dropped_elsewhere,
-    );
-    flags.set(
-        StatusFlags::STATE_DEGRADED,
-        pf.has(pipeline::StatusFlags::STATE_BAD),
-    );
+    if grew(queue_drops) || ctx.dropped_elsewhere {
+        flags = flags.with(StatusFlags::TELEMETRY_DROPPED);
+    }
 
     let mut modes = heapless::Vec::new();
     // Never a NaN on the wire: non-finite modes are left out.
@@ -333,7 +304,7 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     let theta = record
         .theta
         .iter()
-        .take(crate::protocol::MAX_THETA)
+        .take(beam_protocol::MAX_THETA)
         .map(|v| v.to_f64() as f32)
         .collect();
     Estimate {
@@ -351,7 +322,7 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
 mod tests {
     use super::*;
     use crate::modal::ModalError;
-    use crate::pipeline::{StatusFlags as PF, StepCounts};
+    use crate::pipeline::StepCounts;
 
     fn params(w: [f32; 2], z: [f32; 2]) -> ModalParams<f32> {
         ModalParams {
@@ -388,7 +359,7 @@ mod tests {
         assert_eq!(information_trace(&packed), 1.0 + 5.0 + 9.0);
     }
 
-    fn record(index: u64, flags: u16, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
+    fn record(index: u64, flags: StatusFlags, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
         TelemetryRecord {
             sample_index: index,
             theta: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0],
@@ -397,7 +368,8 @@ mod tests {
             lambda_rad_s: 100.0,
             u_v: 0.1,
             y: 1e-3,
-            flags: PF(flags),
+            flags,
+            supervised: false,
             steps: StepCounts::default(),
             counters,
         }
@@ -408,7 +380,7 @@ mod tests {
             sample_index: 0,
             modal,
             excitation_min_eig: Some(lmin),
-            flags: PF(0),
+            flags: StatusFlags::default(),
             counters: Counters::default(),
         }
     }
@@ -474,7 +446,7 @@ mod tests {
             no_update_yet: false,
         };
         // Same counters, good modes, excited: EXCITED | PHYSICALLY_VALID.
-        let rec = record(1000, 0, prev);
+        let rec = record(1000, StatusFlags::default(), prev);
         let e = estimate(
             &rec,
             &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 1e-6),
@@ -491,23 +463,28 @@ mod tests {
         assert_eq!(e.excitation_level, Some(1e-6));
         assert!(e.is_consistent());
         // Each counter group and state flag sets its own bit.
-        let cases: [(Counters, u16, StatusFlags); 8] = [
+        let none = StatusFlags::default();
+        let cases: [(Counters, StatusFlags, StatusFlags); 9] = [
             (
                 Counters {
                     adc_crc: 4,
                     bridge_saturated: 1,
                     ..Counters::default()
                 },
-                0,
+                none,
                 StatusFlags::SENSOR_FAULT,
             ),
-            (Counters { stuck: 1, ..prev }, 0, StatusFlags::SENSOR_FAULT),
+            (
+                Counters { stuck: 1, ..prev },
+                none,
+                StatusFlags::SENSOR_FAULT,
+            ),
             (
                 Counters {
                     monitor_saturated: 2,
                     ..prev
                 },
-                0,
+                none,
                 StatusFlags::ADC_SATURATED,
             ),
             (
@@ -515,7 +492,7 @@ mod tests {
                     excitation_clamped: 1,
                     ..prev
                 },
-                0,
+                none,
                 StatusFlags::DAC_SATURATED,
             ),
             (
@@ -523,12 +500,26 @@ mod tests {
                     dropped_raw_blocks: 1,
                     ..prev
                 },
-                0,
+                none,
                 StatusFlags::TELEMETRY_DROPPED,
             ),
-            (prev, PF::FROZEN, StatusFlags::FROZEN_BY_COMMAND),
-            (prev, PF::QUARANTINE, StatusFlags::FROZEN_AUTO),
-            (prev, PF::STATE_BAD, StatusFlags::STATE_DEGRADED),
+            // The sample task's bits pass through.
+            (
+                prev,
+                StatusFlags::FROZEN_BY_COMMAND,
+                StatusFlags::FROZEN_BY_COMMAND,
+            ),
+            (prev, StatusFlags::FROZEN_AUTO, StatusFlags::FROZEN_AUTO),
+            (
+                prev,
+                StatusFlags::STATE_DEGRADED,
+                StatusFlags::STATE_DEGRADED,
+            ),
+            (
+                prev,
+                StatusFlags::TELEMETRY_DROPPED,
+                StatusFlags::TELEMETRY_DROPPED,
+            ),
         ];
         for (counters, pflags, bit) in cases {
             let e = estimate(
@@ -539,36 +530,32 @@ mod tests {
             );
             assert_eq!(e.flags, bit.with(StatusFlags::PHYSICALLY_VALID), "{bit:?}");
         }
-        // The supervisor's bits: its own EXCITED decision overrides λmin;
-        // input gone also means frozen by the firmware.
-        let sup = PF::SUPERVISED;
-        for (pflags, want) in [
-            (sup, StatusFlags::EXCITED),
-            (sup | PF::NOT_EXCITED, StatusFlags::default()),
-            (
-                sup | PF::NOT_EXCITED | PF::INPUT_GONE,
+        // A supervised estimator's EXCITED is its own decision, whatever
+        // λmin (0 or far above the threshold); its other bits pass through.
+        for lmin in [0.0, 1.0] {
+            for want in [
+                StatusFlags::EXCITED,
+                StatusFlags::default(),
                 StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
-            ),
-            (
-                sup | PF::CHANGE_DETECTED,
                 StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED),
-            ),
-            (
-                sup | PF::SENSOR_LEVEL,
                 StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL),
-            ),
-        ] {
-            let e = estimate(
-                &record(2000, pflags, prev),
-                &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0),
-                &ctx(&prev),
-                &mut Convergence::default(),
-            );
-            assert_eq!(
-                e.flags,
-                want.with(StatusFlags::PHYSICALLY_VALID),
-                "{pflags:#x}"
-            );
+            ] {
+                let rec = TelemetryRecord {
+                    supervised: true,
+                    ..record(2000, want, prev)
+                };
+                let e = estimate(
+                    &rec,
+                    &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), lmin),
+                    &ctx(&prev),
+                    &mut Convergence::default(),
+                );
+                assert_eq!(
+                    e.flags,
+                    want.with(StatusFlags::PHYSICALLY_VALID),
+                    "{want:?} {lmin}"
+                );
+            }
         }
         // λmin just below the threshold, 1e-7·tr(P), is not excited.
         let e = estimate(

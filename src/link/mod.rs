@@ -7,8 +7,8 @@
 //! the lock and estimator storage ([`Device`]).
 //!
 //! * [`tx`]: whole frames or nothing into the TX ring, exact drop counts;
-//! * [`estimate`]: record → [`Estimate`](crate::protocol::Estimate) with its
-//!   flags, counters → [`DeviceCounters`](crate::protocol::DeviceCounters);
+//! * [`estimate`]: record → [`Estimate`](beam_protocol::Estimate) with its
+//!   flags, counters → [`DeviceCounters`](beam_protocol::DeviceCounters);
 //! * [`raw`]: raw blocks → 64-pair frames;
 //! * [`control`]: what a command changes and how it is prepared.
 //!
@@ -82,13 +82,13 @@ pub use tx::{Sent, Transmitter, TxSink, TxStats};
 
 use crate::filter_bank::{FilterConfig, SignalScales};
 use crate::pipeline::{recover, Counters, RawBlock, Recovered, TelemetryRecord};
-use crate::protocol::budget::MAX_COMMAND_ENCODED_LEN;
-use crate::protocol::{
-    self, Ack, AckResult, Command, Decoder, EstimatorSettings, FirmwareVersion, Limits,
-    LinkCounters, Message, RejectReason, Status, TelemetryRates,
-};
 use crate::scalar::Real;
 use crate::tuning::{TuningConfig, TuningError};
+use beam_protocol::budget::MAX_COMMAND_ENCODED_LEN;
+use beam_protocol::{
+    Ack, AckResult, Command, Decoder, EstimatorSettings, FirmwareVersion, Limits, LinkCounters,
+    Message, RejectReason, Status, TelemetryRates,
+};
 
 /// This crate's version, for [`Status::firmware`].
 pub const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
@@ -136,7 +136,7 @@ pub struct LinkConfig {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
     /// The excitation.
-    pub excitation: protocol::Excitation,
+    pub excitation: beam_protocol::Excitation,
     /// The estimator settings as commanded (`lambda_rad_s = None`: the
     /// automatic rule; see the module doc).
     pub estimator: EstimatorSettings,
@@ -412,7 +412,7 @@ impl DeviceLink {
     }
 
     /// One telemetry record from the sample task: recovers it (eqs. 30–32,
-    /// Lemma 1) and sends an [`Estimate`](crate::protocol::Estimate) if one
+    /// Lemma 1) and sends an [`Estimate`](beam_protocol::Estimate) if one
     /// is due, and a Status if one is due. Returns the recovery when it
     /// was made (for the board's own log).
     pub fn on_record<T: Real, const NP: usize, const NS: usize>(

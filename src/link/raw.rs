@@ -10,8 +10,8 @@
 //! changes), so the tail of a series is never held back.
 
 use crate::pipeline::{RawBlock, RAW_BLOCK_LEN};
-use crate::protocol::{RawSamples, UySample, MAX_RAW_SAMPLES};
 use crate::scalar::Real;
+use beam_protocol::{RawSamples, UySample, MAX_RAW_SAMPLES};
 
 /// The frame being filled.
 #[derive(Debug, Clone, Default)]

@@ -24,9 +24,9 @@
 use crate::filter_bank::FilterConfig;
 use crate::model::TransferFunction;
 use crate::pipeline::{RawBlock, RAW_BLOCK_LEN};
-use crate::protocol::MAX_THETA;
 use crate::scalar::Real;
 use crate::tuning::{carry_over, AutoTune, Phase, TuningConfig, TuningError};
+use beam_protocol::MAX_THETA;
 
 /// Why an estimator is to be built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

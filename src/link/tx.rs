@@ -19,8 +19,8 @@
 //! start (e.g. `beamctl monitor --tcp`), does not take the first frame for
 //! the tail of an earlier one.
 
-use crate::protocol::frame::EncodeError;
-use crate::protocol::{Encoder, Message, MAX_ENCODED_LEN};
+use beam_protocol::frame::EncodeError;
+use beam_protocol::{Encoder, Message, MAX_ENCODED_LEN};
 
 /// A bounded byte queue towards the wire (a UART's TX ring, a DMA buffer).
 ///
@@ -135,7 +135,7 @@ impl Transmitter {
             return Sent::Dropped;
         }
         if !self.started {
-            tx.push(&[crate::protocol::DELIMITER]);
+            tx.push(&[beam_protocol::DELIMITER]);
             self.started = true;
         }
         tx.push(frame);
@@ -159,7 +159,7 @@ impl Transmitter {
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
-    use crate::protocol::{Ack, AckResult, Decoder};
+    use beam_protocol::{Ack, AckResult, Decoder};
     use heapless::spsc::Queue;
 
     fn ack(n: u32) -> Message {
@@ -249,7 +249,7 @@ mod tests {
 
     #[test]
     fn malformed_messages_use_no_sequence_number() {
-        use crate::protocol::RawSamples;
+        use beam_protocol::RawSamples;
         let mut q: Queue<u8, 64> = Queue::new();
         let (mut p, _c) = q.split();
         let mut t = Transmitter::new();

@@ -123,16 +123,17 @@ pub use converters::{
 };
 pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
 pub use telemetry::{
-    recover, Counters, NoSink, RawBlock, Recovered, Sink, StatusFlags, StepCounts, TelemetryRecord,
+    recover, Counters, NoSink, RawBlock, Recovered, Sink, StepCounts, TelemetryRecord,
     RAW_BLOCK_LEN,
 };
 
 use crate::estimator::Estimator;
 use crate::excitation::{Excitation, ExcitationKind};
 pub use crate::guard::MAX_DELAY;
-use crate::guard::{GuardConfig, GuardError, SampleFault, SensorGuard};
+use crate::guard::{GuardConfig, GuardError, SensorGuard};
 use crate::scalar::Real;
 use crate::supervise::ExcitationReason;
+use beam_protocol::StatusFlags;
 
 /// The sample task's state: converters, excitation, estimator, telemetry.
 ///
@@ -288,13 +289,11 @@ where
             Ok(out) => {
                 if out.saturated {
                     bump(&mut self.counters.dac_saturated);
-                    self.flags.set(StatusFlags::DAC_FAULT, true);
                 }
                 (out.held_v * self.actuator_per_dac, true)
             }
             Err(_) => {
                 bump(&mut self.counters.dac_errors);
-                self.flags.set(StatusFlags::DAC_FAULT, true);
                 (T::ZERO, false)
             }
         };
@@ -334,12 +333,8 @@ where
             self.excitation.kind() == ExcitationKind::Off || self.excitation.amplitude() == T::ZERO,
         );
         let out = self.guard.push_at(u, y, ok, index);
-        let seen = self.guard.last_screening();
-        if seen.fault.is_some_and(|f| f != SampleFault::Upstream) {
-            self.flags.set(StatusFlags::ADC_FAULT, true);
-        }
-        if seen.level.is_some() {
-            self.flags.set(StatusFlags::SENSOR_LEVEL, true);
+        if self.guard.last_screening().level.is_some() {
+            self.flags = self.flags.with(StatusFlags::SENSOR_LEVEL);
         }
         // After a gap with the high-pass on, hold while its memory settles
         // (the estimate before the fault is kept).
@@ -375,7 +370,6 @@ where
         // needs the input the beam saw; the others ignore it).
         if !ok {
             bump(&mut self.counters.rejected);
-            self.flags.set(StatusFlags::REJECTED, true);
         }
         let step = if self.frozen {
             None
@@ -431,7 +425,6 @@ where
                 } else {
                     &mut self.counters.adc_other
                 });
-                self.flags.set(StatusFlags::ADC_FAULT, true);
                 return (T::ZERO, false, T::ZERO, false);
             }
             Err(e) => {
@@ -442,7 +435,6 @@ where
                     FaultKind::Bus => &mut c.adc_bus,
                     FaultKind::Other => &mut c.adc_other,
                 });
-                self.flags.set(StatusFlags::ADC_FAULT, true);
                 return (T::ZERO, false, T::ZERO, false);
             }
         };
@@ -451,7 +443,6 @@ where
         // driver flags saturated (its frame says so) is taken as such.
         if r.flags.bridge_saturated {
             bump(&mut self.counters.bridge_saturated);
-            self.flags.set(StatusFlags::ADC_FAULT, true);
         }
         let y = self.conv.y_from_code(r.bridge);
         let at_rail = |c: i32| c >= ADC_CODE_MAX || c <= ADC_CODE_MIN;
@@ -459,9 +450,6 @@ where
         let mon_ok = !(r.flags.monitor_saturated || at_rail(r.monitor));
         if !mon_ok {
             bump(&mut self.counters.monitor_saturated);
-            if self.input == InputSource::Monitored {
-                self.flags.set(StatusFlags::ADC_FAULT, true);
-            }
         }
         (y, !r.flags.bridge_saturated, u_mon, mon_ok)
     }
@@ -503,32 +491,27 @@ where
 
     fn emit_record(&mut self, index: u64) {
         let mut flags = self.flags;
-        flags.set(StatusFlags::FROZEN, self.frozen);
-        flags.set(StatusFlags::QUARANTINE, self.steps.frozen > 0);
-        flags.set(StatusFlags::SKIPPED, self.steps.skipped > 0);
+        let sup = self.estimator.supervision();
+        let input_gone = sup.is_some_and(|s| s.reason == ExcitationReason::InputGone);
+        flags.set(StatusFlags::FROZEN_BY_COMMAND, self.frozen);
         flags.set(
-            StatusFlags::EXCITATION_OFF,
-            self.excitation.kind() == ExcitationKind::Off,
+            StatusFlags::FROZEN_AUTO,
+            self.steps.frozen > 0 || input_gone,
         );
-        flags.set(StatusFlags::STATE_BAD, !self.estimator.health().state_ok);
-        if let Some(sup) = self.estimator.supervision() {
-            flags.set(StatusFlags::NOT_EXCITED, !sup.reason.is_excited());
-            flags.set(
-                StatusFlags::INPUT_GONE,
-                sup.reason == ExcitationReason::InputGone,
-            );
+        flags.set(
+            StatusFlags::STATE_DEGRADED,
+            !self.estimator.health().state_ok,
+        );
+        if let Some(sup) = sup {
+            flags.set(StatusFlags::EXCITED, sup.reason.is_excited());
+            flags.set(StatusFlags::INPUT_GONE, input_gone);
             flags.set(
                 StatusFlags::CHANGE_DETECTED,
                 sup.changes != self.changes_seen,
             );
             self.changes_seen = sup.changes;
-            flags.set(StatusFlags::SUPERVISED, true);
         }
         let counters = self.counters();
-        flags.set(
-            StatusFlags::EXCITATION_CLAMPED,
-            counters.excitation_clamped > 0,
-        );
         let mut information = [T::ZERO; NS];
         let p = self.estimator.information();
         if let Some(p) = &p {
@@ -543,6 +526,7 @@ where
             u_v: self.last_fed.0,
             y: self.last_fed.1,
             flags,
+            supervised: sup.is_some(),
             steps: self.steps,
             counters,
         };
@@ -551,7 +535,7 @@ where
         } else {
             bump(&mut self.counters.dropped_records);
             // Keep this block's events for the next record that gets through.
-            self.flags.set(StatusFlags::RECORDS_DROPPED, true);
+            self.flags = self.flags.with(StatusFlags::TELEMETRY_DROPPED);
         }
         self.steps = StepCounts::default();
     }
@@ -566,7 +550,6 @@ where
         bump(&mut self.counters.overruns);
         self.counters.missed_ticks = self.counters.missed_ticks.saturating_add(missed_ticks);
         self.next_index = self.next_index.wrapping_add(u64::from(missed_ticks));
-        self.flags.set(StatusFlags::OVERRUN, true);
         if missed_ticks > 0 {
             self.settle();
         }

@@ -3,7 +3,8 @@
 //!
 //! * [`TelemetryRecord`] — every K samples: Θ̂ (physical units, eq. 29), a
 //!   packed copy of the scaled information matrix P (eq. 33), the last
-//!   sample, status flags and a snapshot of every counter. Copying costs a
+//!   sample, the wire's status flags as far as the sample task knows them
+//!   ([`StatusFlags`]) and a snapshot of every counter. Copying costs a
 //!   few hundred instructions per record; the expensive parts — the roots of
 //!   the estimated denominator (eq. 30), b̄ (eq. 31–32) and λmin(P)
 //!   (Lemma 1) — are left to [`recover`], in the low-priority task.
@@ -17,6 +18,7 @@ use crate::estimator::StepStatus;
 use crate::modal::{excitation_min_eig, modal_from_tf, ModalError};
 use crate::model::{ModalParams, TransferFunction};
 use crate::scalar::Real;
+use beam_protocol::StatusFlags;
 
 /// Samples per [`RawBlock`].
 pub const RAW_BLOCK_LEN: usize = 32;
@@ -92,61 +94,6 @@ pub struct Counters {
     pub drift: u32,
 }
 
-/// Status bits of a [`TelemetryRecord`] (about the samples since the
-/// previous record unless noted).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct StatusFlags(pub u16);
-
-impl StatusFlags {
-    /// Adaptation is frozen by command (state at the record).
-    pub const FROZEN: u16 = 1 << 0;
-    /// At least one sample was rejected.
-    pub const REJECTED: u16 = 1 << 1;
-    /// The estimator's law was held: quarantine after a rejected sample, or
-    /// a deliberate hold (see [`super::Pipeline`], *Deliberate holds*).
-    pub const QUARANTINE: u16 = 1 << 2;
-    /// The law skipped an update (singular step).
-    pub const SKIPPED: u16 = 1 << 3;
-    /// An ADC error or bad conversion occurred.
-    pub const ADC_FAULT: u16 = 1 << 4;
-    /// A DAC write failed or saturated.
-    pub const DAC_FAULT: u16 = 1 << 5;
-    /// The excitation clamp has acted (cumulative: its counter is non-zero).
-    pub const EXCITATION_CLAMPED: u16 = 1 << 6;
-    /// An overrun was reported.
-    pub const OVERRUN: u16 = 1 << 7;
-    /// Records were dropped since the previous one that got through.
-    pub const RECORDS_DROPPED: u16 = 1 << 8;
-    /// The excitation is off (state at the record).
-    pub const EXCITATION_OFF: u16 = 1 << 9;
-    /// The estimator's integrity check failed (state at the record).
-    pub const STATE_BAD: u16 = 1 << 10;
-    /// The estimator is supervised ([`crate::supervise`]): the next three
-    /// bits are meaningful (state at the record).
-    pub const SUPERVISED: u16 = 1 << 11;
-    /// The estimator is not excited: the input is gone or Lemma 1 fails
-    /// (state at the record; the estimator's own decision).
-    pub const NOT_EXCITED: u16 = 1 << 12;
-    /// ... because the input is gone (adaptation frozen).
-    pub const INPUT_GONE: u16 = 1 << 13;
-    /// The estimator detected a change of the plant and discounted its
-    /// past.
-    pub const CHANGE_DETECTED: u16 = 1 << 14;
-    /// An offset step of y was removed or a drift flagged.
-    pub const SENSOR_LEVEL: u16 = 1 << 15;
-
-    /// Whether `bit` (one of the constants) is set.
-    pub fn has(self, bit: u16) -> bool {
-        self.0 & bit != 0
-    }
-
-    pub(crate) fn set(&mut self, bit: u16, on: bool) {
-        if on {
-            self.0 |= bit;
-        }
-    }
-}
-
 /// How the estimator's steps went since the previous record.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StepCounts {
@@ -193,8 +140,18 @@ pub struct TelemetryRecord<T, const NP: usize, const NS: usize> {
     pub u_v: T,
     /// y fed to the estimator at the newest sample (strain or m).
     pub y: T,
-    /// Status bits.
+    /// The bits of the estimate's flags the sample task decides
+    /// (`docs/PROTOCOL.md` §4.1), about the samples since the previous
+    /// record that got through unless noted: FROZEN_BY_COMMAND (state),
+    /// FROZEN_AUTO (the law was held: quarantine after a rejected sample,
+    /// a deliberate hold, or the input gone), STATE_DEGRADED (state),
+    /// EXCITED, INPUT_GONE (state, a supervised estimator's own decision),
+    /// CHANGE_DETECTED, SENSOR_LEVEL, TELEMETRY_DROPPED (records dropped).
+    /// The link adds the rest ([`crate::link::estimate`]).
     pub flags: StatusFlags,
+    /// The estimator is supervised ([`crate::supervise`]): EXCITED is its
+    /// own decision. Otherwise the link decides EXCITED from P (Lemma 1).
+    pub supervised: bool,
     /// Estimator steps since the previous record.
     pub steps: StepCounts,
     /// Counters at the newest sample.

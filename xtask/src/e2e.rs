@@ -39,12 +39,12 @@ use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{
+use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorSettings, Excitation, Frame,
     LinkCounters, Message, RejectReason, Status, StatusFlags, TelemetryRates, Waveform,
     MAX_ENCODED_LEN,
 };
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
 use crate::emulator::{session, LinkHost};
 use crate::QEMU;

@@ -35,11 +35,11 @@ use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{
+use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorKind, EstimatorSettings, Excitation,
     Frame, Message, Status, StatusFlags, Waveform, MAX_ENCODED_LEN,
 };
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
 use crate::emulator::{session, LinkHost};
 use crate::rig_report::{ROBUST_OMEGA_TOLERANCE, ROBUST_ZETA_TOLERANCE};

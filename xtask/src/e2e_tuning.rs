@@ -2,7 +2,7 @@
 //! device, judged from the Status frames and the device's own final
 //! estimate (see the module doc of `e2e`).
 
-use beamest::protocol::Status;
+use beam_protocol::Status;
 
 /// The λ fixed for a moment before returning to the automatic rule
 /// (rad/s): half the paper's band centre, so the rule must re-centre.

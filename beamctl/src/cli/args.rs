@@ -6,29 +6,42 @@
 //! [`crate::cli::model`], [`crate::cli::monitor`], [`crate::cli::send`].)
 
 use crate::cli::event_flags;
+use crate::run::estimator::EstimatorKind;
+use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
-/// The update law(s) to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+/// The update law(s) to run: one estimator, or `all`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EstimatorChoice {
-    /// The proposed adaptive law (eqs. 33–41).
-    Adaptive,
-    /// The gradient baseline (eq. 47).
-    Gradient,
-    /// The least-squares baseline (eq. 48).
-    Ls,
-    /// The noise-robust estimator: the proposed law on the output error of
-    /// a simulated model, refined over a 2 s start-up record (near the
-    /// Cramér–Rao bound under white noise on y).
-    Robust,
-    /// The proposed law on the two-mode model plus a feedthrough
-    /// (residual) term, filter (s+λ)^6: for a beam whose modes above the
-    /// model's two act on the band (see docs/ROBUSTNESS.md §5). Two modes,
-    /// default gains only.
-    Feedthrough,
-    /// All four (adaptive, gradient, ls, robust), side by side.
+    /// One estimator.
+    One(EstimatorKind),
+    /// [`EstimatorKind::ALL`], side by side.
     All,
+}
+
+impl ValueEnum for EstimatorChoice {
+    fn value_variants<'a>() -> &'a [Self] {
+        use EstimatorKind as K;
+        &[
+            Self::One(K::Adaptive),
+            Self::One(K::Gradient),
+            Self::One(K::LeastSquares),
+            Self::One(K::Robust),
+            Self::One(K::Feedthrough),
+            Self::All,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        match self {
+            Self::One(k) => k.to_possible_value(),
+            Self::All => Some(
+                PossibleValue::new("all")
+                    .help("All four (adaptive, gradient, ls, robust), side by side"),
+            ),
+        }
+    }
 }
 
 /// Which parameters the Cramér–Rao bound treats as unknown.
@@ -98,7 +111,7 @@ pub enum PrecisionChoice {
 pub struct EstimatorArgs {
     /// Update law to run; `all` runs the four side by side on the same
     /// samples.
-    #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::Adaptive)]
+    #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::One(EstimatorKind::Adaptive))]
     pub estimator: EstimatorChoice,
 
     /// Floating-point type of the estimator.

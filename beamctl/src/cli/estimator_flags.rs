@@ -30,14 +30,11 @@ pub struct EstimatorPlan {
 /// Validate the shared flags for an `modes`-mode model.
 pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliError> {
     let kinds = match args.estimator {
-        EstimatorChoice::Adaptive => vec![EstimatorKind::Adaptive],
-        EstimatorChoice::Gradient => vec![EstimatorKind::Gradient],
-        EstimatorChoice::Ls => vec![EstimatorKind::LeastSquares],
-        EstimatorChoice::Robust => vec![EstimatorKind::Robust],
-        EstimatorChoice::Feedthrough => vec![EstimatorKind::Feedthrough],
+        EstimatorChoice::One(k) => vec![k],
         EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
     };
-    if args.estimator == EstimatorChoice::Feedthrough && modes != 2 {
+    let feedthrough = args.estimator == EstimatorChoice::One(EstimatorKind::Feedthrough);
+    if feedthrough && modes != 2 {
         return Err(CliError::usage(
             "--estimator feedthrough",
             format!(
@@ -45,8 +42,7 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
             ),
         ));
     }
-    if args.estimator == EstimatorChoice::Feedthrough && (args.paper_gains || args.paper_exp_gains)
-    {
+    if feedthrough && (args.paper_gains || args.paper_exp_gains) {
         return Err(CliError::usage(
             "--estimator feedthrough",
             "the feedthrough estimator has no published gains: drop --paper-gains/--paper-exp-gains",

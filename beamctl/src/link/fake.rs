@@ -24,14 +24,14 @@
 //!   accepted. Frames that do not decode are counted in `rx_frame_errors`
 //!   and not answered, as the protocol says.
 
-use beamest::model::ModalParams;
-use beamest::protocol::{
+use beam_protocol::{
     budget::MAX_COMMAND_ENCODED_LEN, Ack, AckResult, Command, Decoder, DeviceCounters, Estimate,
     EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, Limits, Message, ModeEstimate,
     RawSamples, Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_ENCODED_LEN,
     MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
 };
-use beamest::protocol::{Encoder, Payload};
+use beam_protocol::{Encoder, Payload};
+use beamest::model::ModalParams;
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
@@ -94,7 +94,7 @@ impl Default for FakeConfig {
                     | EstimatorKind::Gradient.bit()
                     | EstimatorKind::LeastSquares.bit(),
                 modes: 2,
-                link_bytes_per_s: beamest::protocol::budget::uart_bytes_per_s(921_600) as f32,
+                link_bytes_per_s: beam_protocol::budget::uart_bytes_per_s(921_600) as f32,
             },
             rates: TelemetryRates::default(),
             excitation: Excitation::default(),
@@ -271,7 +271,7 @@ impl FakeDevice {
     pub fn estimate(&self, k: u64) -> Estimate {
         let t = self.converged_for(k);
         let off = 1.0 + 0.2 * (-t / CONVERGENCE_TAU_S).exp();
-        let modes: beamest::protocol::heapless::Vec<ModeEstimate, MAX_MODES> = self
+        let modes: beam_protocol::heapless::Vec<ModeEstimate, MAX_MODES> = self
             .cfg
             .targets
             .iter()
@@ -372,7 +372,7 @@ impl FakeDevice {
         let frames: Vec<_> = self.rx.feed(bytes).collect();
         for f in frames {
             let cmd = match f {
-                Ok(beamest::protocol::Frame {
+                Ok(beam_protocol::Frame {
                     seq,
                     message: Message::Command(c),
                 }) => (seq, c),
@@ -463,7 +463,7 @@ impl FakeDevice {
         });
         let start = Instant::now();
         let fs = f64::from(self.sample_rate_hz());
-        let mut out = vec![beamest::protocol::DELIMITER];
+        let mut out = vec![beam_protocol::DELIMITER];
         let end = loop {
             while let Ok(bytes) = rx.try_recv() {
                 self.receive(&bytes, &mut out);
@@ -534,7 +534,7 @@ pub enum ServeEnd {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamest::protocol::{Frame, RejectReason};
+    use beam_protocol::{Frame, RejectReason};
 
     fn decode(bytes: &[u8]) -> Vec<Frame> {
         let mut d: Decoder = Decoder::new();

@@ -7,7 +7,7 @@
 //! ([`Host::command`]), so the same logic serves the terminal view, the
 //! plain output, `beamctl send` and the tests.
 
-use beamest::protocol::{
+use beam_protocol::{
     Ack, Command, DecodeError, Decoder, EncodeError, Encoder, Frame, Limits, LinkCounters, Message,
     Status, MAX_ENCODED_LEN,
 };
@@ -78,10 +78,7 @@ impl Host {
     /// [`status`](Self::status) before it is returned.
     pub fn receive(&mut self, bytes: &[u8], now: Instant) -> Vec<Result<Frame, DecodeError>> {
         let out: Vec<_> = self.decoder.feed(bytes).collect();
-        self.partial = match bytes
-            .iter()
-            .rposition(|&b| b == beamest::protocol::DELIMITER)
-        {
+        self.partial = match bytes.iter().rposition(|&b| b == beam_protocol::DELIMITER) {
             Some(p) => (bytes.len() - p - 1) as u64,
             None => self.partial + bytes.len() as u64,
         };
@@ -180,7 +177,7 @@ impl Host {
         let seq = self.encoder.next_seq();
         let n = self.encoder.encode(&command, &mut buf)?;
         let mut bytes = Vec::with_capacity(n + 1);
-        bytes.push(beamest::protocol::DELIMITER);
+        bytes.push(beam_protocol::DELIMITER);
         bytes.extend_from_slice(buf.get(..n).unwrap_or_default());
         self.pending.push_back(Pending {
             seq,
@@ -238,7 +235,7 @@ impl Host {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamest::protocol::{AckResult, Encoder};
+    use beam_protocol::{AckResult, Encoder};
 
     fn ack(seq: u32, command_seq: u32) -> Vec<u8> {
         let mut buf = [0u8; MAX_ENCODED_LEN];

@@ -16,7 +16,7 @@
 //!   for trying the tools without a rig.
 //!
 //! Everything protocol-related (framing, messages, validation) is the
-//! core's [`beamest::protocol`]; nothing here re-implements it.
+//! core's [`beam_protocol`]; nothing here re-implements it.
 
 pub mod fake;
 pub mod host;

@@ -22,7 +22,7 @@
 
 use super::host::Host;
 use super::text;
-use beamest::protocol::{
+use beam_protocol::{
     Command, DecodeError, Estimate, Frame, Message, RawSamples, Status, MAX_MODES, MAX_THETA,
 };
 use std::fs::File;
@@ -248,7 +248,7 @@ impl Recorder {
             Message::Ack(a) => {
                 row.set(cols, "command_seq", a.command_seq);
                 row.set(cols, "result", text::result_name(a.result));
-                if let beamest::protocol::AckResult::Rejected(r) = a.result {
+                if let beam_protocol::AckResult::Rejected(r) = a.result {
                     row.set(cols, "detail", r.describe());
                 }
             }
@@ -398,7 +398,7 @@ impl Recorder {
 }
 
 fn estimate_fields(row: &mut Row, cols: &[String], e: &Estimate) {
-    row.set(cols, "estimator", text::estimator_name(e.estimator));
+    row.set(cols, "estimator", e.estimator.name());
     row.set(cols, "flags", e.flags.0);
     for (i, m) in e.modes.iter().enumerate() {
         let i = i + 1;
@@ -454,7 +454,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
     row.set(cols, "amplitude_v", s.excitation.amplitude_v);
     row.set(cols, "offset_v", s.excitation.offset_v);
     let e = &s.estimator;
-    row.set(cols, "estimator", text::estimator_name(e.kind));
+    row.set(cols, "estimator", e.kind.name());
     row.set(cols, "gain", e.gain);
     row.set(cols, "forgetting_p", e.forgetting_p);
     row.set(cols, "forgetting_h", e.forgetting_h);

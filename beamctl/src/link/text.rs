@@ -4,9 +4,9 @@
 //! [`command_text`] writes a command in the syntax `beamctl send` accepts,
 //! so a line of a record or of the monitor's log can be sent again as is.
 
-use beamest::protocol::{
-    AckResult, Command, EstimatorKind, EstimatorSettings, Excitation, LinkCounters, Status,
-    StatusFlags, TelemetryRates, Waveform,
+use beam_protocol::{
+    AckResult, Command, EstimatorSettings, Excitation, LinkCounters, Status, StatusFlags,
+    TelemetryRates, Waveform,
 };
 use std::fmt::Write as _;
 
@@ -44,16 +44,6 @@ pub fn flags_text(flags: StatusFlags, sep: &str) -> String {
         "-".to_string()
     } else {
         names.join(sep)
-    }
-}
-
-/// The estimator's name as `beamctl send estimator --law` takes it.
-pub fn estimator_name(kind: EstimatorKind) -> &'static str {
-    match kind {
-        EstimatorKind::Adaptive => "adaptive",
-        EstimatorKind::Gradient => "gradient",
-        EstimatorKind::LeastSquares => "ls",
-        EstimatorKind::Robust => "robust",
     }
 }
 
@@ -133,7 +123,7 @@ pub fn estimator_text(e: &EstimatorSettings) -> String {
         .map_or_else(|| "auto".to_string(), |l| l.to_string());
     format!(
         "estimator --law {} --gain {} --forgetting-p {} --forgetting-h {} --initial-gain {} --lambda {lambda}",
-        estimator_name(e.kind),
+        e.kind.name(),
         e.gain,
         e.forgetting_p,
         e.forgetting_h,
@@ -248,7 +238,7 @@ pub fn counters_text(c: &LinkCounters) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamest::protocol::RejectReason;
+    use beam_protocol::RejectReason;
 
     #[test]
     fn flags_by_name() {

@@ -17,25 +17,30 @@ use beamest::estimator::{
 };
 use beamest::filter_bank::{FilterConfig, Scaling};
 use beamest::Real;
+use clap::ValueEnum;
 use serde::Serialize;
 
-/// Which update law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// Which estimator the host runs: the laws the device can run (the
+/// protocol's `beam_protocol::EstimatorKind`) and the feedthrough model,
+/// which only the host has. The doc lines are the `--estimator` help.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum EstimatorKind {
-    /// The proposed law (eqs. 33–41).
+    /// The proposed adaptive law (eqs. 33–41).
     Adaptive,
     /// The gradient baseline (eq. 47).
     Gradient,
     /// The least-squares baseline (eq. 48).
     #[serde(rename = "ls")]
+    #[value(name = "ls")]
     LeastSquares,
-    /// The noise-robust output-error estimator
-    /// ([`beamest::estimator::robust`]).
+    /// The noise-robust estimator: the proposed law on the output error of
+    /// a simulated model, refined over a 2 s start-up record (near the
+    /// Cramér–Rao bound under white noise on y).
     Robust,
-    /// The proposed law on the two-mode model with a feedthrough
-    /// (residual) term and a sixth-order filter, for a beam with modes
-    /// above the model ([`beamest::estimator::feedthrough`]); two modes,
+    /// The proposed law on the two-mode model plus a feedthrough
+    /// (residual) term, filter (s+λ)^6: for a beam whose modes above the
+    /// model's two act on the band (see docs/ROBUSTNESS.md §5). Two modes,
     /// default gains only.
     Feedthrough,
 }

@@ -15,6 +15,9 @@ use std::collections::VecDeque;
 
 use ad5761r::Ad5761r;
 use ads131m02::Ads131m02;
+use beam_protocol::{
+    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
+};
 use beamest::bench::{self, ConverterModels, ConverterRig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
@@ -23,9 +26,6 @@ use beamest::link::{
     estimator_configs, with_theta0, Device, DeviceLink, Settings, StartupCollector, Tuned, TxSink,
 };
 use beamest::pipeline::{bring_up, Pipeline, RawBlock, TelemetryRecord, Tick};
-use beamest::protocol::{
-    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
-};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use heapless::spsc::{Consumer, Producer, Queue};
@@ -185,7 +185,7 @@ pub struct Bench<'a> {
 /// Build the bench with `excitation` instead of the bench's square wave
 /// (if given) and run `f` on it.
 pub fn with_bench<R>(
-    excitation: Option<beamest::protocol::Excitation>,
+    excitation: Option<beam_protocol::Excitation>,
     f: impl FnOnce(&mut Bench<'_>) -> R,
 ) -> R {
     let models = ConverterModels::new();

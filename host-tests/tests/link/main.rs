@@ -18,13 +18,13 @@ mod bench;
 #[allow(dead_code)]
 mod strategies;
 
-use beamest::estimator::Estimator;
-use beamest::link::{TxSink, ANSWER_RESERVE_BYTES};
-use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::protocol::{
+use beam_protocol::{
     AckResult, Command, Estimate, EstimatorSettings, Excitation, Message, RejectReason, Status,
     StatusFlags, TelemetryRates, Waveform,
 };
+use beamest::estimator::Estimator;
+use beamest::link::{TxSink, ANSWER_RESERVE_BYTES};
+use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use proptest::collection::vec;
 use proptest::prelude::*;
 

@@ -5,17 +5,17 @@
 
 use std::fmt::Write as _;
 
-use beamest::modal::modal_from_theta;
-use beamest::model::paper_plant_tf;
-use beamest::protocol::budget::{
+use beam_protocol::budget::{
     encoded_len_max, estimate_payload_max, min_raw_decimation, raw_bytes_per_sample,
     uart_bytes_per_s, LinkLoad, RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
 };
-use beamest::protocol::{
+use beam_protocol::{
     encode, Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
     Excitation, FirmwareVersion, Message, ModeEstimate, RawSamples, RejectReason, Status,
     StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN, MAX_ENCODED_LEN,
 };
+use beamest::modal::modal_from_theta;
+use beamest::model::paper_plant_tf;
 
 const DOC: &str = include_str!("../../../docs/PROTOCOL.md");
 
@@ -482,7 +482,7 @@ fn golden_frames_read_by_an_independent_decoder() {
 /// encoder on every payload length, around every 254-byte boundary.
 #[test]
 fn independent_cobs_reads_every_length() {
-    use beamest::protocol::{encode_raw, Header, Kind, MAX_PAYLOAD_LEN};
+    use beam_protocol::{encode_raw, Header, Kind, MAX_PAYLOAD_LEN};
     for fill in [0xA5u8, 0x00] {
         let payload = vec![fill; MAX_PAYLOAD_LEN];
         for len in 0..=MAX_PAYLOAD_LEN {

@@ -11,8 +11,8 @@ mod strategies;
 
 use std::ops::Range;
 
-use beamest::protocol::budget::uart_bytes_per_s;
-use beamest::protocol::{
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{
     encode, encode_raw, parse_frame, Ack, AckResult, Command, DecodeError, Decoder, Frame, Header,
     Kind, Limits, Message, MAX_ENCODED_LEN, VERSION,
 };
@@ -178,7 +178,7 @@ proptest! {
     ) {
         let mut buf = [0u8; MAX_ENCODED_LEN];
         let Ok(n) = encode_raw(&Header::new(kind, seq), &payload, &mut buf) else {
-            prop_assert!(payload.len() > beamest::protocol::MAX_PAYLOAD_LEN);
+            prop_assert!(payload.len() > beam_protocol::MAX_PAYLOAD_LEN);
             return Ok(());
         };
         let mut d = Dec::new();
@@ -379,13 +379,13 @@ fn version_mismatch_is_reported_distinctly() {
 #[test]
 fn rejected_command_gets_a_negative_ack() {
     let mut buf = [0u8; MAX_ENCODED_LEN];
-    let bad = Command::SetExcitation(beamest::protocol::Excitation {
+    let bad = Command::SetExcitation(beam_protocol::Excitation {
         amplitude_v: 5.0,
         ..Default::default()
     });
     // Host → device.
     let n = encode(&bad, 41, &mut buf).unwrap();
-    let mut device_rx = Decoder::<{ beamest::protocol::budget::MAX_COMMAND_ENCODED_LEN }>::new();
+    let mut device_rx = Decoder::<{ beam_protocol::budget::MAX_COMMAND_ENCODED_LEN }>::new();
     let frame = device_rx.feed(&buf[..n]).next().unwrap().unwrap();
     let Message::Command(cmd) = frame.message else {
         panic!("not a command")
@@ -402,7 +402,7 @@ fn rejected_command_gets_a_negative_ack() {
         got.message,
         Message::Ack(Ack {
             command_seq: 41,
-            result: AckResult::Rejected(beamest::protocol::RejectReason::SafeWindow)
+            result: AckResult::Rejected(beam_protocol::RejectReason::SafeWindow)
         })
     );
 }
@@ -426,7 +426,7 @@ fn remainders(bits: usize) -> Vec<u32> {
 /// included) is detected: Hamming distance ≥ 4, as docs/PROTOCOL.md states.
 #[test]
 fn crc_detects_every_3_bit_error_in_the_longest_frame() {
-    let n = beamest::protocol::MAX_FRAME_LEN * 8;
+    let n = beam_protocol::MAX_FRAME_LEN * 8;
     let r = remainders(n);
     let set: std::collections::HashSet<u32> = r.iter().copied().collect();
     assert_eq!(set.len(), n, "2-bit errors: remainders distinct");

@@ -2,7 +2,7 @@
 //! values: every `f32` bit pattern (NaN payloads, infinities, subnormals,
 //! −0), every integer, every enum variant, vectors of every allowed length.
 
-use beamest::protocol::{
+use beam_protocol::{
     Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
     Excitation, FirmwareVersion, Message, ModeEstimate, RawSamples, RejectReason, Status,
     StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,

@@ -7,16 +7,16 @@
 //! are handed to the link there; commands are applied between two samples
 //! (the lock masks the DRDY interrupt for a setter or a swap).
 
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{
+    EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
+};
 use beamest::estimator::Adaptive2;
 use beamest::excitation::{multisine, prbs};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
 use beamest::link::{
     estimator_configs, with_theta0, Device, FlagRules, LinkConfig, Settings, FIRMWARE_VERSION,
-};
-use beamest::protocol::budget::uart_bytes_per_s;
-use beamest::protocol::{
-    EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
 };
 use beamest::tuning::{LambdaSource, TuningConfig};
 

@@ -278,7 +278,7 @@ fn main() -> ! {
         "sample interrupt running; serial link on USART3 at {} Bd, protocol version {}; \
          tuning rule's start-up window {} s",
         clocks::BAUD,
-        beamest::protocol::VERSION,
+        beam_protocol::VERSION,
         link.tuner().rule().config().startup_s
     );
 

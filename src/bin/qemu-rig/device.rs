@@ -20,6 +20,7 @@
     clippy::indexing_slicing
 )]
 
+use beam_protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::TimedEstimator;
 use beamest::board::qemu::{IsrOwned, Shared};
@@ -27,7 +28,6 @@ use beamest::estimator::{Adaptive2, Either, Robust2};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::control::reject_config;
 use beamest::link::{estimator_configs, with_theta0, Device};
-use beamest::protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};
 

@@ -47,6 +47,7 @@ mod sample;
 
 use ad5761r::Ad5761r;
 use ads131m02::Ads131m02;
+use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::bench::{self, ConverterModels};
 use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
@@ -55,7 +56,6 @@ use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrO
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
 use beamest::link::{DeviceLink, Settings};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
-use beamest::protocol::{EstimatorKind, EstimatorSettings};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
@@ -190,7 +190,7 @@ fn main() -> ! {
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
         board::UART_BAUD,
-        beamest::protocol::VERSION,
+        beam_protocol::VERSION,
         Fixed(link.settings().telemetry.estimate_rate_hz.into(), 0),
         Fixed(link.settings().telemetry.status_rate_hz.into(), 0),
         Fixed(f64::from(run_samples) * bench::TS_S, 1),

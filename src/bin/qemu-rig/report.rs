@@ -40,6 +40,7 @@
     clippy::indexing_slicing
 )]
 
+use beam_protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::bench;
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
@@ -50,7 +51,6 @@ use beamest::link::{BuildKind, DeviceLink, Sent, Transmitter, Tuned, TxSink};
 use beamest::modal::modal_from_tf;
 use beamest::model::ModalParams;
 use beamest::pipeline::{recover, Recovered};
-use beamest::protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
 use beamest::tuning::{Phase, Settled};
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::Queue;

@@ -3,9 +3,9 @@
 
 use super::*;
 use crate::excitation::{Excitation, SafeWindow, Shape};
-use crate::pipeline::{PipelineError, StatusFlags as PF, StepCounts, RAW_BLOCK_LEN};
-use crate::protocol::budget::uart_bytes_per_s;
-use crate::protocol::{
+use crate::pipeline::{PipelineError, StepCounts, RAW_BLOCK_LEN};
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{
     encode, Estimate, EstimatorKind, Excitation as PExcitation, Frame, Message, Waveform,
     MAX_ENCODED_LEN,
 };
@@ -481,7 +481,8 @@ fn record(index: u64, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
         lambda_rad_s: 100.0,
         u_v: 0.0,
         y: 0.0,
-        flags: PF(0),
+        flags: beam_protocol::StatusFlags::default(),
+        supervised: false,
         steps: StepCounts::default(),
         counters,
     }
@@ -523,9 +524,10 @@ fn estimates_and_status_follow_the_record_clock() {
     assert_eq!(e.len(), 200);
     assert_eq!(e[0].sample_index, 599);
     // Θ = 0: the denominator is Λ(s) itself, four real poles at −λ.
-    assert!(e
-        .iter()
-        .all(|e| e.is_consistent() && !e.flags.contains(protocol::StatusFlags::PHYSICALLY_VALID)));
+    assert!(e.iter().all(|e| e.is_consistent()
+        && !e
+            .flags
+            .contains(beam_protocol::StatusFlags::PHYSICALLY_VALID)));
     let s = statuses(&msgs);
     assert_eq!(
         s.iter().map(|s| s.uptime_samples).collect::<Vec<_>>(),
@@ -634,7 +636,7 @@ fn full_tx_ring_drops_whole_frames_counted_as_gaps_and_flagged() {
     assert_eq!(e.len(), 1);
     assert!(e[0]
         .flags
-        .contains(protocol::StatusFlags::TELEMETRY_DROPPED));
+        .contains(beam_protocol::StatusFlags::TELEMETRY_DROPPED));
     // Every dropped frame is exactly one lost sequence number.
     assert_eq!(
         h.dec.counters().lost,

@@ -31,7 +31,7 @@ mod tui;
 use crate::cli::send::{self, CommandArgs, DeviceArgs};
 use crate::error::CliError;
 use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
-use beamest::protocol::{Command, DecodeError, Message};
+use beam_protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
 use event::{Event, KeyAction};
 use state::State;

@@ -4,7 +4,7 @@
 //! output are both drawn from a [`State`].
 
 use crate::link::{text, Host};
-use beamest::protocol::{Estimate, Frame, Message, MAX_MODES};
+use beam_protocol::{Estimate, Frame, Message, MAX_MODES};
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -135,7 +135,7 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
     let t = host
         .time_s(e.sample_index)
         .map_or_else(|| "?".to_string(), |t| t.to_string());
-    let list = |f: &dyn Fn(&beamest::protocol::ModeEstimate) -> f32| {
+    let list = |f: &dyn Fn(&beam_protocol::ModeEstimate) -> f32| {
         if e.modes.is_empty() {
             "-".to_string()
         } else {
@@ -152,7 +152,7 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
     format!(
         "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_min={level} flags={}",
         e.sample_index,
-        text::estimator_name(e.estimator),
+        e.estimator.name(),
         list(&|m| m.omega_rad_s),
         list(&|m| m.zeta),
         list(&|m| m.b_bar),

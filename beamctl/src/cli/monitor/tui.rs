@@ -31,7 +31,7 @@ use super::event::{Event, KeyAction};
 use super::state::State;
 use crate::cli::send::{self, CommandArgs};
 use crate::link::text;
-use beamest::protocol::{StatusFlags, MAX_MODES};
+use beam_protocol::{StatusFlags, MAX_MODES};
 use ratatui::crossterm::event::{self as ct, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style, Stylize};
@@ -223,7 +223,7 @@ fn estimate_pane(st: &State, now: Instant, modes: usize) -> Paragraph<'static> {
         .map_or_else(|| "-".to_string(), |l| format!("{l:.3e}"));
     lines.push(Line::from(format!(
         "λmin(P) {level}   law {}   {t}   ({:.1} s ago)",
-        text::estimator_name(e.estimator),
+        e.estimator.name(),
         now.duration_since(*at).as_secs_f64()
     )));
     let mut flags: Vec<Span> = text::FLAG_NAMES

@@ -3,9 +3,10 @@
 //! [`Command`], with the settings not given taken from the device's last
 //! Status.
 
-use beamest::protocol::{
+use beam_protocol::{
     Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
 };
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 /// A command to the device.
@@ -76,25 +77,27 @@ pub struct ExcitationArgs {
     pub offset: Option<f32>,
 }
 
-/// The laws of `estimator --law`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LawArg {
-    /// The paper's adaptive law (eqs. 33–41).
-    Adaptive,
-    /// Gradient (eq. 47).
-    Gradient,
-    /// Least squares (eq. 48).
-    Ls,
-    /// Bias-compensated law, where the firmware has one.
-    Robust,
+/// `estimator --law`: the protocol's [`EstimatorKind`] by its name, each
+/// with its help line.
+fn law_parser() -> impl TypedValueParser<Value = EstimatorKind> {
+    let help = |k: EstimatorKind| match k {
+        EstimatorKind::Adaptive => "The paper's adaptive law (eqs. 33–41)",
+        EstimatorKind::Gradient => "Gradient (eq. 47)",
+        EstimatorKind::LeastSquares => "Least squares (eq. 48)",
+        EstimatorKind::Robust => "Bias-compensated law, where the firmware has one",
+    };
+    PossibleValuesParser::new(
+        EstimatorKind::ALL.map(|k| PossibleValue::new(k.name()).help(help(k))),
+    )
+    .try_map(|name| name.parse::<EstimatorKind>())
 }
 
 /// Options of `estimator`.
 #[derive(Debug, Clone, Default, Args)]
 pub struct EstimatorArgs {
     /// Update law.
-    #[arg(long, value_enum, value_name = "LAW")]
-    pub law: Option<LawArg>,
+    #[arg(long, value_name = "LAW", value_parser = law_parser())]
+    pub law: Option<EstimatorKind>,
     /// Γ of eq. 41 (1/s) (gradient law: Γ1 = gain·I of eq. 47).
     #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub gain: Option<f32>,
@@ -366,15 +369,8 @@ fn wave_name(w: WaveArg) -> &'static str {
 
 impl EstimatorArgs {
     fn build(&self, current: Option<&EstimatorSettings>) -> Result<EstimatorSettings, String> {
-        let kind = match self.law {
-            Some(LawArg::Adaptive) => Some(EstimatorKind::Adaptive),
-            Some(LawArg::Gradient) => Some(EstimatorKind::Gradient),
-            Some(LawArg::Ls) => Some(EstimatorKind::LeastSquares),
-            Some(LawArg::Robust) => Some(EstimatorKind::Robust),
-            None => None,
-        };
         Ok(EstimatorSettings {
-            kind: pick(kind, current.map(|c| c.kind), "--law")?,
+            kind: pick(self.law, current.map(|c| c.kind), "--law")?,
             gain: pick(self.gain, current.map(|c| c.gain), "--gain")?,
             forgetting_p: pick(
                 self.forgetting_p,

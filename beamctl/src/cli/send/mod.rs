@@ -19,8 +19,8 @@
 
 use crate::error::CliError;
 use crate::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
-use beamest::protocol::budget::uart_bytes_per_s;
-use beamest::protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
+use beam_protocol::budget::uart_bytes_per_s;
+use beam_protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
 use clap::{ArgGroup, Args};
 
 mod grammar;
@@ -323,7 +323,7 @@ fn command_name(c: &CommandArgs) -> &'static str {
 mod tests {
     use super::*;
     use crate::link::fake::FakeDevice;
-    use beamest::protocol::Status;
+    use beam_protocol::Status;
 
     fn status() -> Status {
         FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
@@ -341,8 +341,8 @@ mod tests {
         let c = build("excitation --freq 6000", Some(&s)).unwrap();
         // No Status yet: nothing to check against.
         assert_eq!(check_locally(&c, &host, &tcp), Ok(None));
-        let mut buf = [0u8; beamest::protocol::MAX_ENCODED_LEN];
-        let n = beamest::protocol::encode(&s, 0, &mut buf).unwrap();
+        let mut buf = [0u8; beam_protocol::MAX_ENCODED_LEN];
+        let n = beam_protocol::encode(&s, 0, &mut buf).unwrap();
         host.receive(&buf[..n], Instant::now());
         assert_eq!(check_locally(&c, &host, &tcp), Err(RejectReason::Frequency));
         // The piezo window is not in a Status: left to the device.

@@ -1,88 +1,106 @@
 //! Worst-case frame sizes and the link load they imply.
 //!
-//! Every size here is an upper bound that the encoder can reach (all
-//! varints at their longest, all vectors full, COBS at its worst); the unit
-//! tests in `frame` encode messages that reach each bound exactly. The
-//! device refuses telemetry rates whose worst-case load exceeds its link
-//! budget ([`RejectReason::LinkBudget`](super::RejectReason::LinkBudget)),
-//! so a accepted setting never overruns the link, whatever the values sent.
+//! Every payload size here is the [`MaxSize`] of its message, derived next
+//! to the message's struct from its fields' sizes: an upper bound that the
+//! encoder can reach (all varints at their longest, all vectors full); COBS
+//! adds its worst case. The unit tests in `frame` encode messages that reach
+//! each bound exactly. The device refuses telemetry rates whose worst-case
+//! load exceeds its link budget
+//! ([`RejectReason::LinkBudget`](super::RejectReason::LinkBudget)), so an
+//! accepted setting never overruns the link, whatever the values sent.
+//!
+//! (postcard's own `MaxSize`, behind its `experimental-derive` feature,
+//! covers only the `heapless` 0.7 `Vec`, not the 0.9 one these messages
+//! hold, and the orphan rule keeps this crate from adding that impl; hence
+//! this crate's trait, with the same meaning.)
 
 use super::command::TelemetryRates;
-use super::{CRC_LEN, HEADER_LEN, MAX_MODES, MAX_RAW_SAMPLES};
+use super::telemetry::{Ack, Estimate, ModeEstimate, RawSamples, Status};
+use super::{Command, CRC_LEN, HEADER_LEN, MAX_MODES, MAX_RAW_SAMPLES};
 
-/// Longest postcard varint of a `u16` (⌈16/7⌉ bytes).
-const VARINT_U16: usize = 3;
-/// Longest postcard varint of a `u32` (⌈32/7⌉ bytes).
-const VARINT_U32: usize = 5;
-/// Longest postcard varint of a `u64` (⌈64/7⌉ bytes).
-const VARINT_U64: usize = 10;
-/// A sequence length ≤ 127 (every vector here): one varint byte.
-const SEQ_LEN: usize = 1;
-/// An enum tag < 128: one varint byte.
-const TAG: usize = 1;
-/// An `f32`: four bytes.
-const F32: usize = 4;
-/// An `Option<f32>`: tag byte and value.
-const OPTION_F32: usize = 1 + F32;
-
-/// Longest [`Estimate`](super::Estimate) payload for a model of `modes`
-/// modes: sample index, estimator, flags, modes (3 `f32` each), Θ
-/// (4·modes − 1 `f32`), excitation level. 73 bytes for 2 modes.
-pub const fn estimate_payload_max(modes: usize) -> usize {
-    VARINT_U64
-        + TAG
-        + VARINT_U16
-        + SEQ_LEN
-        + 3 * F32 * modes
-        + SEQ_LEN
-        + F32 * (4 * modes - 1)
-        + OPTION_F32
+/// The longest postcard encoding of a value of the type, in bytes. Each
+/// message type implements it next to its definition, as the sum of its
+/// fields' sizes (an enum: its tag and its longest variant).
+pub trait MaxSize {
+    /// Longest encoding (bytes).
+    const MAX_SIZE: usize;
 }
 
-/// Longest [`RawSamples`](super::RawSamples) payload: first index,
-/// decimation, [`MAX_RAW_SAMPLES`] pairs of `f32` (526 bytes).
-pub const RAW_PAYLOAD_MAX: usize = VARINT_U64 + VARINT_U16 + SEQ_LEN + 2 * F32 * MAX_RAW_SAMPLES;
+/// Bytes of the postcard varint of `n` (7 bits per byte).
+pub(crate) const fn varint_len(n: usize) -> usize {
+    let mut len = 1;
+    let mut rest = n >> 7;
+    while rest > 0 {
+        len += 1;
+        rest >>= 7;
+    }
+    len
+}
 
-/// Longest [`Excitation`](super::Excitation): tag, the chirp's three `f32`
-/// (the longest variant), amplitude, offset.
-const EXCITATION_MAX: usize = TAG + 3 * F32 + 2 * F32;
-/// Longest [`EstimatorSettings`](super::EstimatorSettings): kind, four
-/// `f32`, optional λ.
-const ESTIMATOR_SETTINGS_MAX: usize = TAG + 4 * F32 + OPTION_F32;
-/// Longest [`TelemetryRates`](super::TelemetryRates).
-const TELEMETRY_RATES_MAX: usize = F32 + VARINT_U16 + F32;
-/// Number of counters in [`DeviceCounters`](super::DeviceCounters).
-const DEVICE_COUNTERS: usize = 11;
+/// Longest postcard enum tag of a type with `variants` variants: the
+/// varint of the last index.
+pub(crate) const fn tag_len(variants: usize) -> usize {
+    varint_len(variants.saturating_sub(1))
+}
 
-/// Longest [`Status`](super::Status) payload (128 bytes).
-pub const STATUS_PAYLOAD_MAX: usize = VARINT_U64
-    + F32
-    + 3
-    + 1
-    + DEVICE_COUNTERS * VARINT_U32
-    + 1
-    + EXCITATION_MAX
-    + ESTIMATOR_SETTINGS_MAX
-    + TELEMETRY_RATES_MAX;
-
-/// Longest [`Ack`](super::Ack) payload: sequence number and result byte.
-pub const ACK_PAYLOAD_MAX: usize = VARINT_U32 + 1;
-
-/// Longest [`Command`](super::Command) payload: tag and the longest
-/// argument (estimator settings).
-pub const COMMAND_PAYLOAD_MAX: usize = TAG
-    + max(
-        EXCITATION_MAX,
-        max(ESTIMATOR_SETTINGS_MAX, TELEMETRY_RATES_MAX),
-    );
-
-const fn max(a: usize, b: usize) -> usize {
+/// The larger of two sizes (for an enum's longest variant).
+pub(crate) const fn max(a: usize, b: usize) -> usize {
     if a > b {
         a
     } else {
         b
     }
 }
+
+/// The number of fields of a struct `S` whose fields are all of type `F`
+/// (one alignment, so no padding): its size over the field's.
+pub(crate) const fn fields_of<S, F>() -> usize {
+    core::mem::size_of::<S>() / core::mem::size_of::<F>()
+}
+
+macro_rules! max_size {
+    ($($t:ty => $n:expr),* $(,)?) => {$(
+        impl MaxSize for $t {
+            const MAX_SIZE: usize = $n;
+        }
+    )*};
+}
+// postcard: u8 and bool as one byte, f32 as four, wider integers as
+// varints of ⌈bits/7⌉ bytes at most.
+max_size!(u8 => 1, bool => 1, f32 => 4, u16 => 3, u32 => 5, u64 => 10);
+
+impl<T: MaxSize> MaxSize for Option<T> {
+    /// Tag byte and value.
+    const MAX_SIZE: usize = 1 + T::MAX_SIZE;
+}
+
+impl<T: MaxSize, const N: usize> MaxSize for heapless::Vec<T, N> {
+    /// Length varint and N elements.
+    const MAX_SIZE: usize = varint_len(N) + N * T::MAX_SIZE;
+}
+
+/// Longest [`Estimate`] payload for a model of `modes` modes (clamped to
+/// [`MAX_MODES`]): each mode fewer than [`MAX_MODES`] leaves out one
+/// [`ModeEstimate`] and four Θ entries (Θ has 4·modes − 1). 73 bytes for 2
+/// modes.
+pub const fn estimate_payload_max(modes: usize) -> usize {
+    let fewer = MAX_MODES.saturating_sub(modes);
+    Estimate::MAX_SIZE - fewer * (ModeEstimate::MAX_SIZE + 4 * f32::MAX_SIZE)
+}
+
+/// Longest [`RawSamples`] payload: first index, decimation,
+/// [`MAX_RAW_SAMPLES`] pairs of `f32` (526 bytes).
+pub const RAW_PAYLOAD_MAX: usize = RawSamples::MAX_SIZE;
+
+/// Longest [`Status`] payload (128 bytes).
+pub const STATUS_PAYLOAD_MAX: usize = Status::MAX_SIZE;
+
+/// Longest [`Ack`] payload: sequence number and result byte.
+pub const ACK_PAYLOAD_MAX: usize = Ack::MAX_SIZE;
+
+/// Longest [`Command`] payload: tag and the longest argument (estimator
+/// settings).
+pub const COMMAND_PAYLOAD_MAX: usize = Command::MAX_SIZE;
 
 /// Longest payload of any message: a full raw-sample block.
 pub const MAX_PAYLOAD_LEN: usize = max(

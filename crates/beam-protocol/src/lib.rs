@@ -1,6 +1,8 @@
 //! The serial-link protocol between the rig and the host: typed messages,
-//! framing, and a resynchronising stream decoder. Both ends use this module,
-//! so they cannot drift apart. `docs/PROTOCOL.md` specifies every byte.
+//! framing, and a resynchronising stream decoder. Both ends (the firmware
+//! and the host tools) use this crate, so they cannot drift apart; it
+//! depends on nothing of the estimator's. `docs/PROTOCOL.md` specifies
+//! every byte.
 //!
 //! * [`telemetry`]: device → host messages ([`Estimate`], [`RawSamples`],
 //!   [`Status`], [`Ack`]);
@@ -54,7 +56,10 @@
 //!   nothing.
 //! * Nothing here allocates or panics, whatever the input: encoding writes
 //!   into the caller's buffer, decoding works in a fixed buffer, and the
-//!   module denies indexing, `unwrap` and `panic!` through clippy.
+//!   crate denies indexing, `unwrap` and `panic!` through clippy.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 #![deny(
     clippy::indexing_slicing,
     clippy::unwrap_used,
@@ -84,7 +89,7 @@ pub use frame::{
 };
 pub use telemetry::{
     Ack, AckResult, DeviceCounters, Estimate, EstimatorKind, FirmwareVersion, ModeEstimate,
-    RawSamples, Status, StatusFlags, UySample,
+    RawSamples, Status, StatusFlags, UnknownEstimator, UySample,
 };
 pub use validate::Limits;
 
@@ -100,8 +105,9 @@ pub const DELIMITER: u8 = 0x00;
 pub const HEADER_LEN: usize = 8;
 /// Trailing CRC-32 bytes.
 pub const CRC_LEN: usize = 4;
-/// The most modes a message can carry (`crate::model::MAX_MODES`).
-pub const MAX_MODES: usize = crate::model::MAX_MODES;
+/// The most modes a message can carry. The estimator's model must fit
+/// (the core checks its own mode limit against this one at compile time).
+pub const MAX_MODES: usize = 3;
 /// The most Θ entries: 2D − 1 with D = 2·[`MAX_MODES`] (eq. 29).
 pub const MAX_THETA: usize = 4 * MAX_MODES - 1;
 /// The most (u, y) pairs in one [`RawSamples`] block.

@@ -224,7 +224,7 @@ impl Command {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::budget::uart_bytes_per_s;
+    use crate::budget::uart_bytes_per_s;
     use RejectReason as R;
 
     const LIMITS: Limits = Limits {

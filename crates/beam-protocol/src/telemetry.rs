@@ -3,9 +3,13 @@
 //! struct as its fields in declaration order); `docs/PROTOCOL.md` lists each
 //! field's bytes.
 
+use core::fmt;
+use core::str::FromStr;
+
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use super::budget::{fields_of, tag_len, MaxSize};
 use super::command::{EstimatorSettings, Excitation, RejectReason, TelemetryRates};
 use super::{MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA};
 
@@ -24,6 +28,11 @@ pub enum EstimatorKind {
     Robust = 3,
 }
 
+impl MaxSize for EstimatorKind {
+    /// The enum tag.
+    const MAX_SIZE: usize = tag_len(Self::ALL.len());
+}
+
 impl EstimatorKind {
     /// Every kind, in wire order.
     pub const ALL: [Self; 4] = [
@@ -37,6 +46,48 @@ impl EstimatorKind {
     pub const fn bit(self) -> u8 {
         1 << (self as u8)
     }
+
+    /// The kind's name, as the host tools write and read it: `adaptive`,
+    /// `gradient`, `ls`, `robust`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Adaptive => "adaptive",
+            Self::Gradient => "gradient",
+            Self::LeastSquares => "ls",
+            Self::Robust => "robust",
+        }
+    }
+}
+
+impl fmt::Display for EstimatorKind {
+    /// The [`name`](Self::name).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is no [`EstimatorKind`]'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownEstimator;
+
+impl fmt::Display for UnknownEstimator {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("not an estimator kind (adaptive, gradient, ls, robust)")
+    }
+}
+
+impl core::error::Error for UnknownEstimator {}
+
+impl FromStr for EstimatorKind {
+    type Err = UnknownEstimator;
+
+    /// The kind of this [`name`](Self::name) (exact match).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or(UnknownEstimator)
+    }
 }
 
 /// Status flags of an [`Estimate`]: a bit field, sent as a postcard `u16`
@@ -47,6 +98,10 @@ impl EstimatorKind {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[serde(transparent)]
 pub struct StatusFlags(pub u16);
+
+impl MaxSize for StatusFlags {
+    const MAX_SIZE: usize = u16::MAX_SIZE;
+}
 
 impl StatusFlags {
     /// λmin(P) is above the firmware's excitation threshold (Lemma 1).
@@ -115,6 +170,10 @@ pub struct ModeEstimate {
     pub b_bar: f32,
 }
 
+impl MaxSize for ModeEstimate {
+    const MAX_SIZE: usize = fields_of::<Self, f32>() * f32::MAX_SIZE;
+}
+
 /// The current estimate, sent at the estimate rate (default 100 Hz).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -137,6 +196,15 @@ pub struct Estimate {
     /// The excitation level λmin(P) of the scaled information matrix
     /// (Lemma 1); `None` for laws that keep no P.
     pub excitation_level: Option<f32>,
+}
+
+impl MaxSize for Estimate {
+    const MAX_SIZE: usize = u64::MAX_SIZE
+        + EstimatorKind::MAX_SIZE
+        + StatusFlags::MAX_SIZE
+        + Vec::<ModeEstimate, MAX_MODES>::MAX_SIZE
+        + Vec::<f32, MAX_THETA>::MAX_SIZE
+        + Option::<f32>::MAX_SIZE;
 }
 
 impl Estimate {
@@ -165,6 +233,10 @@ pub struct UySample {
     pub y: f32,
 }
 
+impl MaxSize for UySample {
+    const MAX_SIZE: usize = fields_of::<Self, f32>() * f32::MAX_SIZE;
+}
+
 /// A block of raw samples, for recording and replay. Sample i of the
 /// block has index `first_sample_index + i·decimation`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -180,6 +252,11 @@ pub struct RawSamples {
     pub samples: Vec<UySample, MAX_RAW_SAMPLES>,
 }
 
+impl MaxSize for RawSamples {
+    const MAX_SIZE: usize =
+        u64::MAX_SIZE + u16::MAX_SIZE + Vec::<UySample, MAX_RAW_SAMPLES>::MAX_SIZE;
+}
+
 /// The firmware's version.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -190,6 +267,11 @@ pub struct FirmwareVersion {
     pub minor: u8,
     /// Patch version.
     pub patch: u8,
+}
+
+impl MaxSize for FirmwareVersion {
+    /// major, minor, patch.
+    const MAX_SIZE: usize = u8::MAX_SIZE + u8::MAX_SIZE + u8::MAX_SIZE;
 }
 
 /// Device counters, all since start-up, saturating at 2³² − 1.
@@ -221,6 +303,10 @@ pub struct DeviceCounters {
     pub rx_frame_errors: u32,
 }
 
+impl MaxSize for DeviceCounters {
+    const MAX_SIZE: usize = fields_of::<Self, u32>() * u32::MAX_SIZE;
+}
+
 /// Counters and the settings in force, sent on request and at the status
 /// rate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -246,6 +332,18 @@ pub struct Status {
     pub telemetry: TelemetryRates,
 }
 
+impl MaxSize for Status {
+    const MAX_SIZE: usize = u64::MAX_SIZE
+        + f32::MAX_SIZE
+        + FirmwareVersion::MAX_SIZE
+        + u8::MAX_SIZE
+        + DeviceCounters::MAX_SIZE
+        + bool::MAX_SIZE
+        + Excitation::MAX_SIZE
+        + EstimatorSettings::MAX_SIZE
+        + TelemetryRates::MAX_SIZE;
+}
+
 /// The outcome of a command. On the wire a single byte: 0 = accepted,
 /// otherwise the [`RejectReason`] code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -255,6 +353,11 @@ pub enum AckResult {
     Accepted,
     /// Refused; nothing changed.
     Rejected(RejectReason),
+}
+
+impl MaxSize for AckResult {
+    /// One byte: 0 or the reason's code.
+    const MAX_SIZE: usize = u8::MAX_SIZE;
 }
 
 impl AckResult {
@@ -316,6 +419,10 @@ pub struct Ack {
     pub result: AckResult,
 }
 
+impl MaxSize for Ack {
+    const MAX_SIZE: usize = u32::MAX_SIZE + AckResult::MAX_SIZE;
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -353,6 +460,18 @@ mod tests {
                 "{theta} {modes}"
             );
         }
+    }
+
+    #[test]
+    fn estimator_names_round_trip() {
+        for k in EstimatorKind::ALL {
+            assert_eq!(k.name().parse(), Ok(k));
+        }
+        assert_eq!(
+            "least-squares".parse::<EstimatorKind>(),
+            Err(UnknownEstimator)
+        );
+        assert_eq!(EstimatorKind::LeastSquares.to_string(), "ls");
     }
 
     #[test]

@@ -6,6 +6,7 @@ use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use super::budget::{max, tag_len, MaxSize};
 use super::telemetry::EstimatorKind;
 #[cfg(doc)]
 use super::validate::Limits;
@@ -55,6 +56,18 @@ pub enum Waveform {
     },
 }
 
+impl MaxSize for Waveform {
+    /// The tag of five variants and the longest variant's fields.
+    const MAX_SIZE: usize = tag_len(5)
+        + max(
+            f32::MAX_SIZE,
+            max(
+                2 * f32::MAX_SIZE + u8::MAX_SIZE,
+                max(f32::MAX_SIZE + u8::MAX_SIZE, 3 * f32::MAX_SIZE),
+            ),
+        );
+}
+
 /// The excitation: waveform, peak amplitude and offset. The output stays in
 /// [offset − amplitude, offset + amplitude], which must lie inside the
 /// piezo's safe window ([`Limits::piezo_min_v`], [`Limits::piezo_max_v`]).
@@ -67,6 +80,10 @@ pub struct Excitation {
     pub amplitude_v: f32,
     /// DC offset (V).
     pub offset_v: f32,
+}
+
+impl MaxSize for Excitation {
+    const MAX_SIZE: usize = Waveform::MAX_SIZE + f32::MAX_SIZE + f32::MAX_SIZE;
 }
 
 impl Default for Excitation {
@@ -104,6 +121,15 @@ pub struct EstimatorSettings {
     pub lambda_rad_s: Option<f32>,
 }
 
+impl MaxSize for EstimatorSettings {
+    const MAX_SIZE: usize = EstimatorKind::MAX_SIZE
+        + f32::MAX_SIZE
+        + f32::MAX_SIZE
+        + f32::MAX_SIZE
+        + f32::MAX_SIZE
+        + Option::<f32>::MAX_SIZE;
+}
+
 impl Default for EstimatorSettings {
     /// The core's defaults (`AdaptiveConfig::default`): Γ = 1e4,
     /// l = γ = 0.05 /s, R(0) = 1e-9·I, automatic λ.
@@ -130,6 +156,10 @@ pub struct TelemetryRates {
     pub raw_decimation: u16,
     /// Status frames per second (Hz); 0 = only on request.
     pub status_rate_hz: f32,
+}
+
+impl MaxSize for TelemetryRates {
+    const MAX_SIZE: usize = f32::MAX_SIZE + u16::MAX_SIZE + f32::MAX_SIZE;
 }
 
 impl Default for TelemetryRates {
@@ -164,6 +194,15 @@ pub enum Command {
     Resume,
     /// 6: send a [`Status`](super::Status) now.
     RequestStatus,
+}
+
+impl MaxSize for Command {
+    /// The tag of seven variants and the longest argument.
+    const MAX_SIZE: usize = tag_len(7)
+        + max(
+            Excitation::MAX_SIZE,
+            max(EstimatorSettings::MAX_SIZE, TelemetryRates::MAX_SIZE),
+        );
 }
 
 /// Why a command was refused. Stable wire codes (the byte in
