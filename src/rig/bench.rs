@@ -34,7 +34,7 @@ use super::plant::{ModalPlant, PlantError};
 use super::timing::ConverterTiming;
 use crate::drivers::ad5761r;
 use crate::drivers::ads131m02::{self, PgaGain};
-use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
+use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow};
 use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -161,8 +161,8 @@ pub fn pipeline_config() -> PipelineConfig {
 /// The paper's excitation, 0.1 V·square(7 Hz), inside ±[`WINDOW_V`].
 pub fn excitation<T: Real>() -> Result<Excitation<T>, ExcitationError> {
     Excitation::new(
-        &Shape::Square {
-            frequency_hz: EXCITATION_HZ,
+        &protocol::Waveform::Square {
+            freq_hz: EXCITATION_HZ as f32,
         },
         T::from_f64(EXCITATION_V),
         T::ZERO,
@@ -298,7 +298,8 @@ mod tests {
             max_v: WINDOW_V as f32,
         };
         let mut planned =
-            Excitation::<f32>::new(&Shape::Off, 0.0, 0.0, window, SAMPLE_RATE_HZ).unwrap();
+            Excitation::<f32>::new(&protocol::Waveform::Off, 0.0, 0.0, window, SAMPLE_RATE_HZ)
+                .unwrap();
         let off = protocol::Excitation {
             waveform: protocol::Waveform::Off,
             amplitude_v: 0.0,

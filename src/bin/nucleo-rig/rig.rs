@@ -8,12 +8,13 @@
 
 use beamest::drivers::{ad5761r, ads131m02};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, ConfigError};
-use beamest::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
+use beamest::excitation::{Excitation, ExcitationError, SafeWindow};
 use beamest::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use beamest::pipeline::{
     AdcScale, BridgeConfig, ConversionConfig, DacLatch, InputSource, Linearisation, OutputQuantity,
     PipelineConfig, ADS131M02_VREF_V,
 };
+use beamest::protocol::Waveform;
 
 /// Sample rate (Hz): the ADC's data rate (board clock plan).
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
@@ -143,8 +144,8 @@ pub fn pipeline_config(null_offset_v: f64) -> PipelineConfig {
 /// The start-up excitation.
 pub fn excitation() -> Result<Excitation<f64>, ExcitationError> {
     Excitation::new(
-        &Shape::Square {
-            frequency_hz: EXCITATION_HZ,
+        &Waveform::Square {
+            freq_hz: EXCITATION_HZ as f32,
         },
         EXCITATION_AMPLITUDE_V,
         0.0,
