@@ -8,7 +8,8 @@ use crate::simulate::{check_duration, check_noise, write_stdout};
 use crate::table::{rel, sig, Column, Table};
 use crate::CrlbArgs;
 use beamctl::bound::{model_set_description, ExperimentBound, NoiseLevel};
-use beamctl::runner::{excitation, samples};
+use beamctl::drive::drive;
+use beamctl::runner::samples;
 use beamctl::RunConfig;
 use serde::Serialize;
 
@@ -31,13 +32,13 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
     };
     let set = args.model_set.set();
     let truth = cfg.plant.truth();
-    let mut u = excitation(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
+    let u = drive(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
     let n = samples(&cfg);
     let bound = beamctl::bound::experiment_bound(
         &truth.tf,
         &truth.modal.output_weight[..modes],
         cfg.ts_s,
-        (0..n).map(|_| u.next_sample()),
+        u.take(n as usize),
         noise,
         set,
     )

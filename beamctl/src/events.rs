@@ -11,7 +11,6 @@
 use crate::runner::{RunConfig, RunError};
 use crate::scenario::Truth;
 use beamest::beam::BeamParams;
-use beamest::excitation::SquareWave;
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, MAX_MODES};
 use beamest::rig::{
@@ -430,7 +429,7 @@ pub fn scenario_report(
 pub(crate) fn events_rig(
     cfg: &RunConfig,
     with_fault: bool,
-) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
+) -> Result<ScenarioRig<f64, crate::drive::Drive>, RunError> {
     let rig = crate::runner::clean_rig(cfg)?;
     let ev = &cfg.events;
     let truth = cfg.plant.truth();

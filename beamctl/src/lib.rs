@@ -15,6 +15,8 @@
 //!   and RMS ÷ bound;
 //! * [`events`] — the events of a simulated run (plant change, excitation
 //!   pause, sensor fault, modes beyond the model) and what they did;
+//! * [`drive`] — the input u of a simulated run: the paper's square wave or
+//!   the firmware's generators (`--wave`);
 //! * [`csvin`] — reading recorded samples for `beamctl replay`.
 //! * [`link`] — the host end of the serial link (`beamctl monitor`,
 //!   `beamctl send`) and a fake device that speaks the protocol.
@@ -28,6 +30,7 @@
 
 pub mod bound;
 pub mod csvin;
+pub mod drive;
 pub mod events;
 pub mod fit;
 pub mod gains;

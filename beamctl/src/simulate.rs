@@ -20,12 +20,14 @@ use crate::error::CliError;
 use crate::plot::{self, OutputPanel, Recorder};
 use crate::progress::Progress;
 use crate::report;
+use crate::send::ExcitationArgs;
 use crate::settings::{self, EstimatorPlan};
 use crate::SimulateArgs;
 use beamctl::fit::{self, Model};
 use beamctl::runner::{run_many, samples, scenario_rig};
 use beamctl::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
+use beamest::protocol;
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
 
@@ -102,7 +104,13 @@ pub fn check_noise(snr_db: Option<f64>, noise_sd: Option<f64>) -> Result<(), Cli
 /// Validate the flags.
 pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
     let base_default = RunConfig::default();
-    let ts = base_default.ts_s;
+    let ts = args.ts;
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(CliError::usage(
+            "--ts",
+            format!("the sample interval must be a finite number of seconds > 0 (got {ts})"),
+        ));
+    }
 
     check_duration(args.duration, ts)?;
     check_noise(args.snr_db, args.noise_sd)?;
@@ -151,6 +159,8 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         precision: est.precision,
         gains: est.gains,
         duration_s: args.duration,
+        ts_s: ts,
+        excitation: drive_excitation(&args.excitation)?,
         lambda: est.lambda,
         snr_db: args.snr_db,
         noise_sd: args.noise_sd,
@@ -171,6 +181,10 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         residual_monitor: args.guard.residual_monitor,
         ..base_default
     };
+    if base.excitation.is_some() {
+        // Refused settings are named before anything runs.
+        beamctl::drive::drive(&base).map_err(|e| CliError::usage("--wave", e))?;
+    }
     Ok(Plan {
         est,
         base,
@@ -178,6 +192,32 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         plant_label,
         seeds: args.seeds.as_ref().map(|s| s.0.clone()),
     })
+}
+
+/// The firmware's excitation the drive flags describe (None without any:
+/// the paper's square wave), what is not given taken from the paper's
+/// 0.1 V square wave at 7 Hz ([`protocol::Excitation::default`]).
+fn drive_excitation(args: &ExcitationArgs) -> Result<Option<protocol::Excitation>, CliError> {
+    if !args.is_given() {
+        return Ok(None);
+    }
+    args.build(Some(&protocol::Excitation::default()))
+        .map(Some)
+        .map_err(|e| CliError::usage("--wave", e))
+}
+
+/// The drive part of the "run:" line.
+fn drive_text(cfg: &RunConfig) -> String {
+    match &cfg.excitation {
+        None => format!("{}·square({} Hz)", cfg.u_amplitude, cfg.u_freq_hz),
+        Some(e) => {
+            let text = beamctl::link::text::excitation_text(e);
+            format!(
+                "the firmware's {}",
+                text.strip_prefix("excitation ").unwrap_or(&text)
+            )
+        }
+    }
 }
 
 fn finite(flag: &str, v: f64) -> Result<(), CliError> {
@@ -201,6 +241,10 @@ pub struct JsonRun<'a> {
     pub ts_s: f64,
     pub snr_db: Option<f64>,
     pub seed: u64,
+    /// The firmware's excitation driving the run (absent: the paper's
+    /// square wave).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub excitation: Option<protocol::Excitation>,
 }
 
 /// Feeds the CSV writer, the plot recorders and the progress bar.
@@ -466,6 +510,7 @@ fn json(plan: &Plan, reports: &[RunReport]) -> Result<String, CliError> {
             ts_s: plan.base.ts_s,
             snr_db: plan.base.snr_db,
             seed: plan.base.seed,
+            excitation: plan.base.excitation,
         })
         .collect();
     report::to_json(&runs)
@@ -578,12 +623,11 @@ pub fn scenario_lines(sc: &beamctl::events::ScenarioReport) -> String {
 pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>) -> String {
     let cfg = &plan.base;
     format!(
-        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n",
+        "run:    {} s at Ts = {} ms ({} samples), u = {}, {}, {}, {} gains, noise: {}\n",
         cfg.duration_s,
         cfg.ts_s * 1e3,
         samples,
-        cfg.u_amplitude,
-        cfg.u_freq_hz,
+        drive_text(cfg),
         plan.est.lambda_label,
         match cfg.precision {
             beamctl::Precision::F64 => "f64",
@@ -662,6 +706,59 @@ mod tests {
         assert!(err(&["--omega", "1,2,3,4"]).starts_with("--omega: at most 3"));
         assert!(err(&["--plot", "x.svg"]).starts_with("--plot:"));
         assert!(err(&["--weights", "0,1"]).starts_with("--weights:"));
+    }
+
+    #[test]
+    fn drive_flags_are_the_send_grammar() {
+        // None: the paper's square wave, bit for bit today's run.
+        let p = plan(&args(&[])).unwrap();
+        assert_eq!(p.base.excitation, None);
+        assert_eq!(p.base.ts_s, 1e-4);
+        let p = plan(&args(&[
+            "--wave",
+            "multisine",
+            "--band",
+            "2:80",
+            "--tones",
+            "8",
+            "--ts",
+            "2e-4",
+        ]))
+        .unwrap();
+        assert_eq!(
+            p.base.excitation,
+            Some(protocol::Excitation {
+                waveform: protocol::Waveform::Multisine {
+                    f_min_hz: 2.0,
+                    f_max_hz: 80.0,
+                    tones: 8,
+                },
+                ..protocol::Excitation::default()
+            })
+        );
+        assert_eq!(p.base.ts_s, 2e-4);
+        assert!(run_line(&p, 1, None, None).contains(
+            "u = the firmware's --wave multisine --band 2:80 --tones 8 --amplitude 0.1 --offset 0"
+        ));
+        // What is not given is the paper's square wave's.
+        let p = plan(&args(&["--amplitude", "0.2"])).unwrap();
+        assert_eq!(
+            p.base.excitation,
+            Some(protocol::Excitation {
+                amplitude_v: 0.2,
+                ..protocol::Excitation::default()
+            })
+        );
+        assert_eq!(
+            err(&["--wave", "prbs", "--bits", "7"]),
+            "--wave: --bit-rate is needed for --wave prbs"
+        );
+        assert!(err(&["--wave", "square", "--amplitude", "20"]).contains("rejected (3)"));
+        assert!(
+            err(&["--wave", "square", "--freq", "4000", "--ts", "2e-4"]).contains("rejected (4)")
+        );
+        assert!(err(&["--ts", "0"]).starts_with("--ts:"));
+        assert!(err(&["--ts", "nan"]).starts_with("--ts:"));
     }
 
     #[test]
