@@ -21,7 +21,7 @@ pub enum Drive {
     /// The firmware's generator for [`RunConfig::excitation`] (in f64, the
     /// rig's type; the normalised sequence is the same integer one in the
     /// f32 firmware).
-    Firmware(Excitation<f64>),
+    Firmware(Box<Excitation<f64>>),
 }
 
 impl Iterator for Drive {
@@ -73,7 +73,7 @@ pub fn drive(cfg: &RunConfig) -> Result<Drive, RunError> {
     ExcitationPlan::new(wire, &rest, fs)
         .and_then(|plan| plan.apply(&mut e))
         .map_err(refused)?;
-    Ok(Drive::Firmware(e))
+    Ok(Drive::Firmware(Box::new(e)))
 }
 
 #[cfg(test)]
