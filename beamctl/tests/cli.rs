@@ -489,6 +489,16 @@ fn help_documents_every_flag() {
         "--truth-modes",
         "--range",
         "--level-correction",
+        "--ts",
+        "--wave",
+        "--freq",
+        "--band",
+        "--tones",
+        "--bit-rate",
+        "--bits",
+        "--sweep",
+        "--amplitude",
+        "--offset",
     ] {
         assert!(h.contains(flag), "{flag} missing from help");
     }

@@ -19,10 +19,12 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+use beam_protocol::Waveform;
 use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
 use beamest::excitation::{
-    ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
+    Chirp, ChirpSpec, Excitation, Generator, Multisine, MultisineSpec, Phases, Prbs, SafeWindow,
+    SquareWave, Sweep,
 };
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -131,7 +133,7 @@ fn pipeline<T: Real>(codes: &std::rc::Rc<Vec<i32>>, prefilter: bool) -> Pipe<T> 
         lambda_rad_s: 100.0,
     };
     let exc = Excitation::new(
-        &Shape::Square { frequency_hz: 7.0 },
+        &Waveform::Square { freq_hz: 7.0 },
         T::from_f64(0.1),
         T::ZERO,
         SafeWindow {
@@ -212,59 +214,91 @@ fn excitation_benches(c: &mut Criterion) {
         max_v: 10.0,
     };
     let shapes = [
-        ("square", Shape::Square { frequency_hz: 7.0 }),
+        (
+            "square",
+            Generator::new(&Waveform::Square { freq_hz: 7.0 }, 1e4).expect("square"),
+        ),
         (
             "multisine_1",
-            Shape::Multisine(MultisineSpec {
-                f_min_hz: 7.0,
-                f_max_hz: 7.0,
-                tones: 1,
-                period_log2: 14,
-                phases: Phases::Schroeder,
-            }),
+            Generator::multisine(
+                Multisine::new(
+                    &MultisineSpec {
+                        f_min_hz: 7.0,
+                        f_max_hz: 7.0,
+                        tones: 1,
+                        period_log2: 14,
+                        phases: Phases::Schroeder,
+                    },
+                    1e4,
+                )
+                .expect("multisine"),
+                1e4,
+            )
+            .expect("multisine"),
         ),
         (
             "multisine_8",
-            Shape::Multisine(MultisineSpec {
-                f_min_hz: 2.0,
-                f_max_hz: 80.0,
-                tones: 8,
-                period_log2: 14,
-                phases: Phases::Schroeder,
-            }),
+            Generator::multisine(
+                Multisine::new(
+                    &MultisineSpec {
+                        f_min_hz: 2.0,
+                        f_max_hz: 80.0,
+                        tones: 8,
+                        period_log2: 14,
+                        phases: Phases::Schroeder,
+                    },
+                    1e4,
+                )
+                .expect("multisine"),
+                1e4,
+            )
+            .expect("multisine"),
         ),
         (
             "prbs",
-            Shape::Prbs {
-                order: 12,
-                bit_rate_hz: 500.0,
-                seed: 1,
-            },
+            // 500 bit/s at 10 kHz: a bit every 20 samples.
+            Generator::prbs(Prbs::new(12, 20, 1).expect("prbs"), 1e4).expect("prbs"),
         ),
         (
             "chirp_linear",
-            Shape::Chirp(ChirpSpec {
-                f0_hz: 2.0,
-                f1_hz: 80.0,
-                period_s: 10.0,
-                sweep: Sweep::Linear,
-            }),
+            Generator::chirp(
+                Chirp::new(
+                    &ChirpSpec {
+                        f0_hz: 2.0,
+                        f1_hz: 80.0,
+                        period_s: 10.0,
+                        sweep: Sweep::Linear,
+                    },
+                    1e4,
+                )
+                .expect("chirp"),
+                1e4,
+            )
+            .expect("chirp"),
         ),
         (
             "chirp_log",
-            Shape::Chirp(ChirpSpec {
-                f0_hz: 2.0,
-                f1_hz: 80.0,
-                period_s: 10.0,
-                sweep: Sweep::Logarithmic,
-            }),
+            Generator::chirp(
+                Chirp::new(
+                    &ChirpSpec {
+                        f0_hz: 2.0,
+                        f1_hz: 80.0,
+                        period_s: 10.0,
+                        sweep: Sweep::Logarithmic,
+                    },
+                    1e4,
+                )
+                .expect("chirp"),
+                1e4,
+            )
+            .expect("chirp"),
         ),
     ];
     let mut g = c.benchmark_group("excitation");
     const N: usize = 10_000;
     g.throughput(Throughput::Elements(N as u64));
     for (name, shape) in shapes {
-        let mut e = Excitation::new(&shape, 1.0f32, 0.0, w, 1e4).expect("shape");
+        let mut e = Excitation::with_generator(shape, 1.0f32, 0.0, w).expect("shape");
         g.bench_function(name, |b| {
             b.iter(|| {
                 for _ in 0..N {

@@ -19,10 +19,12 @@
 
 use std::hint::black_box;
 
+use beam_protocol::Waveform;
 use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Feedthrough2};
 use beamest::excitation::{
-    ChirpSpec, Excitation, MultisineSpec, Phases, SafeWindow, Shape, SquareWave, Sweep,
+    Chirp, ChirpSpec, Excitation, Generator, Multisine, MultisineSpec, Phases, Prbs, SafeWindow,
+    SquareWave, Sweep,
 };
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -147,7 +149,7 @@ fn run<T: Real>(mode: &str) {
         max_v: T::from_f64(10.0),
     };
     let exc = Excitation::new(
-        &Shape::Square { frequency_hz: 7.0 },
+        &Waveform::Square { freq_hz: 7.0 },
         T::from_f64(0.1),
         T::ZERO,
         window,
@@ -172,52 +174,84 @@ fn run<T: Real>(mode: &str) {
         p.tick();
     }
     let shapes = [
-        ("square", Shape::Square { frequency_hz: 7.0 }),
+        (
+            "square",
+            Generator::new(&Waveform::Square { freq_hz: 7.0 }, 1e4).expect("square"),
+        ),
         (
             "multisine1",
-            Shape::Multisine(MultisineSpec {
-                f_min_hz: 7.0,
-                f_max_hz: 7.0,
-                tones: 1,
-                period_log2: 14,
-                phases: Phases::Schroeder,
-            }),
+            Generator::multisine(
+                Multisine::new(
+                    &MultisineSpec {
+                        f_min_hz: 7.0,
+                        f_max_hz: 7.0,
+                        tones: 1,
+                        period_log2: 14,
+                        phases: Phases::Schroeder,
+                    },
+                    1e4,
+                )
+                .expect("multisine"),
+                1e4,
+            )
+            .expect("multisine"),
         ),
         (
             "multisine8",
-            Shape::Multisine(MultisineSpec {
-                f_min_hz: 2.0,
-                f_max_hz: 80.0,
-                tones: 8,
-                period_log2: 14,
-                phases: Phases::Schroeder,
-            }),
+            Generator::multisine(
+                Multisine::new(
+                    &MultisineSpec {
+                        f_min_hz: 2.0,
+                        f_max_hz: 80.0,
+                        tones: 8,
+                        period_log2: 14,
+                        phases: Phases::Schroeder,
+                    },
+                    1e4,
+                )
+                .expect("multisine"),
+                1e4,
+            )
+            .expect("multisine"),
         ),
         (
             "prbs",
-            Shape::Prbs {
-                order: 12,
-                bit_rate_hz: 500.0,
-                seed: 1,
-            },
+            // 500 bit/s at 10 kHz: a bit every 20 samples.
+            Generator::prbs(Prbs::new(12, 20, 1).expect("prbs"), 1e4).expect("prbs"),
         ),
         (
             "chirp_lin",
-            Shape::Chirp(ChirpSpec {
-                f0_hz: 2.0,
-                f1_hz: 80.0,
-                period_s: 10.0,
-                sweep: Sweep::Linear,
-            }),
+            Generator::chirp(
+                Chirp::new(
+                    &ChirpSpec {
+                        f0_hz: 2.0,
+                        f1_hz: 80.0,
+                        period_s: 10.0,
+                        sweep: Sweep::Linear,
+                    },
+                    1e4,
+                )
+                .expect("chirp"),
+                1e4,
+            )
+            .expect("chirp"),
         ),
         (
             "chirp_log",
-            Shape::Chirp(ChirpSpec {
-                f0_hz: 2.0,
-                f1_hz: 80.0,
-                period_s: 10.0,
-                sweep: Sweep::Logarithmic,
-            }),
+            Generator::chirp(
+                Chirp::new(
+                    &ChirpSpec {
+                        f0_hz: 2.0,
+                        f1_hz: 80.0,
+                        period_s: 10.0,
+                        sweep: Sweep::Logarithmic,
+                    },
+                    1e4,
+                )
+                .expect("chirp"),
+                1e4,
+            )
+            .expect("chirp"),
         ),
     ];
     // Build every generator in every mode (the multisine scan is set-up).
@@ -226,7 +260,7 @@ fn run<T: Real>(mode: &str) {
         .map(|(n, s)| {
             (
                 *n,
-                Excitation::new(s, T::ONE, T::ZERO, window, 1e4).expect("shape"),
+                Excitation::with_generator(*s, T::ONE, T::ZERO, window).expect("shape"),
             )
         })
         .collect();

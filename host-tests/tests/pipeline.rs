@@ -10,9 +10,10 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+use beam_protocol::Waveform;
 use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, StepStatus};
-use beamest::excitation::{Excitation, SafeWindow, Shape, SquareWave};
+use beamest::excitation::{Excitation, SafeWindow, SquareWave};
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::modal::modal_from_tf;
 use beamest::model::{ModalParams, PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -110,7 +111,7 @@ fn run_pipeline<T: Real>(s: &Setup, y0: f64, seconds: f64) -> Outcome<T> {
         next_tick: s.latch == DacLatch::NextTick,
     };
     let exc = Excitation::new(
-        &Shape::Square { frequency_hz: 7.0 },
+        &Waveform::Square { freq_hz: 7.0 },
         T::from_f64(U0),
         T::ZERO,
         SafeWindow {
@@ -527,7 +528,7 @@ proptest! {
         };
         let n = reads.len();
         let exc = Excitation::new(
-            &Shape::Square { frequency_hz: 7.0 },
+            &Waveform::Square { freq_hz: 7.0 },
             1.0f32,
             0.0,
             SafeWindow { min_v: -100.0, max_v: 100.0 },
@@ -586,7 +587,7 @@ fn records_carry_the_supervisors_excitation_state() {
         min_v: -10.0,
         max_v: 10.0,
     };
-    let exc = Excitation::new(&Shape::Square { frequency_hz: 7.0 }, U0, 0.0, window, FS).unwrap();
+    let exc = Excitation::new(&Waveform::Square { freq_hz: 7.0 }, U0, 0.0, window, FS).unwrap();
     let cfg = PipelineConfig {
         conversion: conversion(),
         input: InputSource::Commanded,

@@ -50,7 +50,7 @@ mod converter;
 
 pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 
-use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow, Shape};
+use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow};
 use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -62,7 +62,7 @@ use crate::rig::{ConverterTiming, ModalPlant, PlantError};
 use crate::scalar::Real;
 use ads131m02::PgaGain;
 use beam_protocol::budget::uart_bytes_per_s;
-use beam_protocol::{EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
+use beam_protocol::{self as protocol, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
 
 /// Sample rate (Hz): the paper's Ts = 0.1 ms.
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
@@ -179,8 +179,8 @@ pub fn pipeline_config() -> PipelineConfig {
 /// The paper's excitation, 0.1 V·square(7 Hz), inside ±[`WINDOW_V`].
 pub fn excitation<T: Real>() -> Result<Excitation<T>, ExcitationError> {
     Excitation::new(
-        &Shape::Square {
-            frequency_hz: EXCITATION_HZ,
+        &protocol::Waveform::Square {
+            freq_hz: EXCITATION_HZ as f32,
         },
         T::from_f64(EXCITATION_V),
         T::ZERO,
@@ -315,8 +315,14 @@ mod tests {
             min_v: -WINDOW_V as f32,
             max_v: WINDOW_V as f32,
         };
-        let mut planned =
-            Excitation::<f32>::new(&Shape::Off, 0.0, 0.0, window, SAMPLE_RATE_HZ).unwrap();
+        let mut planned = Excitation::<f32>::new(
+            &beam_protocol::Waveform::Off,
+            0.0,
+            0.0,
+            window,
+            SAMPLE_RATE_HZ,
+        )
+        .unwrap();
         let off = beam_protocol::Excitation {
             waveform: beam_protocol::Waveform::Off,
             amplitude_v: 0.0,

@@ -5,13 +5,17 @@
 //! * [`SquareWave`] — the paper's 0.1·square(7 Hz) (Section IV.A), kept as
 //!   the reference generator of the host tests;
 //! * [`Excitation`] — the run-time generator of the firmware: one
-//!   [`Waveform`] (normalised, integer) times an amplitude plus an offset,
-//!   in the actuator's volts, never outside a [`SafeWindow`].
+//!   [`Generator`] (normalised, integer) times an amplitude plus an offset,
+//!   in the actuator's volts, never outside a [`SafeWindow`]. It is built
+//!   from the wire's [`Waveform`] ([`Generator::new`] states the settings
+//!   the wire leaves to the device), and it is an endless
+//!   `Iterator<Item = T>` of volts, the drive a simulated rig takes
+//!   ([`crate::rig::Rig`]) as it takes a [`SquareWave`].
 //!
 //! # Lemma 1 (persistent excitation)
 //! Θ of eq. 29 has 4n − 1 entries for n modes. Each sinusoid in u gives two
 //! spectral lines, so u must contain at least 2n distinct frequencies in
-//! the plant's band (DC adds one line). Per kind ([`Waveform::spectral_lines`]
+//! the plant's band (DC adds one line). Per kind ([`Generator::spectral_lines`]
 //! counts them for the current settings):
 //!
 //! | kind | sinusoids in one period | n modes need |
@@ -57,6 +61,7 @@ pub use prbs::Prbs;
 pub use square::SquareWave;
 
 use crate::scalar::Real;
+use beam_protocol::{self as protocol, Waveform, WaveformKind};
 use sine::ONE_Q30;
 
 /// 2³² as f64: phase units per cycle.
@@ -110,61 +115,29 @@ impl core::fmt::Display for ExcitationError {
 
 impl core::error::Error for ExcitationError {}
 
-/// Which waveform.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ExcitationKind {
-    /// Output held at the offset.
-    Off,
-    /// Square wave.
-    Square,
-    /// Multisine.
-    Multisine,
-    /// Maximum-length PRBS.
-    Prbs,
-    /// Repeating chirp.
-    Chirp,
-}
-
-/// What to generate (settings; [`Waveform::new`] builds the generator).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Shape {
-    /// No excitation: the output is the offset.
-    Off,
-    /// ±1 square wave at this frequency (Hz).
-    Square {
-        /// Frequency (Hz), 0 < f < fs/2.
-        frequency_hz: f64,
-    },
-    /// Periodic multisine.
-    Multisine(MultisineSpec),
-    /// ±1 PRBS.
-    Prbs {
-        /// Register length k (period 2^k − 1 bits).
-        order: u8,
-        /// Bits per second; the bit period is round(fs/bit_rate) ≥ 1 samples.
-        bit_rate_hz: f64,
-        /// Initial register (0 → all ones).
-        seed: u32,
-    },
-    /// Repeating sweep.
-    Chirp(ChirpSpec),
-}
-
 /// A running, normalised generator: integer samples in
-/// [−[`Waveform::full_scale`], +full scale].
+/// [−[`Generator::full_scale`], +full scale].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Waveform {
-    gen: Generator,
+pub struct Generator {
+    state: State,
     sample_rate_hz: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Generator {
+enum State {
     Off,
     Square { phase: u32, step: u32 },
     Multisine(Multisine),
     Prbs(Prbs),
     Chirp(Chirp),
+}
+
+fn check_sample_rate(sample_rate_hz: f64) -> Result<(), ExcitationError> {
+    if sample_rate_hz > 0.0 && sample_rate_hz.is_finite() {
+        Ok(())
+    } else {
+        Err(ExcitationError::SampleRate)
+    }
 }
 
 fn dds_step(freq_hz: f64, sample_rate_hz: f64) -> Result<u32, ExcitationError> {
@@ -185,34 +158,94 @@ fn prbs_divider(bit_rate_hz: f64, sample_rate_hz: f64) -> Result<u32, Excitation
     Ok((d as u32).max(1))
 }
 
-impl Waveform {
-    /// Build the generator for `shape` at `sample_rate_hz`. A multisine
-    /// scans one period here (see [`multisine`]): call this outside the
-    /// sample interrupt.
-    pub fn new(shape: &Shape, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
-        if !(sample_rate_hz > 0.0 && sample_rate_hz.is_finite()) {
-            return Err(ExcitationError::SampleRate);
-        }
-        let gen = match *shape {
-            Shape::Off => Generator::Off,
-            Shape::Square { frequency_hz } => Generator::Square {
+impl Generator {
+    /// The generator the device runs for the wire's `waveform` at
+    /// `sample_rate_hz` (f32 settings widened to f64). The settings the wire
+    /// does not carry are fixed here, and only here:
+    ///
+    /// * square: phase 0 at the first sample (high first);
+    /// * multisine: Schroeder phases ([`Phases::Schroeder`]) over a period
+    ///   of 2^k samples, k = [`multisine::period_log2_for`] the lowest tone;
+    /// * PRBS: one bit every round(f_s/bit rate) samples, from the
+    ///   all-ones register (seed 0);
+    /// * chirp: linear sweep ([`Sweep::Linear`]).
+    ///
+    /// A multisine scans one period here (see [`multisine`]): call this
+    /// outside the sample interrupt. Other phases, seeds or sweep laws:
+    /// build the generator itself and wrap it ([`Generator::multisine`],
+    /// [`Generator::prbs`], [`Generator::chirp`]).
+    pub fn new(waveform: &Waveform, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
+        check_sample_rate(sample_rate_hz)?;
+        let state = match *waveform {
+            Waveform::Off => State::Off,
+            Waveform::Square { freq_hz } => State::Square {
                 phase: 0,
-                step: dds_step(frequency_hz, sample_rate_hz)?,
+                step: dds_step(f64::from(freq_hz), sample_rate_hz)?,
             },
-            Shape::Multisine(spec) => Generator::Multisine(Multisine::new(&spec, sample_rate_hz)?),
-            Shape::Prbs {
-                order,
+            Waveform::Multisine {
+                f_min_hz,
+                f_max_hz,
+                tones,
+            } => {
+                let spec = MultisineSpec {
+                    f_min_hz: f64::from(f_min_hz),
+                    f_max_hz: f64::from(f_max_hz),
+                    tones,
+                    period_log2: multisine::period_log2_for(f64::from(f_min_hz), sample_rate_hz),
+                    phases: Phases::Schroeder,
+                };
+                State::Multisine(Multisine::new(&spec, sample_rate_hz)?)
+            }
+            Waveform::Prbs {
                 bit_rate_hz,
-                seed,
-            } => Generator::Prbs(Prbs::new(
-                order,
-                prbs_divider(bit_rate_hz, sample_rate_hz)?,
-                seed,
+                register_bits,
+            } => State::Prbs(Prbs::new(
+                register_bits,
+                prbs_divider(f64::from(bit_rate_hz), sample_rate_hz)?,
+                0,
             )?),
-            Shape::Chirp(spec) => Generator::Chirp(Chirp::new(&spec, sample_rate_hz)?),
+            Waveform::Chirp {
+                f_start_hz,
+                f_end_hz,
+                sweep_s,
+            } => {
+                let spec = ChirpSpec {
+                    f0_hz: f64::from(f_start_hz),
+                    f1_hz: f64::from(f_end_hz),
+                    period_s: f64::from(sweep_s),
+                    sweep: Sweep::Linear,
+                };
+                State::Chirp(Chirp::new(&spec, sample_rate_hz)?)
+            }
         };
         Ok(Self {
-            gen,
+            state,
+            sample_rate_hz,
+        })
+    }
+
+    /// A multisine built for `sample_rate_hz` with settings of its own
+    /// (e.g. random phases, another period).
+    pub fn multisine(m: Multisine, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
+        Self::with(State::Multisine(m), sample_rate_hz)
+    }
+
+    /// A PRBS with settings of its own (e.g. another seed); its divider
+    /// counts samples of `sample_rate_hz`.
+    pub fn prbs(p: Prbs, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
+        Self::with(State::Prbs(p), sample_rate_hz)
+    }
+
+    /// A chirp built for `sample_rate_hz` with settings of its own (e.g. a
+    /// logarithmic sweep).
+    pub fn chirp(c: Chirp, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
+        Self::with(State::Chirp(c), sample_rate_hz)
+    }
+
+    fn with(state: State, sample_rate_hz: f64) -> Result<Self, ExcitationError> {
+        check_sample_rate(sample_rate_hz)?;
+        Ok(Self {
+            state,
             sample_rate_hz,
         })
     }
@@ -220,9 +253,9 @@ impl Waveform {
     /// This sample (|v| ≤ full scale), then advance one sample.
     #[inline]
     pub fn next_raw(&mut self) -> i32 {
-        match &mut self.gen {
-            Generator::Off => 0,
-            Generator::Square { phase, step } => {
+        match &mut self.state {
+            State::Off => 0,
+            State::Square { phase, step } => {
                 let v = if *phase < 0x8000_0000 {
                     ONE_Q30
                 } else {
@@ -231,34 +264,34 @@ impl Waveform {
                 *phase = phase.wrapping_add(*step);
                 v
             }
-            Generator::Multisine(m) => m.next_raw(),
-            Generator::Prbs(p) => {
+            State::Multisine(m) => m.next_raw(),
+            State::Prbs(p) => {
                 if p.next_bit() {
                     ONE_Q30
                 } else {
                     -ONE_Q30
                 }
             }
-            Generator::Chirp(c) => c.next_raw(),
+            State::Chirp(c) => c.next_raw(),
         }
     }
 
     /// The largest |sample|: 2³⁰, or a multisine's scanned peak.
     pub fn full_scale(&self) -> i32 {
-        match &self.gen {
-            Generator::Multisine(m) => m.peak(),
+        match &self.state {
+            State::Multisine(m) => m.peak(),
             _ => ONE_Q30,
         }
     }
 
     /// Which waveform.
-    pub fn kind(&self) -> ExcitationKind {
-        match self.gen {
-            Generator::Off => ExcitationKind::Off,
-            Generator::Square { .. } => ExcitationKind::Square,
-            Generator::Multisine(_) => ExcitationKind::Multisine,
-            Generator::Prbs(_) => ExcitationKind::Prbs,
-            Generator::Chirp(_) => ExcitationKind::Chirp,
+    pub fn kind(&self) -> WaveformKind {
+        match self.state {
+            State::Off => WaveformKind::Off,
+            State::Square { .. } => WaveformKind::Square,
+            State::Multisine(_) => WaveformKind::Multisine,
+            State::Prbs(_) => WaveformKind::Prbs,
+            State::Chirp(_) => WaveformKind::Chirp,
         }
     }
 
@@ -271,20 +304,20 @@ impl Waveform {
     /// saturating; compare with 2n for n modes (Lemma 1).
     pub fn spectral_lines(&self) -> u32 {
         let fs = self.sample_rate_hz;
-        let lines = match &self.gen {
-            Generator::Off => 0.0,
-            Generator::Square { step, .. } => {
+        let lines = match &self.state {
+            State::Off => 0.0,
+            State::Square { step, .. } => {
                 let harmonics = CYCLE / (2.0 * f64::from((*step).max(1)));
                 libm::ceil((harmonics - 1.0) / 2.0).max(1.0)
             }
-            Generator::Multisine(m) => m.tones() as f64,
-            Generator::Prbs(p) => {
+            State::Multisine(m) => m.tones() as f64,
+            State::Prbs(p) => {
                 let period = f64::from(p.period_bits()) * f64::from(p.divider());
                 let below_nyquist = libm::floor(period / 2.0);
                 // Lines at multiples of the bit rate are nulls (sinc² zeros).
                 below_nyquist - libm::floor(below_nyquist / f64::from(p.period_bits()))
             }
-            Generator::Chirp(c) => {
+            State::Chirp(c) => {
                 let s = c.spec();
                 libm::round((s.f1_hz - s.f0_hz).abs() * f64::from(c.period_samples()) / fs).max(1.0)
             }
@@ -303,12 +336,12 @@ impl Waveform {
 
     /// Back to the start of the waveform (phase 0, PRBS seed).
     pub fn reset(&mut self) {
-        match &mut self.gen {
-            Generator::Off => {}
-            Generator::Square { phase, .. } => *phase = 0,
-            Generator::Multisine(m) => m.reset(),
-            Generator::Prbs(p) => p.reset(),
-            Generator::Chirp(c) => c.reset(),
+        match &mut self.state {
+            State::Off => {}
+            State::Square { phase, .. } => *phase = 0,
+            State::Multisine(m) => m.reset(),
+            State::Prbs(p) => p.reset(),
+            State::Chirp(c) => c.reset(),
         }
     }
 }
@@ -334,10 +367,10 @@ impl<T: Real> SafeWindow<T> {
 }
 
 /// The run-time excitation: `offset + amplitude·w(k)/full_scale` volts,
-/// w a [`Waveform`], always inside the [`SafeWindow`].
+/// w a [`Generator`], always inside the [`SafeWindow`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Excitation<T> {
-    wave: Waveform,
+    wave: Generator,
     amplitude_v: T,
     offset_v: T,
     window: SafeWindow<T>,
@@ -347,17 +380,33 @@ pub struct Excitation<T> {
 }
 
 impl<T: Real> Excitation<T> {
-    /// Generator for `shape` at `sample_rate_hz`, level `offset_v ±
-    /// amplitude_v` (V) inside `window`.
+    /// The device's generator for `waveform` at `sample_rate_hz`
+    /// ([`Generator::new`]), level `offset_v ± amplitude_v` (V) inside
+    /// `window`.
     pub fn new(
-        shape: &Shape,
+        waveform: &Waveform,
         amplitude_v: T,
         offset_v: T,
         window: SafeWindow<T>,
         sample_rate_hz: f64,
     ) -> Result<Self, ExcitationError> {
         window.validate()?;
-        let wave = Waveform::new(shape, sample_rate_hz)?;
+        Self::with_generator(
+            Generator::new(waveform, sample_rate_hz)?,
+            amplitude_v,
+            offset_v,
+            window,
+        )
+    }
+
+    /// `wave` at level `offset_v ± amplitude_v` (V) inside `window`.
+    pub fn with_generator(
+        wave: Generator,
+        amplitude_v: T,
+        offset_v: T,
+        window: SafeWindow<T>,
+    ) -> Result<Self, ExcitationError> {
+        window.validate()?;
         check_level(amplitude_v, offset_v, &window)?;
         Ok(Self {
             wave,
@@ -416,12 +465,12 @@ impl<T: Real> Excitation<T> {
     /// Square: the frequency (Hz); PRBS: the bit rate (Hz). The phase (the
     /// PRBS register) is kept, so the output stays continuous.
     /// [`ExcitationError::Unsupported`] for the other kinds (use
-    /// [`Excitation::set_band`] or [`Excitation::set_waveform`]).
+    /// [`Excitation::set_band`] or [`Excitation::set_generator`]).
     pub fn set_frequency(&mut self, freq_hz: f64) -> Result<(), ExcitationError> {
         let fs = self.wave.sample_rate_hz;
-        match &mut self.wave.gen {
-            Generator::Square { step, .. } => *step = dds_step(freq_hz, fs)?,
-            Generator::Prbs(p) => p.set_divider(prbs_divider(freq_hz, fs)?)?,
+        match &mut self.wave.state {
+            State::Square { step, .. } => *step = dds_step(freq_hz, fs)?,
+            State::Prbs(p) => p.set_divider(prbs_divider(freq_hz, fs)?)?,
             _ => return Err(ExcitationError::Unsupported),
         }
         Ok(())
@@ -430,11 +479,11 @@ impl<T: Real> Excitation<T> {
     /// Chirp: new start/end frequencies, keeping the sweep period, the
     /// phase and the relative position in the sweep. Other kinds:
     /// [`ExcitationError::Unsupported`] (a multisine's band is rebuilt with
-    /// [`Waveform::new`] outside the interrupt, then [`Excitation::set_waveform`]).
+    /// [`Generator::new`] outside the interrupt, then [`Excitation::set_generator`]).
     pub fn set_band(&mut self, f0_hz: f64, f1_hz: f64) -> Result<(), ExcitationError> {
         let fs = self.wave.sample_rate_hz;
-        match &mut self.wave.gen {
-            Generator::Chirp(c) => {
+        match &mut self.wave.state {
+            State::Chirp(c) => {
                 let spec = ChirpSpec {
                     f0_hz,
                     f1_hz,
@@ -446,10 +495,10 @@ impl<T: Real> Excitation<T> {
         }
     }
 
-    /// Replace the waveform (built beforehand with [`Waveform::new`] at the
-    /// same sample rate); the level and window stay. It starts at its own
-    /// phase 0.
-    pub fn set_waveform(&mut self, wave: Waveform) -> Result<(), ExcitationError> {
+    /// Replace the generator (built beforehand, e.g. with
+    /// [`Generator::new`], at the same sample rate); the level and window
+    /// stay. It starts at its own phase 0.
+    pub fn set_generator(&mut self, wave: Generator) -> Result<(), ExcitationError> {
         if wave.sample_rate_hz != self.wave.sample_rate_hz {
             return Err(ExcitationError::SampleRate);
         }
@@ -473,13 +522,13 @@ impl<T: Real> Excitation<T> {
         self.window
     }
 
-    /// The waveform.
-    pub fn waveform(&self) -> &Waveform {
+    /// The generator.
+    pub fn generator(&self) -> &Generator {
         &self.wave
     }
 
     /// Which waveform.
-    pub fn kind(&self) -> ExcitationKind {
+    pub fn kind(&self) -> WaveformKind {
         self.wave.kind()
     }
 
@@ -492,6 +541,28 @@ impl<T: Real> Excitation<T> {
     pub fn reset(&mut self) {
         self.wave.reset();
     }
+}
+
+/// An endless sequence of volts ([`Excitation::next_sample`]): the drive of
+/// a simulated rig ([`crate::rig::Rig`]), as a [`SquareWave`] is.
+impl<T: Real> Iterator for Excitation<T> {
+    type Item = T;
+
+    #[inline]
+    fn next(&mut self) -> Option<T> {
+        Some(self.next_sample())
+    }
+}
+
+/// The level the device sets for the wire's excitation `e`: (amplitude,
+/// offset) in V; `Off` ignores the amplitude (`docs/PROTOCOL.md` §5.1), so
+/// only its offset must be inside the window.
+pub fn level<T: Real>(e: &protocol::Excitation) -> (T, T) {
+    let amplitude_v = match e.waveform {
+        Waveform::Off => T::ZERO,
+        _ => T::from_f64(f64::from(e.amplitude_v)),
+    };
+    (amplitude_v, T::from_f64(f64::from(e.offset_v)))
 }
 
 fn check_level<T: Real>(a: T, o: T, w: &SafeWindow<T>) -> Result<(), ExcitationError> {

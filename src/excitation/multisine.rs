@@ -40,6 +40,16 @@ pub const MAX_PERIOD_LOG2: u8 = 16;
 /// Each tone enters the sum as Q30 >> this, so 16 tones never overflow i32.
 const TONE_SHIFT: u32 = 4;
 
+/// The device's multisine period (the wire leaves it to the device,
+/// `docs/PROTOCOL.md` §5.1): the shortest 2^k samples (k = 8…16) whose
+/// grid f_s/2^k is at most f_min/8, so the lowest tone lands within 1/16 of
+/// its request (the longest period if none is that fine).
+pub fn period_log2_for(f_min_hz: f64, sample_rate_hz: f64) -> u8 {
+    (MIN_PERIOD_LOG2..=MAX_PERIOD_LOG2)
+        .find(|&k| sample_rate_hz / f64::from(1u32 << k) <= f_min_hz / 8.0)
+        .unwrap_or(MAX_PERIOD_LOG2)
+}
+
 /// Initial phases of the tones.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phases {
@@ -256,6 +266,14 @@ mod tests {
         let l = Multisine::new(&lin, 1e4).unwrap();
         assert_eq!(l.harmonic(7), Some(8));
         assert!(crest(&l) < 2.0, "consecutive Schroeder crest {}", crest(&l));
+    }
+
+    #[test]
+    fn device_periods() {
+        assert_eq!(period_log2_for(2.0, 1e4), 16);
+        assert_eq!(period_log2_for(100.0, 1e4), 10);
+        assert_eq!(period_log2_for(4_000.0, 1e4), 8);
+        assert_eq!(period_log2_for(0.01, 1e4), 16);
     }
 
     #[test]

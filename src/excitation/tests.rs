@@ -33,7 +33,7 @@ fn take(e: &mut Excitation<f64>, n: usize) -> Vec<f64> {
 #[test]
 fn square_is_bitwise_the_papers_square_wave() {
     let mut e = Excitation::new(
-        &Shape::Square { frequency_hz: 7.0 },
+        &Waveform::Square { freq_hz: 7.0 },
         0.1,
         0.0,
         window(-10.0, 10.0),
@@ -45,7 +45,7 @@ fn square_is_bitwise_the_papers_square_wave() {
         assert_eq!(e.next_sample().to_bits(), s.next_sample().to_bits());
     }
     let mut e32 = Excitation::<f32>::new(
-        &Shape::Square { frequency_hz: 7.0 },
+        &Waveform::Square { freq_hz: 7.0 },
         0.1,
         0.0,
         SafeWindow {
@@ -70,10 +70,11 @@ fn multisine_has_its_lines_and_nothing_else() {
         period_log2: 13,
         phases: Phases::Schroeder,
     };
-    let mut e = Excitation::new(&Shape::Multisine(spec), 2.0, 1.0, window(-5.0, 5.0), FS).unwrap();
+    let gen = Generator::multisine(Multisine::new(&spec, FS).unwrap(), FS).unwrap();
+    let mut e = Excitation::with_generator(gen, 2.0, 1.0, window(-5.0, 5.0)).unwrap();
     let n = 1 << 13;
     let x = take(&mut e, n);
-    let Generator::Multisine(m) = e.waveform().gen else {
+    let State::Multisine(m) = e.generator().state else {
         unreachable!()
     };
     let peak = x.iter().map(|v| (v - 1.0).abs()).fold(0.0, f64::max);
@@ -92,17 +93,17 @@ fn multisine_has_its_lines_and_nothing_else() {
     // DC = offset.
     let mean = x.iter().sum::<f64>() / n as f64;
     assert!((mean - 1.0).abs() < 1e-6);
-    assert_eq!(e.waveform().spectral_lines(), 6);
-    assert!(e.waveform().excites(3));
-    assert!(!e.waveform().excites(4));
+    assert_eq!(e.generator().spectral_lines(), 6);
+    assert!(e.generator().excites(3));
+    assert!(!e.generator().excites(4));
 }
 
 #[test]
 fn square_and_prbs_spectra() {
     // Square at fs/64: odd harmonics with amplitude 4/(πk) (to aliasing).
     let mut e = Excitation::new(
-        &Shape::Square {
-            frequency_hz: FS / 64.0,
+        &Waveform::Square {
+            freq_hz: (FS / 64.0) as f32,
         },
         1.0,
         0.0,
@@ -118,28 +119,18 @@ fn square_and_prbs_spectra() {
     );
     assert!(goertzel(&x, 32) < 1e-12);
     assert!(goertzel(&x, 48) > 0.4);
-    assert_eq!(e.waveform().spectral_lines(), 16);
+    assert_eq!(e.generator().spectral_lines(), 16);
     // PRBS order 7, one bit per sample: one period = 127 samples, flat
     // lines |X_k| = 2·√(128)/127 for every k ≠ 0, mean 1/127.
-    let mut p = Excitation::new(
-        &Shape::Prbs {
-            order: 7,
-            bit_rate_hz: FS,
-            seed: 1,
-        },
-        1.0,
-        0.0,
-        window(-1.0, 1.0),
-        FS,
-    )
-    .unwrap();
+    let gen = Generator::prbs(Prbs::new(7, 1, 1).unwrap(), FS).unwrap();
+    let mut p = Excitation::with_generator(gen, 1.0, 0.0, window(-1.0, 1.0)).unwrap();
     let x = take(&mut p, 127);
     let flat = 2.0 * 128f64.sqrt() / 127.0;
     for k in 1..63 {
         assert!((goertzel(&x, k) / flat - 1.0).abs() < 1e-9, "bin {k}");
     }
     assert!((x.iter().sum::<f64>() - 1.0).abs() < 1e-12);
-    assert_eq!(p.waveform().spectral_lines(), 63);
+    assert_eq!(p.generator().spectral_lines(), 63);
 }
 
 #[test]
@@ -150,7 +141,8 @@ fn chirp_energy_stays_in_its_band() {
         period_s: 0.4096,
         sweep: Sweep::Linear,
     };
-    let mut e = Excitation::new(&Shape::Chirp(spec), 1.0, 0.0, window(-1.0, 1.0), FS).unwrap();
+    let gen = Generator::chirp(Chirp::new(&spec, FS).unwrap(), FS).unwrap();
+    let mut e = Excitation::with_generator(gen, 1.0, 0.0, window(-1.0, 1.0)).unwrap();
     let x = take(&mut e, 4096);
     // Bin spacing fs/4096 = 2.44 Hz: band = bins 41..123.
     let inband: f64 = (45..120).map(|k| goertzel(&x, k).powi(2)).sum();
@@ -159,12 +151,12 @@ fn chirp_energy_stays_in_its_band() {
         .map(|k| goertzel(&x, k).powi(2))
         .sum();
     assert!(outband < 0.02 * inband, "{outband} vs {inband}");
-    assert_eq!(e.waveform().spectral_lines(), 82);
+    assert_eq!(e.generator().spectral_lines(), 82);
 }
 
 #[test]
 fn level_changes_are_checked_against_the_window() {
-    let sq = Shape::Square { frequency_hz: 10.0 };
+    let sq = Waveform::Square { freq_hz: 10.0 };
     let w = window(-20.0, 100.0);
     assert_eq!(
         Excitation::new(&sq, 30.0, 0.0, w, FS).unwrap_err(),
@@ -194,11 +186,11 @@ fn level_changes_are_checked_against_the_window() {
     assert!(x.iter().all(|&v| v == 0.0 || v == 100.0));
     assert_eq!(e.clamped_samples(), 0);
     // Off holds the offset.
-    e.set_waveform(Waveform::new(&Shape::Off, FS).unwrap())
+    e.set_generator(Generator::new(&Waveform::Off, FS).unwrap())
         .unwrap();
     assert!(take(&mut e, 10).iter().all(|&v| v == 50.0));
     assert_eq!(
-        e.set_waveform(Waveform::new(&Shape::Off, 2.0 * FS).unwrap()),
+        e.set_generator(Generator::new(&Waveform::Off, 2.0 * FS).unwrap()),
         Err(ExcitationError::SampleRate)
     );
 }
@@ -206,7 +198,7 @@ fn level_changes_are_checked_against_the_window() {
 #[test]
 fn amplitude_and_frequency_changes_keep_the_phase() {
     let mut e = Excitation::new(
-        &Shape::Square { frequency_hz: 5.0 },
+        &Waveform::Square { freq_hz: 5.0 },
         1.0,
         0.0,
         window(-2.0, 2.0),
@@ -224,26 +216,16 @@ fn amplitude_and_frequency_changes_keep_the_phase() {
     assert!((349..=351).contains(&flip), "{flip}");
     assert!(y[..flip].iter().all(|&v| v == 0.5));
     // PRBS bit rate changes keep the register.
-    let mut p = Excitation::new(
-        &Shape::Prbs {
-            order: 9,
-            bit_rate_hz: 1000.0,
-            seed: 3,
-        },
-        1.0,
-        0.0,
-        window(-1.0, 1.0),
-        FS,
-    )
-    .unwrap();
+    let gen = Generator::prbs(Prbs::new(9, 10, 3).unwrap(), FS).unwrap();
+    let mut p = Excitation::with_generator(gen, 1.0, 0.0, window(-1.0, 1.0)).unwrap();
     take(&mut p, 25);
     p.set_frequency(5000.0).unwrap();
-    let Generator::Prbs(reg) = p.waveform().gen else {
+    let State::Prbs(reg) = p.generator().state else {
         unreachable!()
     };
     assert_eq!(reg.divider(), 2);
     assert_eq!(
-        Excitation::new(&Shape::Off, 0.0, 0.0, window(-1.0, 1.0), FS)
+        Excitation::new(&Waveform::Off, 0.0, 0.0, window(-1.0, 1.0), FS)
             .unwrap()
             .set_frequency(1.0),
         Err(ExcitationError::Unsupported)
@@ -261,15 +243,15 @@ fn multisine_level_never_leaves_a_tight_window() {
         period_log2: 14,
         phases: Phases::Random(99),
     };
-    let mut e = Excitation::<f32>::new(
-        &Shape::Multisine(spec),
+    let gen = Generator::multisine(Multisine::new(&spec, FS).unwrap(), FS).unwrap();
+    let mut e = Excitation::<f32>::with_generator(
+        gen,
         3.3,
         1.7,
         SafeWindow {
             min_v: 1.7 - 3.3,
             max_v: 1.7 + 3.3,
         },
-        FS,
     )
     .unwrap();
     let mut dev = 0.0f32;
@@ -288,4 +270,84 @@ fn errors_display() {
     let mut s = String::new();
     write!(s, "{}", ExcitationError::OutsideWindow).unwrap();
     assert!(s.contains("window"));
+}
+
+#[test]
+fn the_wire_waveforms_build_the_documented_generators() {
+    // Generator::new's rule: Schroeder phases over 2^period_log2_for,
+    // the PRBS from the all-ones register, a linear chirp.
+    let ms = Waveform::Multisine {
+        f_min_hz: 2.0,
+        f_max_hz: 80.0,
+        tones: 8,
+    };
+    let spec = MultisineSpec {
+        f_min_hz: 2.0,
+        f_max_hz: 80.0,
+        tones: 8,
+        period_log2: multisine::period_log2_for(2.0, FS),
+        phases: Phases::Schroeder,
+    };
+    let prbs = Waveform::Prbs {
+        bit_rate_hz: 500.0,
+        register_bits: 10,
+    };
+    let chirp = Waveform::Chirp {
+        f_start_hz: 1.0,
+        f_end_hz: 80.0,
+        sweep_s: 4.0,
+    };
+    let sweep = ChirpSpec {
+        f0_hz: 1.0,
+        f1_hz: 80.0,
+        period_s: 4.0,
+        sweep: Sweep::Linear,
+    };
+    for (w, own) in [
+        (
+            ms,
+            Generator::multisine(Multisine::new(&spec, FS).unwrap(), FS),
+        ),
+        (prbs, Generator::prbs(Prbs::new(10, 20, 0).unwrap(), FS)),
+        (chirp, Generator::chirp(Chirp::new(&sweep, FS).unwrap(), FS)),
+    ] {
+        let mut a = Generator::new(&w, FS).unwrap();
+        let mut b = own.unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.kind(), w.kind());
+        for _ in 0..70_000 {
+            assert_eq!(a.next_raw(), b.next_raw());
+        }
+    }
+    assert_eq!(
+        Generator::multisine(Multisine::new(&spec, FS).unwrap(), f64::NAN),
+        Err(ExcitationError::SampleRate)
+    );
+}
+
+#[test]
+fn an_excitation_is_an_endless_drive() {
+    let mut e = Excitation::new(
+        &Waveform::Square { freq_hz: 7.0 },
+        0.1,
+        0.0,
+        window(-10.0, 10.0),
+        FS,
+    )
+    .unwrap();
+    let mut same = e;
+    assert!(e
+        .by_ref()
+        .take(3000)
+        .eq((0..3000).map(|_| same.next_sample())));
+    assert_eq!(e.next(), Some(same.next_sample()));
+    // Off ignores the amplitude on the wire: only the offset is the level.
+    let off = protocol::Excitation {
+        waveform: Waveform::Off,
+        amplitude_v: 50.0,
+        offset_v: 2.0,
+    };
+    assert_eq!(level::<f64>(&off), (0.0, 2.0));
+    let sq = protocol::Excitation::default();
+    assert_eq!(level::<f32>(&sq), (0.1, 0.0));
 }

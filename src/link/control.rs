@@ -2,12 +2,13 @@
 //! ([`Control`], implemented by [`Pipeline`]), what the board provides
 //! ([`Device`]: the lock and the estimator storage), and the translation of
 //! the protocol's settings into the core's ([`ExcitationPlan`],
-//! [`estimator_configs`]).
+//! [`estimator_configs`]; a waveform is built from the wire's own type,
+//! [`Generator::new`]).
 //!
 //! # Between samples, expensive work outside the lock
 //! A command is validated first ([`Command::validate`](beam_protocol::Command::validate)),
 //! then everything expensive is prepared in the low-priority context with
-//! the sample interrupt running: a new waveform ([`Waveform::new`] scans a
+//! the sample interrupt running: a new waveform ([`Generator::new`] scans a
 //! multisine's whole period), a new estimator (its matrix exponentials).
 //! Only then does the link take the lock ([`Device::with_pipeline`]: the
 //! sample interrupt masked, so the change lands between two samples) for a
@@ -16,16 +17,12 @@
 //! setter accepted it, so a refused change leaves the output untouched.
 
 use crate::estimator::{AdaptiveConfig, ConfigError, Estimator, RobustConfig};
-use crate::excitation::multisine::{MAX_PERIOD_LOG2, MIN_PERIOD_LOG2};
-use crate::excitation::{
-    ChirpSpec, Excitation, ExcitationError, ExcitationKind, MultisineSpec, Phases, Shape, Sweep,
-    Waveform,
-};
+use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::scalar::Real;
-use beam_protocol::{self as protocol, EstimatorSettings, RejectReason};
+use beam_protocol::{self as protocol, EstimatorSettings, RejectReason, Waveform, WaveformKind};
 
 /// What the link changes in the running sample task. Implemented by
 /// [`Pipeline`]; each call is made with the sample interrupt masked
@@ -222,57 +219,6 @@ pub fn reject_excitation(e: ExcitationError) -> RejectReason {
     }
 }
 
-/// A multisine's period: the shortest 2^k samples (k = 8…16) whose grid
-/// f_s/2^k is at most f_min/8, so the lowest tone lands within 1/16 of
-/// its request (the longest period if none is that fine). The protocol
-/// leaves the period to the device (`docs/PROTOCOL.md` §5.1).
-pub fn multisine_period_log2(f_min_hz: f64, sample_rate_hz: f64) -> u8 {
-    (MIN_PERIOD_LOG2..=MAX_PERIOD_LOG2)
-        .find(|&k| sample_rate_hz / f64::from(1u32 << k) <= f_min_hz / 8.0)
-        .unwrap_or(MAX_PERIOD_LOG2)
-}
-
-/// The core's shape for a protocol waveform: multisines with Schroeder
-/// phases and [`multisine_period_log2`], PRBS from the all-ones register,
-/// chirps linear.
-pub fn shape(w: &protocol::Waveform, sample_rate_hz: f64) -> Shape {
-    match *w {
-        protocol::Waveform::Off => Shape::Off,
-        protocol::Waveform::Square { freq_hz } => Shape::Square {
-            frequency_hz: f64::from(freq_hz),
-        },
-        protocol::Waveform::Multisine {
-            f_min_hz,
-            f_max_hz,
-            tones,
-        } => Shape::Multisine(MultisineSpec {
-            f_min_hz: f64::from(f_min_hz),
-            f_max_hz: f64::from(f_max_hz),
-            tones,
-            period_log2: multisine_period_log2(f64::from(f_min_hz), sample_rate_hz),
-            phases: Phases::Schroeder,
-        }),
-        protocol::Waveform::Prbs {
-            bit_rate_hz,
-            register_bits,
-        } => Shape::Prbs {
-            order: register_bits,
-            bit_rate_hz: f64::from(bit_rate_hz),
-            seed: 0,
-        },
-        protocol::Waveform::Chirp {
-            f_start_hz,
-            f_end_hz,
-            sweep_s,
-        } => Shape::Chirp(ChirpSpec {
-            f0_hz: f64::from(f_start_hz),
-            f1_hz: f64::from(f_end_hz),
-            period_s: f64::from(sweep_s),
-            sweep: Sweep::Linear,
-        }),
-    }
-}
-
 /// How the waveform changes. `Replace` carries a whole generator (a
 /// multisine's tables, ~200 bytes) by value: there is no allocator, and
 /// one plan exists per command.
@@ -281,10 +227,10 @@ pub fn shape(w: &protocol::Waveform, sample_rate_hz: f64) -> Shape {
 enum WaveChange {
     /// Same waveform: only the level changes, the phase runs on.
     Keep,
-    /// A square wave's new frequency (its phase runs on).
-    SquareFrequency(f64),
+    /// A square wave's new frequency (Hz; its phase runs on).
+    SquareFrequency(f32),
     /// A new generator, built outside the lock.
-    Replace(Waveform),
+    Replace(Generator),
 }
 
 /// A validated excitation change, prepared outside the lock.
@@ -307,24 +253,18 @@ impl<T: Real> ExcitationPlan<T> {
     ) -> Result<Self, RejectReason> {
         let wave = match (&new.waveform, &current.waveform) {
             (a, b) if a == b => WaveChange::Keep,
-            (protocol::Waveform::Square { freq_hz }, protocol::Waveform::Square { .. }) => {
-                WaveChange::SquareFrequency(f64::from(*freq_hz))
+            (Waveform::Square { freq_hz }, Waveform::Square { .. }) => {
+                WaveChange::SquareFrequency(*freq_hz)
             }
-            (w, _) => WaveChange::Replace(
-                Waveform::new(&shape(w, sample_rate_hz), sample_rate_hz)
-                    .map_err(reject_excitation)?,
-            ),
+            (w, _) => {
+                WaveChange::Replace(Generator::new(w, sample_rate_hz).map_err(reject_excitation)?)
+            }
         };
-        // Off ignores the amplitude (`docs/PROTOCOL.md` §5.1): only its
-        // offset must be in the window.
-        let amplitude_v = match new.waveform {
-            protocol::Waveform::Off => T::ZERO,
-            _ => T::from_f64(f64::from(new.amplitude_v)),
-        };
+        let (amplitude_v, offset_v) = excitation::level(new);
         Ok(Self {
             wave,
             amplitude_v,
-            offset_v: T::from_f64(f64::from(new.offset_v)),
+            offset_v,
         })
     }
 
@@ -334,18 +274,18 @@ impl<T: Real> ExcitationPlan<T> {
         let mut e = *running;
         match self.wave {
             WaveChange::Keep => {}
-            WaveChange::SquareFrequency(f) if e.kind() == ExcitationKind::Square => {
-                e.set_frequency(f).map_err(reject_excitation)?;
+            WaveChange::SquareFrequency(f) if e.kind() == WaveformKind::Square => {
+                e.set_frequency(f64::from(f)).map_err(reject_excitation)?;
             }
-            WaveChange::SquareFrequency(f) => {
-                let w = Waveform::new(
-                    &Shape::Square { frequency_hz: f },
-                    e.waveform().sample_rate_hz(),
+            WaveChange::SquareFrequency(freq_hz) => {
+                let w = Generator::new(
+                    &Waveform::Square { freq_hz },
+                    e.generator().sample_rate_hz(),
                 )
                 .map_err(reject_excitation)?;
-                e.set_waveform(w).map_err(reject_excitation)?;
+                e.set_generator(w).map_err(reject_excitation)?;
             }
-            WaveChange::Replace(w) => e.set_waveform(w).map_err(reject_excitation)?,
+            WaveChange::Replace(w) => e.set_generator(w).map_err(reject_excitation)?,
         }
         e.set_level(self.amplitude_v, self.offset_v)
             .map_err(reject_excitation)?;
@@ -365,7 +305,7 @@ mod tests {
 
     fn running() -> Excitation<f32> {
         Excitation::new(
-            &Shape::Square { frequency_hz: 7.0 },
+            &Waveform::Square { freq_hz: 7.0 },
             0.1,
             0.0,
             SafeWindow {
@@ -422,19 +362,19 @@ mod tests {
         };
         let plan = ExcitationPlan::<f32>::new(&px(ms, 0.3, 0.0), &px(SQ7, 0.1, 0.0), FS).unwrap();
         plan.apply(&mut e).unwrap();
-        assert_eq!(e.kind(), ExcitationKind::Multisine);
+        assert_eq!(e.kind(), WaveformKind::Multisine);
         let peak = (0..70_000)
             .map(|_| e.next_sample().abs())
             .fold(0.0, f32::max);
         assert!(peak <= 0.3 && peak > 0.29, "{peak}");
         for (w, kind) in [
-            (protocol::Waveform::Off, ExcitationKind::Off),
+            (protocol::Waveform::Off, WaveformKind::Off),
             (
                 protocol::Waveform::Prbs {
                     bit_rate_hz: 500.0,
                     register_bits: 10,
                 },
-                ExcitationKind::Prbs,
+                WaveformKind::Prbs,
             ),
             (
                 protocol::Waveform::Chirp {
@@ -442,7 +382,7 @@ mod tests {
                     f_end_hz: 80.0,
                     sweep_s: 4.0,
                 },
-                ExcitationKind::Chirp,
+                WaveformKind::Chirp,
             ),
         ] {
             ExcitationPlan::<f32>::new(&px(w, 0.1, 0.0), &px(ms, 0.3, 0.0), FS)
@@ -452,7 +392,7 @@ mod tests {
             assert_eq!(e.kind(), kind);
         }
         // Off: only the offset counts.
-        assert_eq!(e.kind(), ExcitationKind::Chirp);
+        assert_eq!(e.kind(), WaveformKind::Chirp);
         ExcitationPlan::<f32>::new(
             &px(protocol::Waveform::Off, 50.0, 9.0),
             &px(SQ7, 0.1, 0.0),
@@ -492,14 +432,6 @@ mod tests {
             ExcitationPlan::<f32>::new(&px(bad, 0.1, 0.0), &px(SQ7, 0.1, 0.0), FS),
             Err(RejectReason::Frequency)
         );
-    }
-
-    #[test]
-    fn multisine_periods() {
-        assert_eq!(multisine_period_log2(2.0, FS), 16);
-        assert_eq!(multisine_period_log2(100.0, FS), 10);
-        assert_eq!(multisine_period_log2(4_000.0, FS), 8);
-        assert_eq!(multisine_period_log2(0.01, FS), 16);
     }
 
     #[test]

@@ -128,12 +128,12 @@ pub use telemetry::{
 };
 
 use crate::estimator::Estimator;
-use crate::excitation::{Excitation, ExcitationKind};
+use crate::excitation::Excitation;
 pub use crate::guard::MAX_DELAY;
 use crate::guard::{GuardConfig, GuardError, SensorGuard};
 use crate::scalar::Real;
 use crate::supervise::ExcitationReason;
-use beam_protocol::StatusFlags;
+use beam_protocol::{StatusFlags, WaveformKind};
 
 /// The sample task's state: converters, excitation, estimator, telemetry.
 ///
@@ -228,7 +228,7 @@ where
             conv.y_from_code(ADC_CODE_MIN).to_f64(),
             conv.y_from_code(ADC_CODE_MAX).to_f64(),
         ];
-        let ts_s = 1.0 / excitation.waveform().sample_rate_hz();
+        let ts_s = 1.0 / excitation.generator().sample_rate_hz();
         let guard = SensorGuard::new(&GuardConfig {
             ts_s,
             range: Some([rails[0].min(rails[1]), rails[0].max(rails[1])]),
@@ -330,7 +330,7 @@ where
         // A beam left without drive settles: its repeated readings are no
         // stuck sensor ([`SensorGuard::set_input_quiet`]).
         self.guard.set_input_quiet(
-            self.excitation.kind() == ExcitationKind::Off || self.excitation.amplitude() == T::ZERO,
+            self.excitation.kind() == WaveformKind::Off || self.excitation.amplitude() == T::ZERO,
         );
         let out = self.guard.push_at(u, y, ok, index);
         if self.guard.last_screening().level.is_some() {

@@ -2,9 +2,10 @@
 
 use super::*;
 use crate::estimator::{Health, StepStatus};
-use crate::excitation::{SafeWindow, Shape};
+use crate::excitation::SafeWindow;
 use crate::model::TransferFunction;
 use beam_protocol::StatusFlags;
+use beam_protocol::Waveform;
 use heapless::spsc::Queue;
 use std::collections::VecDeque;
 use std::vec::Vec;
@@ -151,9 +152,7 @@ fn config() -> PipelineConfig {
 
 fn square(amplitude: f64) -> Excitation<f64> {
     Excitation::new(
-        &Shape::Square {
-            frequency_hz: 1000.0,
-        },
+        &Waveform::Square { freq_hz: 1000.0 },
         amplitude,
         0.0,
         SafeWindow {

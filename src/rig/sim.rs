@@ -9,10 +9,11 @@
 //! leaves the rig.
 //!
 //! # Design
-//! * The excitation is any `Iterator<Item = T>` (e.g.
-//!   [`SquareWave`], which is an endless one), so later
-//!   generators and scenario wrappers (an excitation pause, a chirp) plug in
-//!   without changing the rig. When it runs out, the drive is 0.
+//! * The excitation is any `Iterator<Item = T>`: the paper's
+//!   [`SquareWave`] or the firmware's run-time generator
+//!   ([`Excitation`](crate::excitation::Excitation): square, multisine,
+//!   PRBS, chirp), both endless, or a scenario wrapper (an excitation
+//!   pause), without changing the rig. When it runs out, the drive is 0.
 //! * [`Rig::tick_with`] drives the plant with an input from outside instead
 //!   (a DAC model, a pipeline under test).
 //! * Everything is fixed-size and `no_std`; the rig is `Clone`, so a
@@ -164,6 +165,34 @@ mod tests {
             assert_eq!(s.y, plant.sample(s.u));
         }
         assert!(probe.noise().is_none());
+    }
+
+    #[test]
+    fn the_firmware_generator_drives_the_rig_too() {
+        use crate::excitation::{Excitation, SafeWindow};
+        use beam_protocol::Waveform;
+        let chirp = Waveform::Chirp {
+            f_start_hz: 1.0,
+            f_end_hz: 80.0,
+            sweep_s: 2.0,
+        };
+        let window = SafeWindow {
+            min_v: -1.0,
+            max_v: 1.0,
+        };
+        let e = Excitation::<f64>::new(&chirp, 0.1, 0.0, window, 1e4).unwrap();
+        let mut rig = Rig::new(paper_plant(), e);
+        let (mut plant, mut drive) = (paper_plant(), e);
+        for _ in 0..30_000 {
+            let u = drive.next_sample();
+            assert_eq!(
+                rig.tick(),
+                Sample {
+                    u,
+                    y: plant.sample(u)
+                }
+            );
+        }
     }
 
     #[test]

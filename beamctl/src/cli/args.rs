@@ -212,7 +212,7 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub est: EstimatorArgs,
 
-    /// Simulated time in seconds (> 0; sampled at Ts = 0.1 ms).
+    /// Simulated time in seconds (> 0; sampled every --ts).
     #[arg(
         long,
         value_name = "SECONDS",
@@ -220,6 +220,16 @@ pub struct SimulateArgs {
         allow_negative_numbers = true
     )]
     pub duration: f64,
+
+    /// Sample interval Ts in seconds (> 0): the simulated plant's, the
+    /// estimators' and the drive's.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 1e-4,
+        allow_negative_numbers = true
+    )]
+    pub ts: f64,
 
     /// The simulated plant.
     #[command(flatten)]
@@ -295,6 +305,14 @@ pub struct SimulateArgs {
     /// are written as null.
     #[arg(long)]
     pub json: bool,
+
+    /// The firmware's generators instead of the paper's square wave: the
+    /// flags of `beamctl send excitation`, shared with it.
+    #[command(
+        flatten,
+        next_help_heading = "Drive: the firmware's generators instead of the paper's square wave (flags of `send excitation`; what is not given is the paper's 0.1 V square at 7 Hz, offset 0)"
+    )]
+    pub excitation: crate::cli::send::ExcitationArgs,
 }
 
 /// Options of `beamctl replay`.

@@ -9,8 +9,9 @@ use crate::error::CliError;
 use crate::io::report;
 use crate::io::table::{rel, sig, Column, Table};
 use crate::judge::bound::{model_set_description, ExperimentBound, NoiseLevel};
+use crate::run::drive::drive;
+use crate::run::samples;
 use crate::run::RunConfig;
-use crate::run::{excitation, samples};
 use serde::Serialize;
 
 /// Run `beamctl crlb`.
@@ -32,13 +33,13 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
     };
     let set = args.model_set.set();
     let truth = cfg.plant.truth();
-    let mut u = excitation(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
+    let u = drive(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
     let n = samples(&cfg);
     let bound = crate::judge::bound::experiment_bound(
         &truth.tf,
         &truth.modal.output_weight[..modes],
         cfg.ts_s,
-        (0..n).map(|_| u.next_sample()),
+        u.take(n as usize),
         noise,
         set,
     )

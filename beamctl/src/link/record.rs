@@ -441,11 +441,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
         row.set(cols, name, v);
     }
     row.set(cols, "adaptation_frozen", u8::from(s.adaptation_frozen));
-    row.set(
-        cols,
-        "waveform",
-        text::waveform_name(&s.excitation.waveform),
-    );
+    row.set(cols, "waveform", s.excitation.waveform.kind().name());
     row.set(
         cols,
         "waveform_params",

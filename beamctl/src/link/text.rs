@@ -47,17 +47,6 @@ pub fn flags_text(flags: StatusFlags, sep: &str) -> String {
     }
 }
 
-/// The waveform's name as `beamctl send excitation --wave` takes it.
-pub fn waveform_name(w: &Waveform) -> &'static str {
-    match w {
-        Waveform::Off => "off",
-        Waveform::Square { .. } => "square",
-        Waveform::Multisine { .. } => "multisine",
-        Waveform::Prbs { .. } => "prbs",
-        Waveform::Chirp { .. } => "chirp",
-    }
-}
-
 /// The waveform's own parameters as `beamctl send` flags
 /// (`--freq 7`, `--band 5:50 --tones 8`, …); empty for `off`.
 pub fn waveform_flags(w: &Waveform) -> String {
@@ -106,7 +95,7 @@ pub fn waveform_params(w: &Waveform) -> String {
 
 /// `excitation --wave … --amplitude … --offset …`.
 pub fn excitation_text(e: &Excitation) -> String {
-    let mut s = format!("excitation --wave {}", waveform_name(&e.waveform));
+    let mut s = format!("excitation --wave {}", e.waveform.kind().name());
     let flags = waveform_flags(&e.waveform);
     if !flags.is_empty() {
         let _ = write!(s, " {flags}");

@@ -17,6 +17,7 @@
 //! module (the simulated rig of a run and the run loop) and [`seeds`] (one
 //! configuration over several noise seeds).
 
+pub mod drive;
 pub mod error;
 pub mod estimator;
 pub mod events;
@@ -27,6 +28,7 @@ pub mod tuned;
 
 use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::judge::fit::{self, Model};
+use crate::run::drive::{drive, Drive};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::events::{
@@ -38,7 +40,6 @@ use crate::run::session::{
 };
 use crate::run::tuned::{Build, RobustStatus};
 use beamest::crlb::ModelSet;
-use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::model::ModalParams;
 use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
@@ -81,6 +82,9 @@ pub struct RunConfig {
     pub u_amplitude: f64,
     /// Square-wave frequency.
     pub u_freq_hz: f64,
+    /// The firmware's excitation (wire settings, [`drive`]) instead
+    /// of the square wave above; None: the square wave.
+    pub excitation: Option<beam_protocol::Excitation>,
     /// White noise on y, as an SNR in dB relative to the RMS of the
     /// noise-free y over the whole run (ignored if `noise_sd` is given).
     pub snr_db: Option<f64>,
@@ -124,6 +128,7 @@ impl Default for RunConfig {
             hold: OutputHold::default(),
             u_amplitude: 0.1,
             u_freq_hz: 7.0,
+            excitation: None,
             snr_db: None,
             noise_sd: None,
             crlb: None,
@@ -363,20 +368,13 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
     })
 }
 
-/// The noise-free rig of a run: plant and square wave.
-pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+/// The noise-free rig of a run: plant and drive ([`drive`]).
+pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64, Drive>, RunError> {
     let plant = cfg
         .plant
         .plant(cfg.ts_s)
         .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-    let square = excitation(cfg)?;
-    Ok(Rig::new(plant, square))
-}
-
-/// The run's excitation, u = amplitude·square(frequency), from its start.
-pub fn excitation(cfg: &RunConfig) -> Result<SquareWave<f64>, RunError> {
-    SquareWave::<f64>::new(cfg.u_amplitude, cfg.u_freq_hz, 1.0 / cfg.ts_s)
-        .map_err(|e| RunError::Setup(format!("excitation: {e:?}")))
+    Ok(Rig::new(plant, drive(cfg)?))
 }
 
 /// σ of the run's measurement noise: `noise_sd` if given, else (with an
@@ -402,7 +400,7 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
 
 /// The simulated rig of a run with its events ([`RunConfig::events`]) and
 /// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
-pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
+pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, Drive>, RunError> {
     let rig = events_rig(cfg, true)?;
     Ok(match noise_sd(cfg)? {
         Some(sd) => {
@@ -414,9 +412,9 @@ pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, SquareWave<f64>>
     })
 }
 
-/// The simulated rig of a run without its events: plant, square wave and
-/// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
-pub fn rig(cfg: &RunConfig) -> Result<Rig<f64>, RunError> {
+/// The simulated rig of a run without its events: plant, drive and (with
+/// an SNR or a σ) white noise on y of σ = [`noise_sd`].
+pub fn rig(cfg: &RunConfig) -> Result<Rig<f64, Drive>, RunError> {
     let rig = clean_rig(cfg)?;
     Ok(match noise_sd(cfg)? {
         Some(sd) => {
@@ -435,13 +433,13 @@ pub fn run_bound(cfg: &RunConfig, set: ModelSet) -> Result<Option<ExperimentBoun
         return Ok(None);
     };
     let truth = cfg.plant.truth();
-    let mut u = excitation(cfg)?;
+    let u = drive(cfg)?;
     let n = samples(cfg);
     experiment_bound(
         &truth.tf,
         &truth.modal.output_weight[..truth.modal.modes],
         cfg.ts_s,
-        (0..n).map(|_| u.next_sample()),
+        u.take(n as usize),
         NoiseLevel::Sd(sd),
         set,
     )
@@ -454,7 +452,7 @@ pub fn run_bound(cfg: &RunConfig, set: ModelSet) -> Result<Option<ExperimentBoun
 pub(crate) fn events_rig(
     cfg: &RunConfig,
     with_fault: bool,
-) -> Result<ScenarioRig<f64, SquareWave<f64>>, RunError> {
+) -> Result<ScenarioRig<f64, Drive>, RunError> {
     let rig = crate::run::clean_rig(cfg)?;
     let ev = &cfg.events;
     let truth = cfg.plant.truth();

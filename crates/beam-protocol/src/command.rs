@@ -68,6 +68,64 @@ impl MaxSize for Waveform {
         );
 }
 
+impl Waveform {
+    /// Which waveform this is.
+    pub const fn kind(&self) -> WaveformKind {
+        match self {
+            Self::Off => WaveformKind::Off,
+            Self::Square { .. } => WaveformKind::Square,
+            Self::Multisine { .. } => WaveformKind::Multisine,
+            Self::Prbs { .. } => WaveformKind::Prbs,
+            Self::Chirp { .. } => WaveformKind::Chirp,
+        }
+    }
+}
+
+/// A [`Waveform`]'s variant without its fields (not sent on its own): the
+/// kind a generator runs and the names the host's tools use
+/// (`beamctl send excitation --wave square`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WaveformKind {
+    /// [`Waveform::Off`].
+    Off,
+    /// [`Waveform::Square`].
+    Square,
+    /// [`Waveform::Multisine`].
+    Multisine,
+    /// [`Waveform::Prbs`].
+    Prbs,
+    /// [`Waveform::Chirp`].
+    Chirp,
+}
+
+impl WaveformKind {
+    /// Every kind, in wire-tag order.
+    pub const ALL: [Self; 5] = [
+        Self::Off,
+        Self::Square,
+        Self::Multisine,
+        Self::Prbs,
+        Self::Chirp,
+    ];
+
+    /// The lower-case name: `off`, `square`, `multisine`, `prbs`, `chirp`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Square => "square",
+            Self::Multisine => "multisine",
+            Self::Prbs => "prbs",
+            Self::Chirp => "chirp",
+        }
+    }
+
+    /// The kind of this [`WaveformKind::name`], if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
 /// The excitation: waveform, peak amplitude and offset. The output stays in
 /// [offset − amplitude, offset + amplitude], which must lie inside the
 /// piezo's safe window ([`Limits::piezo_min_v`], [`Limits::piezo_max_v`]).
@@ -331,8 +389,39 @@ impl<'de> Deserialize<'de> for RejectReason {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn waveform_kinds_follow_the_wire_tags_and_names_round_trip() {
+        let waves = [
+            Waveform::Off,
+            Waveform::Square { freq_hz: 7.0 },
+            Waveform::Multisine {
+                f_min_hz: 2.0,
+                f_max_hz: 80.0,
+                tones: 8,
+            },
+            Waveform::Prbs {
+                bit_rate_hz: 500.0,
+                register_bits: 10,
+            },
+            Waveform::Chirp {
+                f_start_hz: 1.0,
+                f_end_hz: 80.0,
+                sweep_s: 4.0,
+            },
+        ];
+        for (tag, (w, k)) in waves.iter().zip(WaveformKind::ALL).enumerate() {
+            let mut buf = [0u8; 16];
+            let bytes = postcard::to_slice(w, &mut buf).unwrap();
+            assert_eq!(usize::from(bytes[0]), tag);
+            assert_eq!(w.kind(), k);
+            assert_eq!(WaveformKind::from_name(k.name()), Some(k));
+        }
+        assert_eq!(WaveformKind::from_name("sine"), None);
+    }
 
     #[test]
     fn reason_codes_are_stable_and_dense() {

@@ -81,7 +81,9 @@ pub mod validate;
 pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
-pub use command::{Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform};
+pub use command::{
+    Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform, WaveformKind,
+};
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{
     encode, encode_raw, parse_command_frame, parse_frame, DecodeError, EncodeError, Encoder,

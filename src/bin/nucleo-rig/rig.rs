@@ -6,8 +6,9 @@
 //! U0, Y0 and λ come from the data through the truth-free tuning rule
 //! (`beamest::tuning`, set up in `link::tuning`).
 
+use beam_protocol::Waveform;
 use beamest::estimator::{Adaptive2, AdaptiveConfig, ConfigError};
-use beamest::excitation::{Excitation, ExcitationError, SafeWindow, Shape};
+use beamest::excitation::{Excitation, ExcitationError, SafeWindow};
 use beamest::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use beamest::pipeline::{
     AdcScale, BridgeConfig, ConversionConfig, DacLatch, InputSource, Linearisation, OutputQuantity,
@@ -142,8 +143,8 @@ pub fn pipeline_config(null_offset_v: f64) -> PipelineConfig {
 /// The start-up excitation.
 pub fn excitation() -> Result<Excitation<f64>, ExcitationError> {
     Excitation::new(
-        &Shape::Square {
-            frequency_hz: EXCITATION_HZ,
+        &Waveform::Square {
+            freq_hz: EXCITATION_HZ as f32,
         },
         EXCITATION_AMPLITUDE_V,
         0.0,

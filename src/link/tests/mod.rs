@@ -2,7 +2,7 @@
 //! records every call (the real pipeline and bench: host test `link`).
 
 use super::*;
-use crate::excitation::{Excitation, SafeWindow, Shape};
+use crate::excitation::{Excitation, SafeWindow};
 use crate::pipeline::{PipelineError, StepCounts, RAW_BLOCK_LEN};
 use beam_protocol::budget::uart_bytes_per_s;
 use beam_protocol::{
@@ -109,7 +109,7 @@ fn device() -> MockDevice {
         p: MockPipeline {
             calls: Vec::new(),
             excitation: Excitation::new(
-                &Shape::Square { frequency_hz: 7.0 },
+                &Waveform::Square { freq_hz: 7.0 },
                 0.1,
                 0.0,
                 SafeWindow {

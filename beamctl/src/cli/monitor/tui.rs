@@ -152,7 +152,7 @@ fn title_line(st: &State) -> String {
         let flags = text::waveform_flags(&e.waveform);
         parts.push(format!(
             "{}{}{}, {} V, offset {} V",
-            text::waveform_name(&e.waveform),
+            e.waveform.kind().name(),
             if flags.is_empty() { "" } else { " " },
             flags,
             e.amplitude_v,

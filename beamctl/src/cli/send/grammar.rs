@@ -5,9 +5,10 @@
 
 use beam_protocol::{
     Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
+    WaveformKind,
 };
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 
 /// A command to the device.
 #[derive(Debug, Clone, Subcommand)]
@@ -30,27 +31,28 @@ pub enum CommandArgs {
     Status,
 }
 
-/// The waveforms of `excitation --wave`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum WaveArg {
-    /// No excitation: the output holds the offset.
-    Off,
-    /// Square wave (--freq).
-    Square,
-    /// Sum of sines over a band (--band, --tones).
-    Multisine,
-    /// Maximal-length PRBS (--bit-rate, --bits).
-    Prbs,
-    /// Linear chirp, repeated (--band, --sweep).
-    Chirp,
+/// The values of `--wave`: the waveform kinds by their names
+/// ([`WaveformKind::name`]), each with the flags of its parameters.
+pub fn wave_kind() -> impl TypedValueParser<Value = WaveformKind> {
+    PossibleValuesParser::new(WaveformKind::ALL.map(|k| {
+        PossibleValue::new(k.name()).help(match k {
+            WaveformKind::Off => "No excitation: the output holds the offset",
+            WaveformKind::Square => "Square wave (--freq)",
+            WaveformKind::Multisine => "Sum of sines over a band (--band, --tones)",
+            WaveformKind::Prbs => "Maximal-length PRBS (--bit-rate, --bits)",
+            WaveformKind::Chirp => "Linear chirp, repeated (--band, --sweep)",
+        })
+    }))
+    .try_map(|name| WaveformKind::from_name(&name).ok_or(format!("no waveform '{name}'")))
 }
 
-/// Options of `excitation`.
+/// Options of `excitation` (and of `beamctl simulate`'s firmware
+/// generators).
 #[derive(Debug, Clone, Default, Args)]
 pub struct ExcitationArgs {
     /// Waveform [default: the current one].
-    #[arg(long, value_enum, value_name = "KIND")]
-    pub wave: Option<WaveArg>,
+    #[arg(long, value_parser = wave_kind(), value_name = "KIND")]
+    pub wave: Option<WaveformKind>,
     /// Square wave frequency (Hz).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub freq: Option<f32>,
@@ -208,28 +210,51 @@ fn pick<T: Copy>(given: Option<T>, current: Option<T>, flag: &str) -> Result<T, 
 }
 
 impl ExcitationArgs {
-    fn build(&self, current: Option<&Excitation>) -> Result<Excitation, String> {
+    /// True if any flag is given.
+    pub fn is_given(&self) -> bool {
+        let Self {
+            wave,
+            freq,
+            band,
+            tones,
+            bit_rate,
+            bits,
+            sweep,
+            amplitude,
+            offset,
+        } = self;
+        wave.is_some()
+            || freq.is_some()
+            || band.is_some()
+            || tones.is_some()
+            || bit_rate.is_some()
+            || bits.is_some()
+            || sweep.is_some()
+            || amplitude.is_some()
+            || offset.is_some()
+    }
+
+    /// The excitation, with what is not given taken from `current`. The
+    /// error names the missing or misplaced flag.
+    pub fn build(&self, current: Option<&Excitation>) -> Result<Excitation, String> {
         let current_wave = current.map(|e| e.waveform);
         let wave = match (self.wave, current_wave) {
             (Some(w), _) => w,
-            (None, Some(w)) => wave_arg(&w),
+            (None, Some(w)) => w.kind(),
             (None, None) => return Err(format!("--wave {UNKNOWN}")),
         };
         // The current waveform's parameters, if it is of the same kind.
-        let same = current_wave.filter(|w| wave_arg(w) == wave);
+        let same = current_wave.filter(|w| w.kind() == wave);
         let not_for = |flag: &str, given: bool| -> Result<(), String> {
             if given {
-                Err(format!(
-                    "{flag} does not apply to --wave {}",
-                    wave_name(wave)
-                ))
+                Err(format!("{flag} does not apply to --wave {}", wave.name()))
             } else {
                 Ok(())
             }
         };
-        let needed = |flag: &str| format!("{flag} is needed for --wave {}", wave_name(wave));
+        let needed = |flag: &str| format!("{flag} is needed for --wave {}", wave.name());
         let waveform = match wave {
-            WaveArg::Off => {
+            WaveformKind::Off => {
                 not_for("--freq", self.freq.is_some())?;
                 not_for("--band", self.band.is_some())?;
                 not_for("--tones", self.tones.is_some())?;
@@ -238,7 +263,7 @@ impl ExcitationArgs {
                 not_for("--sweep", self.sweep.is_some())?;
                 Waveform::Off
             }
-            WaveArg::Square => {
+            WaveformKind::Square => {
                 not_for("--band", self.band.is_some())?;
                 not_for("--tones", self.tones.is_some())?;
                 not_for("--bit-rate", self.bit_rate.is_some())?;
@@ -252,7 +277,7 @@ impl ExcitationArgs {
                     freq_hz: self.freq.or(cur).ok_or_else(|| needed("--freq"))?,
                 }
             }
-            WaveArg::Multisine => {
+            WaveformKind::Multisine => {
                 not_for("--freq", self.freq.is_some())?;
                 not_for("--bit-rate", self.bit_rate.is_some())?;
                 not_for("--bits", self.bits.is_some())?;
@@ -278,7 +303,7 @@ impl ExcitationArgs {
                         .ok_or_else(|| needed("--tones"))?,
                 }
             }
-            WaveArg::Prbs => {
+            WaveformKind::Prbs => {
                 not_for("--freq", self.freq.is_some())?;
                 not_for("--band", self.band.is_some())?;
                 not_for("--tones", self.tones.is_some())?;
@@ -301,7 +326,7 @@ impl ExcitationArgs {
                         .ok_or_else(|| needed("--bits"))?,
                 }
             }
-            WaveArg::Chirp => {
+            WaveformKind::Chirp => {
                 not_for("--freq", self.freq.is_some())?;
                 not_for("--tones", self.tones.is_some())?;
                 not_for("--bit-rate", self.bit_rate.is_some())?;
@@ -329,7 +354,7 @@ impl ExcitationArgs {
             }
         };
         let amplitude_v = match wave {
-            WaveArg::Off => self
+            WaveformKind::Off => self
                 .amplitude
                 .or(current.map(|c| c.amplitude_v))
                 .unwrap_or(0.0),
@@ -344,26 +369,6 @@ impl ExcitationArgs {
             amplitude_v,
             offset_v: pick(self.offset, current.map(|c| c.offset_v), "--offset")?,
         })
-    }
-}
-
-fn wave_arg(w: &Waveform) -> WaveArg {
-    match w {
-        Waveform::Off => WaveArg::Off,
-        Waveform::Square { .. } => WaveArg::Square,
-        Waveform::Multisine { .. } => WaveArg::Multisine,
-        Waveform::Prbs { .. } => WaveArg::Prbs,
-        Waveform::Chirp { .. } => WaveArg::Chirp,
-    }
-}
-
-fn wave_name(w: WaveArg) -> &'static str {
-    match w {
-        WaveArg::Off => "off",
-        WaveArg::Square => "square",
-        WaveArg::Multisine => "multisine",
-        WaveArg::Prbs => "prbs",
-        WaveArg::Chirp => "chirp",
     }
 }
 

@@ -24,7 +24,7 @@ use beam_protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReaso
 use clap::{ArgGroup, Args};
 
 mod grammar;
-pub use grammar::{parse_line, CommandArgs};
+pub use grammar::{parse_line, CommandArgs, ExcitationArgs};
 use std::io::Write;
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Duration, Instant};

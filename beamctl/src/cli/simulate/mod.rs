@@ -251,6 +251,7 @@ fn json(plan: &Plan, reports: &[RunReport]) -> Result<String, CliError> {
             ts_s: plan.base.ts_s,
             snr_db: plan.base.snr_db,
             seed: plan.base.seed,
+            excitation: plan.base.excitation,
         })
         .collect();
     report::to_json(&runs)
@@ -364,6 +365,7 @@ mod tests {
     use super::*;
     use crate::run::estimator::EstimatorKind;
     use crate::run::plant::PlantSpec;
+    use beam_protocol as protocol;
     use clap::Parser;
 
     fn args(extra: &[&str]) -> SimulateArgs {
@@ -428,6 +430,59 @@ mod tests {
         assert!(err(&["--omega", "1,2,3,4"]).starts_with("--omega: at most 3"));
         assert!(err(&["--plot", "x.svg"]).starts_with("--plot:"));
         assert!(err(&["--weights", "0,1"]).starts_with("--weights:"));
+    }
+
+    #[test]
+    fn drive_flags_are_the_send_grammar() {
+        // None: the paper's square wave, bit for bit today's run.
+        let p = plan(&args(&[])).unwrap();
+        assert_eq!(p.base.excitation, None);
+        assert_eq!(p.base.ts_s, 1e-4);
+        let p = plan(&args(&[
+            "--wave",
+            "multisine",
+            "--band",
+            "2:80",
+            "--tones",
+            "8",
+            "--ts",
+            "2e-4",
+        ]))
+        .unwrap();
+        assert_eq!(
+            p.base.excitation,
+            Some(protocol::Excitation {
+                waveform: protocol::Waveform::Multisine {
+                    f_min_hz: 2.0,
+                    f_max_hz: 80.0,
+                    tones: 8,
+                },
+                ..protocol::Excitation::default()
+            })
+        );
+        assert_eq!(p.base.ts_s, 2e-4);
+        assert!(run_line(&p, 1, None, None).contains(
+            "u = the firmware's --wave multisine --band 2:80 --tones 8 --amplitude 0.1 --offset 0"
+        ));
+        // What is not given is the paper's square wave's.
+        let p = plan(&args(&["--amplitude", "0.2"])).unwrap();
+        assert_eq!(
+            p.base.excitation,
+            Some(protocol::Excitation {
+                amplitude_v: 0.2,
+                ..protocol::Excitation::default()
+            })
+        );
+        assert_eq!(
+            err(&["--wave", "prbs", "--bits", "7"]),
+            "--wave: --bit-rate is needed for --wave prbs"
+        );
+        assert!(err(&["--wave", "square", "--amplitude", "20"]).contains("rejected (3)"));
+        assert!(
+            err(&["--wave", "square", "--freq", "4000", "--ts", "2e-4"]).contains("rejected (4)")
+        );
+        assert!(err(&["--ts", "0"]).starts_with("--ts:"));
+        assert!(err(&["--ts", "nan"]).starts_with("--ts:"));
     }
 
     #[test]

@@ -6,9 +6,11 @@
 
 use crate::cli::args::SimulateArgs;
 use crate::cli::estimator_flags::{self, EstimatorPlan};
+use crate::cli::send::ExcitationArgs;
 use crate::error::CliError;
 use crate::io::plot;
 use crate::run::{samples, RunConfig, RunReport};
+use beam_protocol as protocol;
 use serde::Serialize;
 
 /// Largest accepted `--duration` (s); 10¹⁰ samples already take hours.
@@ -84,7 +86,13 @@ pub fn check_noise(snr_db: Option<f64>, noise_sd: Option<f64>) -> Result<(), Cli
 /// Validate the flags.
 pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
     let base_default = RunConfig::default();
-    let ts = base_default.ts_s;
+    let ts = args.ts;
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(CliError::usage(
+            "--ts",
+            format!("the sample interval must be a finite number of seconds > 0 (got {ts})"),
+        ));
+    }
 
     check_duration(args.duration, ts)?;
     check_noise(args.snr_db, args.noise_sd)?;
@@ -133,6 +141,8 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         precision: est.precision,
         gains: est.gains,
         duration_s: args.duration,
+        ts_s: ts,
+        excitation: drive_excitation(&args.excitation)?,
         lambda: est.lambda,
         snr_db: args.snr_db,
         noise_sd: args.noise_sd,
@@ -156,6 +166,10 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         residual_monitor: args.guard.residual_monitor,
         ..base_default
     };
+    if base.excitation.is_some() {
+        // Refused settings are named before anything runs.
+        crate::run::drive::drive(&base).map_err(|e| CliError::usage("--wave", e))?;
+    }
     Ok(Plan {
         est,
         base,
@@ -163,6 +177,32 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         plant_label,
         seeds: args.seeds.as_ref().map(|s| s.0.clone()),
     })
+}
+
+/// The firmware's excitation the drive flags describe (None without any:
+/// the paper's square wave), what is not given taken from the paper's
+/// 0.1 V square wave at 7 Hz ([`protocol::Excitation::default`]).
+fn drive_excitation(args: &ExcitationArgs) -> Result<Option<protocol::Excitation>, CliError> {
+    if !args.is_given() {
+        return Ok(None);
+    }
+    args.build(Some(&protocol::Excitation::default()))
+        .map(Some)
+        .map_err(|e| CliError::usage("--wave", e))
+}
+
+/// The drive part of the "run:" line.
+fn drive_text(cfg: &RunConfig) -> String {
+    match &cfg.excitation {
+        None => format!("{}·square({} Hz)", cfg.u_amplitude, cfg.u_freq_hz),
+        Some(e) => {
+            let text = crate::link::text::excitation_text(e);
+            format!(
+                "the firmware's {}",
+                text.strip_prefix("excitation ").unwrap_or(&text)
+            )
+        }
+    }
 }
 
 fn finite(flag: &str, v: f64) -> Result<(), CliError> {
@@ -192,6 +232,10 @@ pub struct JsonRun<'a> {
     pub snr_db: Option<f64>,
     /// Noise seed.
     pub seed: u64,
+    /// The firmware's excitation driving the run (absent: the paper's
+    /// square wave).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub excitation: Option<protocol::Excitation>,
 }
 
 /// The noise part of the heading: "none", or the level and σ (and the
@@ -226,12 +270,11 @@ pub fn bound_line(b: &crate::judge::bound::ExperimentBound, modes: usize) -> Str
 pub fn run_line(plan: &Plan, samples: u64, sigma: Option<f64>, seed: Option<u64>) -> String {
     let cfg = &plan.base;
     format!(
-        "run:    {} s at Ts = {} ms ({} samples), u = {}·square({} Hz), {}, {}, {} gains, noise: {}\n",
+        "run:    {} s at Ts = {} ms ({} samples), u = {}, {}, {}, {} gains, noise: {}\n",
         cfg.duration_s,
         cfg.ts_s * 1e3,
         samples,
-        cfg.u_amplitude,
-        cfg.u_freq_hz,
+        drive_text(cfg),
         plan.est.lambda_label,
         match cfg.precision {
             crate::run::Precision::F64 => "f64",

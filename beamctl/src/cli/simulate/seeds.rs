@@ -119,6 +119,7 @@ fn to_json(plan: &Plan, report: &SeedsReport) -> Result<String, CliError> {
                     ts_s: plan.base.ts_s,
                     snr_db: plan.base.snr_db,
                     seed,
+                    excitation: plan.base.excitation,
                 })
                 .collect(),
         })
