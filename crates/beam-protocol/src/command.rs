@@ -1,15 +1,90 @@
 //! Host → device commands and the settings they carry. Every command is
-//! checked by [`Command::validate`] against the device's [`Limits`] before
+//! checked by [`Command::validate`] against the device's [`Limits`](crate::Limits) before
 //! anything changes (module [`validate`](super::validate)).
 
 use core::fmt;
+use core::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::budget::{max, tag_len, MaxSize};
-use super::telemetry::EstimatorKind;
-#[cfg(doc)]
-use super::validate::Limits;
+use super::size::{max, tag_len, MaxSize};
+
+/// Which update law produced an estimate. Wire value: the discriminant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum EstimatorKind {
+    /// The paper's proposed law, eqs. 33–41.
+    Adaptive = 0,
+    /// The gradient baseline, eq. 47.
+    Gradient = 1,
+    /// The least-squares baseline, eq. 48.
+    LeastSquares = 2,
+    /// A noise-robust (bias-compensated) law, where the firmware has one.
+    Robust = 3,
+}
+
+impl MaxSize for EstimatorKind {
+    /// The enum tag.
+    const MAX_SIZE: usize = tag_len(Self::ALL.len());
+}
+
+impl EstimatorKind {
+    /// Every kind, in wire order.
+    pub const ALL: [Self; 4] = [
+        Self::Adaptive,
+        Self::Gradient,
+        Self::LeastSquares,
+        Self::Robust,
+    ];
+
+    /// This kind's bit in [`Limits::estimators`](super::Limits::estimators).
+    pub const fn bit(self) -> u8 {
+        1 << (self as u8)
+    }
+
+    /// The kind's name, as the host tools write and read it: `adaptive`,
+    /// `gradient`, `ls`, `robust`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Adaptive => "adaptive",
+            Self::Gradient => "gradient",
+            Self::LeastSquares => "ls",
+            Self::Robust => "robust",
+        }
+    }
+}
+
+impl fmt::Display for EstimatorKind {
+    /// The [`name`](Self::name).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is no [`EstimatorKind`]'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownEstimator;
+
+impl fmt::Display for UnknownEstimator {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("not an estimator kind (adaptive, gradient, ls, robust)")
+    }
+}
+
+impl core::error::Error for UnknownEstimator {}
+
+impl FromStr for EstimatorKind {
+    type Err = UnknownEstimator;
+
+    /// The kind of this [`name`](Self::name) (exact match).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or(UnknownEstimator)
+    }
+}
 
 /// The excitation waveform. Wire value of the variant: its index below
 /// (postcard enum tag), then its fields.
@@ -32,7 +107,7 @@ pub enum Waveform {
         f_min_hz: f32,
         /// Highest tone (Hz), < f_s/2; > f_min unless `tones` = 1.
         f_max_hz: f32,
-        /// Number of tones, 1..=[`Limits::max_multisine_tones`].
+        /// Number of tones, 1..=[`Limits::max_multisine_tones`](crate::Limits::max_multisine_tones).
         tones: u8,
     },
     /// 3: a maximal-length pseudo-random binary sequence, ±amplitude about
@@ -41,7 +116,7 @@ pub enum Waveform {
         /// Bit rate (Hz), 0 < rate ≤ f_s.
         bit_rate_hz: f32,
         /// Shift-register length n (period 2ⁿ − 1 bits), within
-        /// [`Limits::prbs_bits_min`]..=[`Limits::prbs_bits_max`].
+        /// [`Limits::prbs_bits_min`](crate::Limits::prbs_bits_min)..=[`Limits::prbs_bits_max`](crate::Limits::prbs_bits_max).
         register_bits: u8,
     },
     /// 4: a linear chirp from `f_start_hz` to `f_end_hz` over `sweep_s`,
@@ -128,7 +203,7 @@ impl WaveformKind {
 
 /// The excitation: waveform, peak amplitude and offset. The output stays in
 /// [offset − amplitude, offset + amplitude], which must lie inside the
-/// piezo's safe window ([`Limits::piezo_min_v`], [`Limits::piezo_max_v`]).
+/// piezo's safe window ([`Limits::piezo_min_v`](crate::Limits::piezo_min_v), [`Limits::piezo_max_v`](crate::Limits::piezo_max_v)).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Excitation {
@@ -432,5 +507,17 @@ mod tests {
         assert_eq!(RejectReason::from_code(0), None);
         assert_eq!(RejectReason::from_code(15), None);
         assert_eq!(RejectReason::from_code(255), None);
+    }
+
+    #[test]
+    fn estimator_names_round_trip() {
+        for k in EstimatorKind::ALL {
+            assert_eq!(k.name().parse(), Ok(k));
+        }
+        assert_eq!(
+            "least-squares".parse::<EstimatorKind>(),
+            Err(UnknownEstimator)
+        );
+        assert_eq!(EstimatorKind::LeastSquares.to_string(), "ls");
     }
 }

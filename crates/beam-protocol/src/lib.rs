@@ -73,6 +73,7 @@ pub mod budget;
 pub mod command;
 pub mod decoder;
 pub mod frame;
+pub mod size;
 pub mod telemetry;
 pub mod validate;
 
@@ -82,7 +83,8 @@ pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{
-    Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform, WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, RejectReason, TelemetryRates,
+    UnknownEstimator, Waveform, WaveformKind,
 };
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{
@@ -90,8 +92,8 @@ pub use frame::{
     Header, Payload,
 };
 pub use telemetry::{
-    Ack, AckResult, DeviceCounters, Estimate, EstimatorKind, FirmwareVersion, ModeEstimate,
-    RawSamples, Status, StatusFlags, UnknownEstimator, UySample,
+    Ack, AckResult, DeviceCounters, Estimate, FirmwareVersion, ModeEstimate, RawSamples, Status,
+    StatusFlags, UySample,
 };
 pub use validate::Limits;
 

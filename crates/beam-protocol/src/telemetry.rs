@@ -3,92 +3,12 @@
 //! struct as its fields in declaration order); `docs/PROTOCOL.md` lists each
 //! field's bytes.
 
-use core::fmt;
-use core::str::FromStr;
-
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use super::budget::{fields_of, tag_len, MaxSize};
-use super::command::{EstimatorSettings, Excitation, RejectReason, TelemetryRates};
+use super::command::{EstimatorKind, EstimatorSettings, Excitation, RejectReason, TelemetryRates};
+use super::size::{fields_of, MaxSize};
 use super::{MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA};
-
-/// Which update law produced an estimate. Wire value: the discriminant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum EstimatorKind {
-    /// The paper's proposed law, eqs. 33–41.
-    Adaptive = 0,
-    /// The gradient baseline, eq. 47.
-    Gradient = 1,
-    /// The least-squares baseline, eq. 48.
-    LeastSquares = 2,
-    /// A noise-robust (bias-compensated) law, where the firmware has one.
-    Robust = 3,
-}
-
-impl MaxSize for EstimatorKind {
-    /// The enum tag.
-    const MAX_SIZE: usize = tag_len(Self::ALL.len());
-}
-
-impl EstimatorKind {
-    /// Every kind, in wire order.
-    pub const ALL: [Self; 4] = [
-        Self::Adaptive,
-        Self::Gradient,
-        Self::LeastSquares,
-        Self::Robust,
-    ];
-
-    /// This kind's bit in [`Limits::estimators`](super::Limits::estimators).
-    pub const fn bit(self) -> u8 {
-        1 << (self as u8)
-    }
-
-    /// The kind's name, as the host tools write and read it: `adaptive`,
-    /// `gradient`, `ls`, `robust`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Self::Adaptive => "adaptive",
-            Self::Gradient => "gradient",
-            Self::LeastSquares => "ls",
-            Self::Robust => "robust",
-        }
-    }
-}
-
-impl fmt::Display for EstimatorKind {
-    /// The [`name`](Self::name).
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// A name that is no [`EstimatorKind`]'s.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct UnknownEstimator;
-
-impl fmt::Display for UnknownEstimator {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("not an estimator kind (adaptive, gradient, ls, robust)")
-    }
-}
-
-impl core::error::Error for UnknownEstimator {}
-
-impl FromStr for EstimatorKind {
-    type Err = UnknownEstimator;
-
-    /// The kind of this [`name`](Self::name) (exact match).
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or(UnknownEstimator)
-    }
-}
 
 /// Status flags of an [`Estimate`]: a bit field, sent as a postcard `u16`
 /// (varint). Bits 13–15 are reserved: sent as 0, ignored by receivers.
@@ -460,18 +380,6 @@ mod tests {
                 "{theta} {modes}"
             );
         }
-    }
-
-    #[test]
-    fn estimator_names_round_trip() {
-        for k in EstimatorKind::ALL {
-            assert_eq!(k.name().parse(), Ok(k));
-        }
-        assert_eq!(
-            "least-squares".parse::<EstimatorKind>(),
-            Err(UnknownEstimator)
-        );
-        assert_eq!(EstimatorKind::LeastSquares.to_string(), "ls");
     }
 
     #[test]

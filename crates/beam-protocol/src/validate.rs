@@ -10,10 +10,10 @@
 use core::f32::consts::PI;
 
 use super::budget::LinkLoad;
+use super::command::EstimatorKind;
 use super::command::{
     Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform,
 };
-use super::telemetry::EstimatorKind;
 
 /// What the device accepts: its sample rate, the piezo's safe window, the
 /// generators and estimators it has, and its link budget.
