@@ -63,10 +63,9 @@ use super::{
     SUPERVISE_EVERY,
 };
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor};
-use crate::modal::excitation_min_eig;
 use crate::model::{TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
 
 /// Order of the filter Λ(s) = (s+λ)^6.
 pub const FILTER_ORDER: usize = 6;

@@ -44,12 +44,12 @@ pub mod least_squares;
 pub mod robust;
 mod screen;
 mod supervised;
+mod theta_step;
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
-use crate::modal::excitation_min_eig;
 use crate::model::TransferFunction;
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use either::Either;

@@ -170,10 +170,10 @@ use crate::estimator::{
     all_positive, positive, ConfigError, Estimator, Health, LawError, StepStatus, UpdateLaw,
 };
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
-use crate::modal::{excitation_min_eig, modes_from_denominator};
+use crate::modal::modes_from_denominator;
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
 pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};
 use law::OeLaw;
 use oe::{Filters, InitialFit, OeModel};
@@ -403,13 +403,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             return Err(ConfigError::Filter(FilterConfigError::Timing));
         };
         let startup = AdaptiveLaw::new(&cfg.startup, filter.ts_s)?;
-        positive(cfg.gain)?;
+        // Γ and K are the θ step's to check (`OeLaw::new`).
         positive(cfg.forgetting)?;
         positive(cfg.start_tolerance)?;
         all_positive(&cfg.r0_diag)?;
-        if cfg.theta_update_every == 0 {
-            return Err(ConfigError::Gain);
-        }
         let rho_pow =
             core::array::from_fn(|k| T::from_f64(libm::pow(filter.lambda_rad_s, (D - k) as f64)));
         let zero = CompensatedArray::default();
@@ -423,7 +420,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 &cfg.r0_diag,
                 cfg.theta_update_every,
                 filter.ts_s,
-            ),
+            )?,
             screen: InputScreen::new(filter),
             cfg: *cfg,
             filter: *filter,
