@@ -165,7 +165,8 @@ mod start;
 
 use crate::compensated::CompensatedArray;
 use crate::estimator::adaptive::{AdaptiveConfig, AdaptiveLaw};
-use crate::estimator::screen::{InputScreen, Screened};
+use crate::estimator::learner::Learner;
+use crate::estimator::screen::Screened;
 use crate::estimator::{
     all_positive, positive, ConfigError, Estimator, Health, LawError, StepStatus, UpdateLaw,
 };
@@ -343,7 +344,8 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     startup: AdaptiveLaw<T, NP, NS>,
     oe: OeModel<T, D, NP>,
     law: OeLaw<T, NP, NS>,
-    screen: InputScreen<T>,
+    /// Input screen, supervisor and counters.
+    learner: Learner<T>,
     cfg: RobustConfig<NP>,
     filter: FilterConfig,
     inv_u_scale: T,
@@ -371,10 +373,7 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     countdown: u32,
     frozen: bool,
     initial: Option<(T, bool)>,
-    samples: u64,
-    skipped: u32,
     updates: u32,
-    supervisor: Supervisor<T>,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
@@ -421,7 +420,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 cfg.theta_update_every,
                 filter.ts_s,
             )?,
-            screen: InputScreen::new(filter),
+            learner: Learner::with_supervisor(
+                filter,
+                Supervisor::new(&cfg.supervision, filter.ts_s),
+                true,
+            ),
             cfg: *cfg,
             filter: *filter,
             inv_u_scale: T::from_f64(1.0 / filter.scales.u_scale),
@@ -440,10 +443,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             countdown: cfg.update_every,
             frozen: false,
             initial: None,
-            samples: 0,
-            skipped: 0,
             updates: 0,
-            supervisor: Supervisor::new(&cfg.supervision, filter.ts_s),
         })
     }
 
@@ -600,7 +600,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             return;
         }
         self.countdown = self.countdown.saturating_sub(1);
-        if self.countdown > 0 || self.screen.in_quarantine() {
+        if self.countdown > 0 || self.learner.screen.in_quarantine() {
             return;
         }
         self.countdown = self.cfg.update_every;
@@ -634,7 +634,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         };
         if let Some((_, true)) = self.initial {
             self.startup.reset();
-            self.screen.start_quarantine();
+            self.learner.screen.start_quarantine();
         }
     }
 
@@ -658,7 +658,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             if self.rec_len == START_TEST_SAMPLES.min(B) {
                 self.decide_initial_state();
                 // A restarted start-up law must not take this sample either.
-                update &= !self.screen.in_quarantine();
+                update &= !self.learner.screen.in_quarantine();
             }
         } else if !leading {
             self.unrecorded = self.unrecorded.saturating_add(1);
@@ -675,7 +675,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 let s = self.oe.push(us, ys);
                 if update {
                     if self.phase == Phase::Steady
-                        && self.supervisor.residual(s.eps, self.samples).is_some()
+                        && self
+                            .learner
+                            .supervisor
+                            .residual(s.eps, self.learner.samples)
+                            .is_some()
                     {
                         self.restart_record();
                         return Ok(());
@@ -721,21 +725,21 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.samples = self.samples.wrapping_add(1);
-        let status = match self.screen.screen(u, y) {
+        self.learner.samples = self.learner.samples.wrapping_add(1);
+        let status = match self.learner.screen.screen(u, y) {
             Screened::Good(u, y) => {
-                let adapt = self.supervisor.admit(u * self.inv_u_scale) && !self.frozen;
+                let adapt = self.learner.admit(u) && !self.frozen;
                 match self.push(u, y, adapt, true) {
                     Ok(()) if !adapt => StepStatus::Frozen,
                     Ok(()) => StepStatus::Updated,
                     Err(_) => {
-                        self.skipped = self.skipped.saturating_add(1);
+                        self.learner.skipped = self.learner.skipped.saturating_add(1);
                         StepStatus::Skipped
                     }
                 }
             }
             Screened::Quarantined(u, y) => {
-                self.supervisor.admit(u * self.inv_u_scale);
+                self.learner.admit(u);
                 let _ = self.push(u, y, false, true);
                 StepStatus::Frozen
             }
@@ -743,7 +747,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
                 // The simulation must see the input the plant saw: keep a
                 // good u even when y is bad (a wrong u would leave a model
                 // transient lasting as long as the slowest mode).
-                let u = if self.screen.accepts_u(u) { u } else { u_sub };
+                let u = if self.learner.screen.accepts_u(u) {
+                    u
+                } else {
+                    u_sub
+                };
                 let _ = self.push(u, y_sub, false, false);
                 StepStatus::Rejected
             }
@@ -779,7 +787,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     fn reset(&mut self) {
         self.bank.reset();
         self.startup.reset();
-        self.screen.reset();
+        self.learner.reset();
         self.rec_len = 0;
         self.unrecorded = 0;
         self.phase = Phase::Startup;
@@ -788,10 +796,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.adapted = 0;
         self.initial = None;
         self.countdown = self.cfg.update_every;
-        self.samples = 0;
-        self.skipped = 0;
         self.updates = 0;
-        self.supervisor.reset();
     }
 
     fn excitation_level(&self) -> Option<T> {
@@ -805,28 +810,22 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     /// Also restarts the change test's learning
     /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
-        self.screen.hold(samples);
-        self.supervisor.restart_change();
+        self.learner.hold(samples);
     }
 
     fn settling_samples(&self) -> u32 {
-        self.screen.quarantine_len()
+        self.learner.settling_samples()
     }
 
     fn supervision(&self) -> Option<Supervision<T>> {
-        Some(self.supervisor.status())
+        self.learner.supervision()
     }
 
     fn health(&self) -> Health {
-        Health {
-            samples: self.samples,
-            rejected: self.screen.rejected,
-            skipped: self.skipped,
-            state_ok: match self.phase {
-                Phase::Startup => self.startup.is_healthy(),
-                Phase::Refining | Phase::Steady => self.law.is_healthy(),
-            },
-        }
+        self.learner.health(match self.phase {
+            Phase::Startup => self.startup.is_healthy(),
+            Phase::Refining | Phase::Steady => self.law.is_healthy(),
+        })
     }
 }
 
