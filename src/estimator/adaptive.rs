@@ -190,7 +190,7 @@ impl<T: Real, const N: usize> DecayingSum<T, N> {
 pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     /// The θ step of eq. 41 (gain K·Ts·Γ, K = samples per θ step) and its
     /// by-product, Lemma 1 in the loop.
-    step: ThetaStep<T, NP>,
+    step: ThetaStep<T, NP, InLoopLemma1<T, NP>>,
     /// Samples since the trailing words of P̃, Q̃ were last renormalized
     /// (`T::COMPENSATED` only, see `compensated::add_lazy`; ≤
     /// [`RENORMALIZE_EVERY`], a byte that shares the padding of `tied`).
@@ -400,16 +400,20 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
                 idx += NP - i;
             }
         }
-        // Lemma 1's inputs: tr(P̃) and the weight of R(0) in S.
-        let (p_hi, r0_weight) = (&self.p.sum.hi, self.r0_weight);
+        // Lemma 1's inputs: tr(P̃) and the smallest R(0) share of S's
+        // diagonal, which with γ = l and R(0) ∝ I is exactly λmin(S)'s
+        // (`InLoopLemma1`).
+        let (p_hi, r0_diag) = (&self.p.sum.hi, &self.r0_diag);
+        let (tied, r0_weight) = (self.tied, self.r0_weight);
         let lemma1_inputs = || {
-            let mut trace = T::ZERO;
+            let (mut trace, mut r0_min) = (T::ZERO, T::MAX);
             let mut idx = 0;
             for i in 0..NP {
                 trace += p_hi.get(idx).copied().unwrap_or(T::ZERO);
+                r0_min = r0_min.min(r0_diag.get(i).copied().unwrap_or(T::ZERO));
                 idx += NP - i;
             }
-            (trace, r0_weight)
+            (trace, if tied { r0_weight * r0_min } else { T::ZERO })
         };
         self.step.apply(&mut s, &w, &mut self.theta, lemma1_inputs)
     }
@@ -436,16 +440,19 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
     type Config = AdaptiveConfig<NP>;
 
     fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError> {
-        let tied = cfg.forgetting_h == cfg.forgetting_p;
-        let r0_diag = cfg.r0_diag.map(T::from_f64);
         // Dimensions, Γ, Ts and K first (the θ step's assumptions); Lemma 1
-        // in the loop is its by-product, exact for γ = l and R(0) ∝ I.
-        let lemma1 = InLoopLemma1::new(tied, &r0_diag);
-        let step = ThetaStep::new::<NS>(cfg.gain, ts_s, cfg.theta_update_every, Some(lemma1))?;
+        // in the loop is its by-product.
+        let step = ThetaStep::new::<NS>(
+            cfg.gain,
+            ts_s,
+            cfg.theta_update_every,
+            InLoopLemma1::default(),
+        )?;
         positive(cfg.forgetting_p)?;
         positive(cfg.forgetting_h)?;
         all_positive(&cfg.r0_diag)?;
         all_finite_f64(&cfg.theta0)?;
+        let r0_diag = cfg.r0_diag.map(T::from_f64);
         let theta0 = cfg.theta0.map(T::from_f64);
         let decay_p = T::from_f64(libm::exp(-cfg.forgetting_p * ts_s));
         let decay_h = T::from_f64(libm::exp(-cfg.forgetting_h * ts_s));
@@ -458,7 +465,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             p: DecayingSum::new(decay_p),
             q: CompensatedArray::default(),
             r: DecayingSum::new(decay_h),
-            tied,
+            tied: cfg.forgetting_h == cfg.forgetting_p,
             r0_weight: T::ONE,
             theta: CompensatedArray::default(),
             forgetting: true,

@@ -21,23 +21,74 @@ use crate::linalg::{all_finite, ldlt_solve_packed_floored_keep};
 use crate::scalar::Real;
 use crate::supervise::InLoopLemma1;
 
-/// Gain, cadence and Lemma 1 by-product of the θ step (module docs).
+/// What the θ step does with the factors of S besides solving for Δ:
+/// Lemma 1 in the loop ([`InLoopLemma1`]), or nothing (`()`).
+pub(crate) trait ByProduct<T, const NP: usize> {
+    /// Take the factors of this θ step's S (`s`, `inv_d`) and its gain
+    /// K·TsΓ; `inputs` gives tr(P̃) and the R(0) share of λmin(S) when
+    /// they are needed.
+    fn take<const NS: usize>(
+        &mut self,
+        s: &[T; NS],
+        inv_d: &[T; NP],
+        gain: T,
+        inputs: impl FnOnce() -> (T, T),
+    );
+    /// Back to the start.
+    fn reset(&mut self);
+}
+
+impl<T, const NP: usize> ByProduct<T, NP> for () {
+    #[inline(always)]
+    fn take<const NS: usize>(
+        &mut self,
+        _: &[T; NS],
+        _: &[T; NP],
+        _: T,
+        _: impl FnOnce() -> (T, T),
+    ) {
+    }
+    fn reset(&mut self) {}
+}
+
+impl<T: Real, const NP: usize> ByProduct<T, NP> for InLoopLemma1<T, NP> {
+    /// One inverse-iteration step every [`crate::supervise::LEMMA1_EVERY`]
+    /// θ steps.
+    #[inline(always)]
+    fn take<const NS: usize>(
+        &mut self,
+        s: &[T; NS],
+        inv_d: &[T; NP],
+        gain: T,
+        inputs: impl FnOnce() -> (T, T),
+    ) {
+        if self.due() {
+            let (trace, prior) = inputs();
+            self.iterate(s, inv_d, trace, prior, gain);
+        }
+    }
+
+    fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
+/// Gain, cadence and by-product of the θ step (module docs).
 #[derive(Debug, Clone)]
-pub(crate) struct ThetaStep<T, const NP: usize> {
+pub(crate) struct ThetaStep<T, const NP: usize, B> {
     /// K·Ts·Γ, K = samples per θ step.
     gain: T,
     /// K.
     every: u32,
     /// Samples since the last θ step.
     pending: u32,
-    /// Lemma 1 in the loop, for a law that reports it.
-    lemma1: Option<InLoopLemma1<T, NP>>,
+    /// What the factors of S also serve.
+    by_product: B,
 }
 
-impl<T: Real, const NP: usize> ThetaStep<T, NP> {
+impl<T: Real, const NP: usize, B: ByProduct<T, NP>> ThetaStep<T, NP, B> {
     /// Γ = `gain` (1/s) of eq. 41, stepped every `every` samples of
-    /// `ts_s`, on packed matrices of `NS` entries; with `lemma1`, the
-    /// in-loop Lemma 1 estimate from the factors of S.
+    /// `ts_s`, on packed matrices of `NS` entries, with `by_product`.
     ///
     /// # Errors
     /// The assumptions the step relies on: [`ConfigError::Dimensions`]
@@ -48,7 +99,7 @@ impl<T: Real, const NP: usize> ThetaStep<T, NP> {
         gain: f64,
         ts_s: f64,
         every: u32,
-        lemma1: Option<InLoopLemma1<T, NP>>,
+        by_product: B,
     ) -> Result<Self, ConfigError> {
         if NS != NP * (NP + 1) / 2 {
             return Err(ConfigError::Dimensions);
@@ -62,7 +113,7 @@ impl<T: Real, const NP: usize> ThetaStep<T, NP> {
             gain: T::from_f64(ts_s * gain * every as f64),
             every,
             pending: 0,
-            lemma1,
+            by_product,
         })
     }
 
@@ -83,33 +134,25 @@ impl<T: Real, const NP: usize> ThetaStep<T, NP> {
         true
     }
 
-    /// The in-loop Lemma 1 estimate λmin(P)/tr(P), if this step keeps one
-    /// and it has run.
-    pub fn lemma1_ratio(&self) -> Option<T> {
-        self.lemma1.as_ref().and_then(InLoopLemma1::ratio)
-    }
-
-    /// Back to the start: no sample pending, Lemma 1 unknown.
+    /// Back to the start: no sample pending, the by-product reset.
     pub fn reset(&mut self) {
         self.pending = 0;
-        if let Some(l) = self.lemma1.as_mut() {
-            l.reset();
-        }
+        self.by_product.reset();
     }
 
     /// Solve S·Δ = −K·TsΓ·W with the floored root-free LDLᵀ (`s`, packed,
-    /// is overwritten by its factors) and add Δ to `theta`. When the
-    /// Lemma 1 iteration is due, `lemma1_inputs` gives tr(P̃) and the
-    /// weight w of R(0) in S. On an error θ is unchanged:
-    /// [`LawError::Singular`] if S is not positive definite even after
-    /// flooring, [`LawError::NonFinite`] if Δ or θ + Δ is not finite.
+    /// is overwritten by its factors), hand the factors to the by-product
+    /// (`inputs`: see [`ByProduct::take`]) and add Δ to `theta`. On an
+    /// error θ is unchanged: [`LawError::Singular`] if S is not positive
+    /// definite even after flooring, [`LawError::NonFinite`] if Δ or θ + Δ
+    /// is not finite.
     #[inline(always)]
     pub fn apply<const NS: usize>(
         &mut self,
         s: &mut [T; NS],
         w: &[T; NP],
         theta: &mut CompensatedArray<T, NP>,
-        lemma1_inputs: impl FnOnce() -> (T, T),
+        inputs: impl FnOnce() -> (T, T),
     ) -> Result<(), LawError> {
         let mut rhs = [T::ZERO; NP];
         for (r, wi) in rhs.iter_mut().zip(w.iter()) {
@@ -121,12 +164,7 @@ impl<T: Real, const NP: usize> ThetaStep<T, NP> {
         if !all_finite(&delta) {
             return Err(LawError::NonFinite);
         }
-        if let Some(l) = self.lemma1.as_mut() {
-            if l.due() {
-                let (trace, r0_weight) = lemma1_inputs();
-                l.iterate(s, &inv_d, trace, r0_weight, self.gain);
-            }
-        }
+        self.by_product.take(s, &inv_d, self.gain, inputs);
         let mut next = *theta;
         for (i, d) in delta.iter().enumerate() {
             next.add(i, *d);
@@ -136,5 +174,12 @@ impl<T: Real, const NP: usize> ThetaStep<T, NP> {
         }
         *theta = next;
         Ok(())
+    }
+}
+
+impl<T: Real, const NP: usize> ThetaStep<T, NP, InLoopLemma1<T, NP>> {
+    /// The in-loop Lemma 1 estimate λmin(P)/tr(P), once it has run.
+    pub fn lemma1_ratio(&self) -> Option<T> {
+        self.by_product.ratio()
     }
 }

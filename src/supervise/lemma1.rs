@@ -105,17 +105,18 @@ pub fn excitation_ratio<T: Real, const N: usize>(p: &[[T; N]; N]) -> T {
 
 /// Lemma 1 in the loop: λmin(P)/tr(P) by inverse iteration with the
 /// factors of the θ step's matrix S = R/g + K·TsΓ·P̃ (eq. 41 stepped
-/// implicitly; g the lazy scale of P, P̃ = P/g).
+/// implicitly; g the lazy scale of P, P̃ = P/g), a by-product of the θ
+/// step that owns it.
 ///
-/// # Assumptions, fixed when it is built
+/// # What it relies on
 /// With γ = l (R = e^{−lt}R(0) + P, eq. 39) and R(0) ∝ I, S = (1 +
 /// K·TsΓ)·P̃ + w·R(0) has P's eigenvectors, so λmin(P̃) = (λmin(S) −
-/// w·r0)/(1 + K·TsΓ) exactly ([`InLoopLemma1::new`] with `tied`, `exact()`
-/// true). With γ = l but R(0) not ∝ I the smallest R(0) entry is taken off;
-/// with γ ≠ l nothing is (S's own weakest direction, scaled by 1/(1 +
-/// K·TsΓ)). Either way its accuracy is that of any λmin of a rounded P
-/// (the factorization's backward error, ~ε·‖P‖), the limit the threshold
-/// is set against ([`EXCITATION_REL_THRESHOLD`]).
+/// w·r0)/(1 + K·TsΓ) exactly: the θ step passes w·min R(0) as the `prior`
+/// of [`InLoopLemma1::iterate`]. With γ ≠ l it passes 0 and the estimate
+/// is S's own weakest direction scaled by 1/(1 + K·TsΓ). Either way its
+/// accuracy is that of any λmin of a rounded P (the factorization's
+/// backward error, ~ε·‖P‖), the limit the threshold is set against
+/// ([`EXCITATION_REL_THRESHOLD`]).
 #[derive(Debug, Clone, Copy)]
 pub struct InLoopLemma1<T, const NP: usize> {
     /// The inverse-iteration vector.
@@ -124,44 +125,24 @@ pub struct InLoopLemma1<T, const NP: usize> {
     ratio: Option<T>,
     /// θ steps since the last iteration.
     phase: u32,
-    /// min_i R(0)_ii when S carries w·R(0) on its diagonal (γ = l).
-    r0_min: Option<T>,
-    /// γ = l and R(0) ∝ I: the estimate is exact (see the type's docs).
-    exact: bool,
 }
 
-impl<T: Real, const NP: usize> InLoopLemma1<T, NP> {
-    /// For a θ step whose matrix carries w·diag(`r0_diag`) on its diagonal
-    /// when `tied` (γ = l), nothing of R(0) otherwise.
-    pub fn new(tied: bool, r0_diag: &[T; NP]) -> Self {
-        let r0_min = r0_diag.iter().fold(T::MAX, |m, &r| m.min(r));
-        let uniform = r0_diag.iter().all(|&r| r == r0_min);
+impl<T: Real, const NP: usize> Default for InLoopLemma1<T, NP> {
+    /// No estimate yet, probe ∝ (1, …, 1).
+    fn default() -> Self {
         Self {
             probe: [T::ONE; NP],
             ratio: None,
             phase: 0,
-            r0_min: tied.then_some(r0_min),
-            exact: tied && uniform,
         }
     }
+}
 
-    /// Whether the estimate is exact (γ = l and R(0) ∝ I) rather than the
-    /// step matrix's weakest direction.
-    pub fn exact(&self) -> bool {
-        self.exact
-    }
-
+impl<T: Real, const NP: usize> InLoopLemma1<T, NP> {
     /// λmin(P)/tr(P) as the iteration estimates it; `None` before the
     /// first iteration.
     pub fn ratio(&self) -> Option<T> {
         self.ratio
-    }
-
-    /// Back to the start (no estimate, probe ∝ (1, …, 1)).
-    pub fn reset(&mut self) {
-        self.probe = [T::ONE; NP];
-        self.ratio = None;
-        self.phase = 0;
     }
 
     /// Count one θ step; true every [`LEMMA1_EVERY`]-th (100 Hz at the
@@ -181,15 +162,15 @@ impl<T: Real, const NP: usize> InLoopLemma1<T, NP> {
     /// One step of inverse iteration with the factors the θ step just
     /// computed (`s`, `inv_d` of [`crate::linalg::ldlt_solve_packed_floored_keep`]):
     /// v ← S⁻¹v/‖S⁻¹v‖, λmin(S) ≈ 1/‖S⁻¹v‖ for the unit v of the previous
-    /// step; `trace` = tr(P̃), `r0_weight` = w, `step_gain` = K·TsΓ.
-    /// ~NP² + 3·NP flops.
+    /// step; `trace` = tr(P̃), `prior` = the R(0) share of λmin(S) taken off
+    /// (see the type's docs), `step_gain` = K·TsΓ. ~NP² + 3·NP flops.
     #[inline(never)]
     pub fn iterate<const NS: usize>(
         &mut self,
         s: &[T; NS],
         inv_d: &[T; NP],
         trace: T,
-        r0_weight: T,
+        prior: T,
         step_gain: T,
     ) {
         let norm2 = self.probe.iter().fold(T::ZERO, |a, &v| a + v * v);
@@ -211,10 +192,6 @@ impl<T: Real, const NP: usize> InLoopLemma1<T, NP> {
         }
         self.probe = w;
         let lambda_s = T::ONE / wn2.sqrt();
-        let prior = match self.r0_min {
-            Some(r0) => r0_weight * r0,
-            None => T::ZERO,
-        };
         let lambda_p = (lambda_s - prior) / (T::ONE + step_gain);
         self.ratio = (trace > T::ZERO).then(|| lambda_p / trace);
     }
@@ -250,12 +227,5 @@ mod tests {
         let empty: [[f64; 0]; 0] = [];
         assert_eq!(excitation_min_eig(&empty), 0.0);
         assert_eq!(excitation_ratio(&empty), 0.0);
-    }
-
-    #[test]
-    fn in_loop_estimate_states_when_it_is_exact() {
-        assert!(InLoopLemma1::<f64, 3>::new(true, &[1e-9; 3]).exact());
-        assert!(!InLoopLemma1::<f64, 3>::new(true, &[1e-9, 1e-8, 1e-9]).exact());
-        assert!(!InLoopLemma1::<f64, 3>::new(false, &[1e-9; 3]).exact());
     }
 }

@@ -37,7 +37,7 @@ const STEP_DAMPING: f64 = 16.0;
 pub(crate) struct OeLaw<T, const NP: usize, const NS: usize> {
     /// The θ step of eq. 41 (gain K·Ts·Γ, every K samples); no Lemma 1 in
     /// the loop (the robust estimator's supervisor does not use it).
-    step: ThetaStep<T, NP>,
+    step: ThetaStep<T, NP, ()>,
     ts: T,
     decay: T,
     /// Lazy scale g: P = g·P̃, q = g·q̃.
@@ -73,7 +73,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
         ts_s: f64,
     ) -> Result<Self, ConfigError> {
         Ok(Self {
-            step: ThetaStep::new::<NS>(gain, ts_s, every, None)?,
+            step: ThetaStep::new::<NS>(gain, ts_s, every, ())?,
             ts: T::from_f64(ts_s),
             decay: T::from_f64(libm::exp(-forgetting * ts_s)),
             scale: T::ONE,
@@ -245,7 +245,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
             }
             idx += NP - i;
         }
-        // No Lemma 1 here: its inputs are never asked for.
+        // No by-product here: its inputs are never asked for.
         self.step
             .apply(&mut s, &w, &mut self.theta, || (T::ZERO, T::ZERO))
     }
