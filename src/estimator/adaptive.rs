@@ -40,7 +40,9 @@
 //!   implicit step
 //!   θ⁺ = θ − TsΓH(Pθ⁺ − Q) ⇔ (R + TsΓP)·Δ = −TsΓ·W, θ⁺ = θ + Δ
 //!   is unconditionally stable for any Γ, H0, l, γ and has the same fixed
-//!   point Pθ = Q; it costs one root-free LDLᵀ solve per θ step.
+//!   point Pθ = Q; it costs one root-free LDLᵀ solve per θ step
+//!   (`theta_step.rs`, shared with the robust estimator's output-error
+//!   law; this file forms S and W).
 //! * **θ stepped every K samples** (`theta_update_every`, default 10: 1 kHz
 //!   at Ts = 0.1 ms) with step K·Ts, while P, Q, R are updated every sample.
 //!   Backward Euler stays stable at any step and keeps the fixed point, so

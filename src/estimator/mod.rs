@@ -1,16 +1,24 @@
 //! Online estimators of Θ (eq. 29) behind one trait.
 //!
-//! An estimator is a filter bank ([`FilterBank`]) feeding an update law
-//! ([`UpdateLaw`]); [`Identifier`] joins the two, screens the raw samples and
-//! keeps health counters. Three laws are provided:
+//! An [`Identifier`] is a [`Regression`] (the filters that turn a sample
+//! into the law's regressor, and the map from the law's θ_s back to the
+//! reported model) feeding an update law ([`UpdateLaw`]), inside a learner
+//! (`learner.rs`: the input screen, the supervisor and the health
+//! counters, owned by every estimator). [`PaperRegression`] is the paper's
+//! filter bank ([`FilterBank`], eqs. 28–29); the feedthrough estimator
+//! ([`feedthrough::Feedthrough`]) is the same identifier over another
+//! regression. Three laws are provided:
 //!
 //! * [`adaptive::AdaptiveLaw`] — the paper's proposed law, eqs. 33–41;
 //! * [`gradient::GradientLaw`] — the gradient baseline, eq. 47;
 //! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
 //!
+//! The θ step of eq. 41 has one implementation (`theta_step.rs`), with
+//! Lemma 1 in the loop as its by-product ([`crate::supervise::InLoopLemma1`]).
+//!
 //! [`robust::RobustEstimator`] is not an `Identifier`: it runs the proposed
 //! law on the output error of a simulated model (unbiased under measurement
-//! noise, near the Cramér–Rao bound) and shares only the input screening.
+//! noise, near the Cramér–Rao bound), with the same learner and θ step.
 //!
 //! All laws work on the scaled regressor φ and scaled parameters θ_s (see
 //! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
