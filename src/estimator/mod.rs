@@ -14,7 +14,7 @@
 //! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
 //!
 //! The θ step of eq. 41 has one implementation (`theta_step.rs`), with
-//! Lemma 1 in the loop as its by-product ([`crate::supervise::InLoopLemma1`]).
+//! Lemma 1 in the loop as its by-product (`supervise/lemma1.rs`).
 //!
 //! [`robust::RobustEstimator`] is not an `Identifier`: it runs the proposed
 //! law on the output error of a simulated model (unbiased under measurement

@@ -7,7 +7,7 @@
 //!   λmin(P) ≥ [`EXCITATION_REL_THRESHOLD`] · tr(P). With forgetting l, P
 //!   reflects the last ~1/l seconds (20 s at the default l = 0.05 /s), so
 //!   λmin reacts on that time scale.
-//! * **In the loop** ([`InLoopLemma1`]): one step of inverse iteration with
+//! * **In the loop** (`InLoopLemma1`): one step of inverse iteration with
 //!   the factors of the θ step's matrix every [`LEMMA1_EVERY`] θ steps, a
 //!   by-product of the θ step (`estimator::theta_step`) that the
 //!   supervisor reads ([`crate::supervise::Supervisor::lemma1`]).
@@ -118,7 +118,7 @@ pub fn excitation_ratio<T: Real, const N: usize>(p: &[[T; N]; N]) -> T {
 /// backward error, ~ε·‖P‖), the limit the threshold is set against
 /// ([`EXCITATION_REL_THRESHOLD`]).
 #[derive(Debug, Clone, Copy)]
-pub struct InLoopLemma1<T, const NP: usize> {
+pub(crate) struct InLoopLemma1<T, const NP: usize> {
     /// The inverse-iteration vector.
     probe: [T; NP],
     /// λmin(P)/tr(P) from the last iteration (`None`: not known yet).

@@ -4,7 +4,7 @@
 //! * **excitation** — is the estimator excited? Lemma 1 (`lemma1.rs`, its
 //!   one home): λmin(P)/tr(P) against [`EXCITATION_REL_THRESHOLD`]
 //!   ([`lemma1_excited`]), computed in the loop as a by-product of the
-//!   law's θ step ([`InLoopLemma1`]) and at the telemetry rate
+//!   law's θ step (`InLoopLemma1`) and at the telemetry rate
 //!   ([`excitation_min_eig`]); and `input.rs`: a per-sample "input gone"
 //!   detector ([`InputMonitor`]); the **anti-windup**: adaptation is frozen while the
 //!   input is gone (P, Q, R, θ̂ neither accumulate nor decay, the filters
@@ -40,9 +40,9 @@ pub use change::{ChangeDetector, TrackingConfig, DEFAULT_CHANGE_THRESHOLD, DISCO
 pub use input::{
     InputMonitor, INPUT_BACK_RATIO, INPUT_GONE_RATIO, INPUT_REFERENCE_S, INPUT_WINDOW_S,
 };
+pub(crate) use lemma1::InLoopLemma1;
 pub use lemma1::{
-    excitation_min_eig, excitation_ratio, lemma1_excited, InLoopLemma1, EXCITATION_REL_THRESHOLD,
-    LEMMA1_EVERY,
+    excitation_min_eig, excitation_ratio, lemma1_excited, EXCITATION_REL_THRESHOLD, LEMMA1_EVERY,
 };
 
 use crate::scalar::Real;
