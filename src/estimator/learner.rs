@@ -17,6 +17,7 @@ use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 /// many learning samples ([`crate::supervise`]; its time constants are in
 /// seconds, so only the cost changes: ~1/10 of the per-sample work).
 pub const SUPERVISE_EVERY: u32 = 10;
+const _: () = assert!(SUPERVISE_EVERY <= u8::MAX as u32);
 
 /// Screen, supervisor and counters of one estimator (module docs).
 #[derive(Debug, Clone)]
@@ -32,8 +33,10 @@ pub(crate) struct Learner<T> {
     inv_u_scale: T,
     /// A change was detected: discount the old data when the hold ends.
     pending_discount: bool,
-    /// Samples since the change test last ran.
-    supervise_phase: u32,
+    /// Samples since the change test last ran (< [`SUPERVISE_EVERY`]; a
+    /// byte, which shares the padding of the two flags: the two-mode `f32`
+    /// estimator's size is pinned, host test `precision`).
+    supervise_phase: u8,
     /// Samples pushed.
     pub samples: u64,
     /// Law updates that failed (saturating).
@@ -136,7 +139,7 @@ impl<T: Real> Learner<T> {
             // the residual of neighbouring samples at 10 kHz carries
             // little new information, and Lemma 1 changes only at θ steps).
             self.supervise_phase += 1;
-            if self.supervise_phase >= SUPERVISE_EVERY {
+            if u32::from(self.supervise_phase) >= SUPERVISE_EVERY {
                 self.supervise_phase = 0;
                 let e = law.prediction_error(reg);
                 if self.supervisor.residual(e, self.samples).is_some() {
