@@ -10,8 +10,7 @@
 //!   (47) and least-squares (48) baselines, behind one trait, and a
 //!   noise-robust (output-error) form of the proposed law;
 //! * [`crlb`] — the Cramér–Rao bound on ω, ζ, b̄ for an experiment;
-//! * [`modal`] / [`poly`] — Θ → polynomial → ω, ζ, b̄ (eqs. 25–32) and the
-//!   excitation monitor of Lemma 1;
+//! * [`modal`] / [`poly`] — Θ → polynomial → ω, ζ, b̄ (eqs. 25–32);
 //! * [`beam`] — Euler–Bernoulli beam physics (Section II, Appendix);
 //! * [`rig`] — the simulated rig: an exact discrete simulator of the modal
 //!   model (eq. 22), seeded measurement noise, and [`rig::Rig`] that joins
@@ -29,7 +28,8 @@
 //! * [`pipeline`] — the 10 kHz sample task: ADC codes → y, excitation → DAC,
 //!   estimator step, telemetry records for the low-priority task;
 //! * [`supervise`] — the estimator's supervisor: excitation monitor
-//!   (Lemma 1 and an "input gone" detector) with anti-windup, and
+//!   (Lemma 1, in its one home, and an "input gone" detector) with
+//!   anti-windup, and
 //!   detected-change tracking;
 //! * [`tuning`] — truth-free settings: signal scales from a start-up
 //!   window, the filter pole λ from the user's band or the data, re-centred

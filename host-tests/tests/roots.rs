@@ -9,11 +9,12 @@
 //! and interleaved real pairs make the modal pairing non-unique.
 
 use beamest::modal::{
-    excitation_min_eig, excitation_ratio, modal_from_tf, modal_from_tf_weighted, modal_from_theta,
-    modes_from_denominator, GainWeighting, ModalError,
+    modal_from_tf, modal_from_tf_weighted, modal_from_theta, modes_from_denominator, GainWeighting,
+    ModalError,
 };
 use beamest::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
 use beamest::poly::{roots_monic, Complex};
+use beamest::supervise::{excitation_min_eig, excitation_ratio};
 use proptest::prelude::*;
 
 /// Root and ω/ζ tolerance (relative) in f64.

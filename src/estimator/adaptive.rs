@@ -40,7 +40,9 @@
 //!   implicit step
 //!   θ⁺ = θ − TsΓH(Pθ⁺ − Q) ⇔ (R + TsΓP)·Δ = −TsΓ·W, θ⁺ = θ + Δ
 //!   is unconditionally stable for any Γ, H0, l, γ and has the same fixed
-//!   point Pθ = Q; it costs one root-free LDLᵀ solve per θ step.
+//!   point Pθ = Q; it costs one root-free LDLᵀ solve per θ step
+//!   (`theta_step.rs`, shared with the robust estimator's output-error
+//!   law; this file forms S and W).
 //! * **θ stepped every K samples** (`theta_update_every`, default 10: 1 kHz
 //!   at Ts = 0.1 ms) with step K·Ts, while P, Q, R are updated every sample.
 //!   Backward Euler stays stable at any step and keeps the fixed point, so
@@ -67,17 +69,14 @@
 //!   excitation at all and R decayed to zero), θ is held and the step
 //!   reports [`LawError::Singular`].
 
+use super::theta_step::ThetaStep;
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::filter_bank::{Regressor, Scaling};
-use crate::linalg::{all_finite, ldlt_solve_packed_floored_keep};
 use crate::scalar::compensated::{
     add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor,
 };
 use crate::scalar::Real;
-use crate::supervise::SupervisorConfig;
-
-mod lemma1;
-pub use lemma1::LEMMA1_EVERY;
+use crate::supervise::{InLoopLemma1, SupervisorConfig};
 
 /// With `T::COMPENSATED`, the trailing words of P̃ and Q̃ are renormalized
 /// every this many samples (they are accumulated lazily, see
@@ -193,10 +192,9 @@ impl<T: Real, const N: usize> DecayingSum<T, N> {
 /// State of the proposed law. `NS = NP(NP+1)/2` (packed symmetric size).
 #[derive(Debug, Clone)]
 pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
-    /// K·Ts·Γ, K = samples per θ step.
-    step_gain: T,
-    update_every: u32,
-    pending: u32,
+    /// The θ step of eq. 41 (gain K·Ts·Γ, K = samples per θ step) and its
+    /// by-product, Lemma 1 in the loop.
+    step: ThetaStep<T, NP, InLoopLemma1<T, NP>>,
     /// Samples since the trailing words of P̃, Q̃ were last renormalized
     /// (`T::COMPENSATED` only, see `compensated::add_lazy`; ≤
     /// [`RENORMALIZE_EVERY`], a byte that shares the padding of `tied`).
@@ -223,13 +221,6 @@ pub struct AdaptiveLaw<T, const NP: usize, const NS: usize> {
     /// forgetting (Lemma 1 failed after having passed: the directions the
     /// input no longer excites keep what they know instead of decaying).
     forgetting: bool,
-    /// Inverse-iteration vector for λmin(P) (Lemma 1 in the loop): one
-    /// more solve with the θ step's factors per θ step.
-    probe: [T; NP],
-    /// λmin(P)/tr(P) from the last θ step (`None`: not known yet).
-    lemma1_ratio: Option<T>,
-    /// θ steps since the last inverse-iteration step.
-    lemma1_phase: u32,
 }
 
 /// Expand a packed upper triangle into a full symmetric matrix, times `k`.
@@ -371,9 +362,10 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     }
 
     /// One backward-Euler θ step (eq. 41, see the module docs):
-    /// (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale. Runs
-    /// every K samples; kept out of line so that the per-sample path stays
-    /// small (its registers are not spent on this).
+    /// (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale, by
+    /// [`ThetaStep::apply`] on this law's S and W. Runs every K samples;
+    /// kept out of line so that the per-sample path stays small (its
+    /// registers are not spent on this).
     #[inline(never)]
     fn theta_step(&mut self) -> Result<(), LawError> {
         // (R + K·TsΓ·P)Δ = −K·TsΓ·W, divided through by P's lazy scale.
@@ -383,11 +375,12 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         } else {
             self.w_unscaled()
         };
+        let step_gain = self.step.gain();
         // S = R/g_P + K·TsΓ·P̃, packed like P̃ (diagonal: see below).
         let mut s = [T::ZERO; NS];
         if self.tied {
             for (v, &h) in s.iter_mut().zip(self.p.sum.hi.iter()) {
-                *v = (h + T::ZERO) + self.step_gain * h;
+                *v = (h + T::ZERO) + step_gain * h;
             }
         } else {
             let ratio = self.r.scale / self.p.scale;
@@ -396,7 +389,7 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
                 .zip(self.p.sum.hi.iter())
                 .zip(self.r.sum.hi.iter())
             {
-                *v = ratio * r + self.step_gain * h;
+                *v = ratio * r + step_gain * h;
             }
         }
         if self.tied {
@@ -406,37 +399,27 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
                 if let (Some(v), Some(&h), Some(&r0)) =
                     (s.get_mut(idx), self.p.sum.hi.get(idx), self.r0_diag.get(i))
                 {
-                    *v = (h + self.r0_weight * r0) + self.step_gain * h;
+                    *v = (h + self.r0_weight * r0) + step_gain * h;
                 }
                 idx += NP - i;
             }
         }
-        let mut rhs = [T::ZERO; NP];
-        for (r, wi) in rhs.iter_mut().zip(w.iter()) {
-            *r = -self.step_gain * *wi;
-        }
-        let mut inv_d = [T::ZERO; NP];
-        let delta = ldlt_solve_packed_floored_keep(&mut s, &rhs, &mut inv_d)
-            .map_err(|_| LawError::Singular)?;
-        if !all_finite(&delta) {
-            return Err(LawError::NonFinite);
-        }
-        // Lemma 1 every LEMMA1_EVERY θ steps (100 Hz at the defaults: the
-        // information matrix moves on the forgetting time scale, 1/l).
-        self.lemma1_phase += 1;
-        if self.lemma1_phase >= LEMMA1_EVERY {
-            self.lemma1_phase = 0;
-            self.lemma1_iteration(&s, &inv_d);
-        }
-        let mut next = self.theta;
-        for (i, d) in delta.iter().enumerate() {
-            next.add(i, *d);
-        }
-        if !next.is_finite() {
-            return Err(LawError::NonFinite);
-        }
-        self.theta = next;
-        Ok(())
+        // Lemma 1's inputs: tr(P̃) and the smallest R(0) share of S's
+        // diagonal, which with γ = l and R(0) ∝ I is exactly λmin(S)'s
+        // (`InLoopLemma1`).
+        let (p_hi, r0_diag) = (&self.p.sum.hi, &self.r0_diag);
+        let (tied, r0_weight) = (self.tied, self.r0_weight);
+        let lemma1_inputs = || {
+            let (mut trace, mut r0_min) = (T::ZERO, T::MAX);
+            let mut idx = 0;
+            for i in 0..NP {
+                trace += p_hi.get(idx).copied().unwrap_or(T::ZERO);
+                r0_min = r0_min.min(r0_diag.get(i).copied().unwrap_or(T::ZERO));
+                idx += NP - i;
+            }
+            (trace, if tied { r0_weight * r0_min } else { T::ZERO })
+        };
+        self.step.apply(&mut s, &w, &mut self.theta, lemma1_inputs)
     }
 
     /// Set θ̂_s (e.g. an estimate carried over), keeping P, Q and R.
@@ -461,16 +444,16 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
     type Config = AdaptiveConfig<NP>;
 
     fn new(cfg: &Self::Config, ts_s: f64) -> Result<Self, ConfigError> {
-        if NS != NP * (NP + 1) / 2 {
-            return Err(ConfigError::Dimensions);
-        }
-        positive(cfg.gain)?;
+        // Dimensions, Γ, Ts and K first (the θ step's assumptions); Lemma 1
+        // in the loop is its by-product.
+        let step = ThetaStep::new::<NS>(
+            cfg.gain,
+            ts_s,
+            cfg.theta_update_every,
+            InLoopLemma1::default(),
+        )?;
         positive(cfg.forgetting_p)?;
         positive(cfg.forgetting_h)?;
-        positive(ts_s)?;
-        if cfg.theta_update_every == 0 {
-            return Err(ConfigError::Gain);
-        }
         all_positive(&cfg.r0_diag)?;
         all_finite_f64(&cfg.theta0)?;
         let r0_diag = cfg.r0_diag.map(T::from_f64);
@@ -478,9 +461,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         let decay_p = T::from_f64(libm::exp(-cfg.forgetting_p * ts_s));
         let decay_h = T::from_f64(libm::exp(-cfg.forgetting_h * ts_s));
         let mut law = Self {
-            step_gain: T::from_f64(ts_s * cfg.gain * cfg.theta_update_every as f64),
-            update_every: cfg.theta_update_every,
-            pending: 0,
+            step,
             unnormalized: 0,
             ts: T::from_f64(ts_s),
             r0_diag,
@@ -492,9 +473,6 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
             r0_weight: T::ONE,
             theta: CompensatedArray::default(),
             forgetting: true,
-            probe: [T::ZERO; NP],
-            lemma1_ratio: None,
-            lemma1_phase: 0,
         };
         law.reset();
         Ok(law)
@@ -554,11 +532,9 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
                 self.q.renormalize();
             }
         }
-        self.pending += 1;
-        if self.pending < self.update_every {
+        if !self.step.due() {
             return Ok(());
         }
-        self.pending = 0;
         self.theta_step()
     }
 
@@ -584,12 +560,9 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
         for (i, t) in self.theta0.iter().enumerate() {
             self.theta.set(i, *t);
         }
-        self.pending = 0;
+        self.step.reset();
         self.unnormalized = 0;
         self.forgetting = true;
-        self.probe = [T::ONE; NP];
-        self.lemma1_ratio = None;
-        self.lemma1_phase = 0;
     }
 
     fn information(&self) -> Option<[[T; NP]; NP]> {
@@ -624,7 +597,7 @@ impl<T: Real, const NP: usize, const NS: usize> UpdateLaw<T, NP> for AdaptiveLaw
     const MEASURES_LEMMA1: bool = true;
 
     fn lemma1(&self) -> Option<T> {
-        self.lemma1_ratio()
+        self.step.lemma1_ratio()
     }
 
     /// Every stored word finite, diagonals of P non-negative and of R

@@ -42,31 +42,32 @@
 //! within the target (host-tests `robustness_modes`).
 //!
 //! # Reported model
-//! [`Estimator::transfer_function`] is the two-mode part B/A with
-//! B = N − D·A truncated to b_2..b_0 (a two-mode modal model has no s³
-//! term): ω, ζ come from A alone (eq. 30–31) and b̄ from b_2..b_0
-//! (eq. 32), so D never enters the reported modes. D and the dropped b_3
-//! are [`Feedthrough::residual`]. [`Estimator::theta`] is the Θ of eq. 29
-//! of that two-mode model for Λ(s) = (s+λ)^4 (`NP` = 7), so that every
-//! consumer of a two-mode estimator reads it unchanged.
+//! [`Estimator::transfer_function`](super::Estimator::transfer_function)
+//! is the two-mode part B/A with B = N − D·A truncated to b_2..b_0 (a
+//! two-mode modal model has no s³ term): ω, ζ come from A alone (eq.
+//! 30–31) and b̄ from b_2..b_0 (eq. 32), so D never enters the reported
+//! modes. D and the dropped b_3 are [`Feedthrough::residual`].
+//! [`Estimator::theta`](super::Estimator::theta) is the Θ of eq. 29 of that
+//! two-mode model for Λ(s) = (s+λ)^4 (`NP` = 7), so that every consumer of
+//! a two-mode estimator reads it unchanged.
 //!
-//! Supervised as [`super::Identifier`] is ([`crate::supervise`]: input
-//! monitor and anti-windup, Lemma 1 in the loop, change detector every
-//! [`SUPERVISE_EVERY`] samples), by the `supervision` of its
-//! [`AdaptiveConfig`]. [`Estimator::excitation_level`] is λmin of the
-//! law's 9×9 P; [`Estimator::information`] is `None` (its type holds an
-//! `NP` × `NP` = 7×7 matrix).
+//! # One identifier, another regressor
+//! [`Feedthrough`] is an [`Identifier`] — the same learner (screen,
+//! supervisor, counters), the same law and θ step — over
+//! [`FeedthroughRegression`] instead of the paper's regression. So it is
+//! supervised the same way ([`crate::supervise`]: input monitor and
+//! anti-windup, Lemma 1 in the loop, change detector every
+//! [`SUPERVISE_EVERY`](super::SUPERVISE_EVERY) samples), by the
+//! `supervision` of its [`AdaptiveConfig`].
+//! [`Estimator::excitation_level`](super::Estimator::excitation_level) is
+//! λmin of the law's 9×9 P;
+//! [`Estimator::information`](super::Estimator::information) is `None`
+//! (its type holds an `NP` × `NP` = 7×7 matrix).
 
-use super::screen::{InputScreen, Screened};
-use super::{
-    AdaptiveConfig, AdaptiveLaw, ConfigError, Estimator, Health, StepStatus, UpdateLaw,
-    SUPERVISE_EVERY,
-};
+use super::{AdaptiveConfig, AdaptiveLaw, ConfigError, Identifier, Regression, UpdateLaw};
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor};
-use crate::modal::excitation_min_eig;
 use crate::model::{TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 
 /// Order of the filter Λ(s) = (s+λ)^6.
 pub const FILTER_ORDER: usize = 6;
@@ -86,55 +87,42 @@ pub struct Residual<T> {
     /// response of the modes above the band.
     pub feedthrough: T,
     /// Coefficient of s³ in B = N − D·A, which a two-mode modal model
-    /// cannot hold (dropped from [`Estimator::transfer_function`]).
+    /// cannot hold (dropped from [`Estimator::transfer_function`](super::Estimator::transfer_function)).
     pub b3: T,
 }
 
-/// The two-mode estimator with a feedthrough term (module docs).
-///
-/// `NP` is the length of the reported Θ (eq. 29 of the two-mode model):
-/// it must be 7; [`Feedthrough::new`] refuses any other.
+/// The regression of the two-mode model with a feedthrough term (module
+/// docs): the three-mode filter bank's states picked into the 9-entry
+/// regressor, and θ_s mapped back to A, N = D·A + B.
 #[derive(Debug, Clone)]
-pub struct Feedthrough<T, const NP: usize> {
+pub struct FeedthroughRegression<T> {
     bank: FilterBank<T, FILTER_ORDER, BANK_NP>,
-    law: AdaptiveLaw<T, FEEDTHROUGH_NP, FEEDTHROUGH_NS>,
     /// θ_s,j → physical coefficient j (a_3..a_0 then n_4..n_0).
     unscale: [f64; FEEDTHROUGH_NP],
     lambda_rad_s: f64,
-    screen: InputScreen<T>,
-    samples: u64,
-    skipped: u32,
-    /// 1/U0, for the supervisor's input monitor.
-    inv_u_scale: T,
-    supervisor: Supervisor<T>,
-    supervised: bool,
-    /// A change was detected: discount the old data when the hold ends.
-    pending_discount: bool,
-    /// Samples since the change test last ran.
-    supervise_phase: u32,
 }
 
-/// The two-mode estimator with feedthrough, reporting the paper's Θ.
-pub type Feedthrough2<T> = Feedthrough<T, TWO_MODE_NP>;
+impl<T: Real> FeedthroughRegression<T> {
+    /// The fitted coefficients in physical units: `a` = [a_3..a_0] of A
+    /// (monic, degree 4) and `n` = [n_4..n_0] of N = D·A + B.
+    fn coefficients(&self, th: &[T; FEEDTHROUGH_NP]) -> ([T; 4], [T; 5]) {
+        let c: [T; FEEDTHROUGH_NP] = core::array::from_fn(|j| th[j] * T::from_f64(self.unscale[j]));
+        ([c[0], c[1], c[2], c[3]], [c[4], c[5], c[6], c[7], c[8]])
+    }
+}
 
-impl<T: Real, const NP: usize> Feedthrough<T, NP> {
-    /// Build from the truth-free filter settings (λ, U0, Y0, hold, timing
-    /// as for the plain law; Λ's order is six here) and the proposed law's
-    /// gains and supervisor settings for 9 parameters.
-    ///
+/// `NP` is the length of the reported Θ (eq. 29 of the two-mode model):
+/// it must be 7; [`Regression::new`] refuses any other.
+impl<T: Real, const NP: usize> Regression<T, FEEDTHROUGH_NP, NP> for FeedthroughRegression<T> {
     /// # Errors
-    /// [`ConfigError::Dimensions`] unless `NP` = 7; otherwise as the
-    /// filter bank and [`AdaptiveLaw`].
-    pub fn new(
-        filter: &FilterConfig,
-        law: &AdaptiveConfig<FEEDTHROUGH_NP>,
-    ) -> Result<Self, ConfigError> {
+    /// [`ConfigError::Dimensions`] unless `NP` = 7; otherwise as the filter
+    /// bank, and [`FilterConfigError::Scale`] if the map back to physical
+    /// coefficients is not finite.
+    fn new(filter: &FilterConfig) -> Result<Self, ConfigError> {
         if NP != TWO_MODE_NP {
             return Err(ConfigError::Dimensions);
         }
-        let sup = law.supervision;
         let bank = FilterBank::new(filter)?;
-        let law = AdaptiveLaw::new(law, filter.ts_s)?;
         let lam = filter.lambda_rad_s;
         let (u0, y0) = (filter.scales.u_scale, filter.scales.y_scale);
         // a_k = −θ_{y,k}·λ^{4−k}; n_k = θ_{u,k}·Y0·λ^{4−k}/U0.
@@ -150,34 +138,16 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
         }
         Ok(Self {
             bank,
-            law,
             unscale,
             lambda_rad_s: lam,
-            screen: InputScreen::new(filter),
-            samples: 0,
-            skipped: 0,
-            inv_u_scale: T::from_f64(1.0 / u0),
-            supervisor: Supervisor::new(&sup, filter.ts_s)
-                .with_lemma1()
-                .with_residual_every(SUPERVISE_EVERY, filter.ts_s),
-            supervised: sup != SupervisorConfig::OFF,
-            pending_discount: false,
-            supervise_phase: 0,
         })
-    }
-
-    /// The defaults: [`AdaptiveConfig::default`] for 9 parameters.
-    ///
-    /// # Errors
-    /// As [`Feedthrough::new`].
-    pub fn with_default_gains(filter: &FilterConfig) -> Result<Self, ConfigError> {
-        Self::new(filter, &AdaptiveConfig::default())
     }
 
     /// The law's regressor from the bank's: u states z_4..z_0, y states
     /// z_3..z_0, target z_4 of y.
     #[inline]
-    fn regressor(r: &Regressor<T, BANK_NP>) -> Regressor<T, FEEDTHROUGH_NP> {
+    fn push(&mut self, u: T, y: T) -> Regressor<T, FEEDTHROUGH_NP> {
+        let r = self.bank.push(u, y);
         // Bank order: [u z4..z0 (0..5), y z5..z0 (5..11)]; law order:
         // [y z3..z0, u z4..z0] (a_3..a_0 first, then n_4..n_0).
         let pick = |v: &[T; BANK_NP]| -> [T; FEEDTHROUGH_NP] {
@@ -193,82 +163,25 @@ impl<T: Real, const NP: usize> Feedthrough<T, NP> {
         }
     }
 
-    /// The fitted coefficients in physical units: `a` = [a_3..a_0] of A
-    /// (monic, degree 4) and `n` = [n_4..n_0] of N = D·A + B.
-    pub fn coefficients(&self) -> ([T; 4], [T; 5]) {
-        let th = self.law.theta_scaled();
-        let c: [T; FEEDTHROUGH_NP] = core::array::from_fn(|j| th[j] * T::from_f64(self.unscale[j]));
-        ([c[0], c[1], c[2], c[3]], [c[4], c[5], c[6], c[7], c[8]])
+    fn reset(&mut self) {
+        self.bank.reset();
     }
 
-    /// The feedthrough D and the s³ numerator term left out of the modes.
-    pub fn residual(&self) -> Residual<T> {
-        let (a, n) = self.coefficients();
-        Residual {
-            feedthrough: n[0],
-            b3: n[1] - n[0] * a[0],
-        }
-    }
-
-    /// The filter pole λ (rad/s).
-    pub fn lambda_rad_s(&self) -> f64 {
+    fn lambda_rad_s(&self) -> f64 {
         self.lambda_rad_s
     }
 
-    /// One good sample: the same supervised step as `Identifier`'s
-    /// ([`super::supervised::learn`]) on this model's regressor.
-    fn learn(&mut self, u: T, y: T) -> StepStatus {
-        let reg = Self::regressor(&self.bank.push(u, y));
-        super::supervised::learn(
-            &mut self.law,
-            &reg,
-            u,
-            super::supervised::LearnState {
-                screen: &mut self.screen,
-                supervisor: &mut self.supervisor,
-                supervised: self.supervised,
-                inv_u_scale: self.inv_u_scale,
-                pending_discount: &mut self.pending_discount,
-                supervise_phase: &mut self.supervise_phase,
-                skipped: &mut self.skipped,
-                samples: self.samples,
-            },
-        )
-    }
-}
-
-impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
-    #[inline]
-    fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.samples = self.samples.wrapping_add(1);
-        match self.screen.screen(u, y) {
-            Screened::Good(u, y) => self.learn(u, y),
-            Screened::Quarantined(u, y) => {
-                self.bank.push(u, y);
-                if self.supervised {
-                    self.supervisor.admit(u * self.inv_u_scale);
-                }
-                StepStatus::Frozen
-            }
-            Screened::Rejected(u, y) => {
-                self.bank.push(u, y);
-                StepStatus::Rejected
-            }
-        }
-    }
-
     /// Θ of eq. 29 of the reported two-mode model for Λ(s) = (s+λ)^4.
-    fn theta(&self) -> [T; NP] {
+    fn theta(&self, theta_s: &[T; FEEDTHROUGH_NP]) -> [T; NP] {
         let mut th = [T::ZERO; NP];
         // NP = 7 (checked at construction): to_theta cannot fail.
-        let _ = self
-            .transfer_function()
+        let _ = Regression::<T, FEEDTHROUGH_NP, NP>::transfer_function(self, theta_s)
             .to_theta(self.lambda_rad_s, &mut th);
         th
     }
 
-    fn transfer_function(&self) -> TransferFunction<T> {
-        let (a, n) = self.coefficients();
+    fn transfer_function(&self, theta_s: &[T; FEEDTHROUGH_NP]) -> TransferFunction<T> {
+        let (a, n) = self.coefficients(theta_s);
         let d = n[0];
         let mut tf = TransferFunction {
             modes: 2,
@@ -283,52 +196,65 @@ impl<T: Real, const NP: usize> Estimator<T, NP> for Feedthrough<T, NP> {
         tf
     }
 
-    fn reset(&mut self) {
-        self.bank.reset();
-        self.law.reset();
-        self.screen.reset();
-        self.supervisor.reset();
-        self.pending_discount = false;
-        self.supervise_phase = 0;
-        self.samples = 0;
-        self.skipped = 0;
+    /// `None`: the law's P is 9×9, not the reported model's 7×7.
+    fn information(_p: [[T; FEEDTHROUGH_NP]; FEEDTHROUGH_NP]) -> Option<[[T; NP]; NP]> {
+        None
     }
 
-    fn excitation_level(&self) -> Option<T> {
-        self.law.information().map(|p| excitation_min_eig(&p))
+    fn feedthrough(&self, theta_s: &[T; FEEDTHROUGH_NP]) -> Option<T> {
+        Some(self.coefficients(theta_s).1[0])
+    }
+}
+
+/// The two-mode estimator with a feedthrough term (module docs): the
+/// proposed law on the [`FeedthroughRegression`], an [`Identifier`] like
+/// every other.
+///
+/// `NP` is the length of the reported Θ (eq. 29 of the two-mode model):
+/// it must be 7; [`Identifier::new`] refuses any other.
+pub type Feedthrough<T, const NP: usize> = Identifier<
+    T,
+    AdaptiveLaw<T, FEEDTHROUGH_NP, FEEDTHROUGH_NS>,
+    FeedthroughRegression<T>,
+    FEEDTHROUGH_NP,
+    NP,
+>;
+
+/// The two-mode estimator with feedthrough, reporting the paper's Θ.
+pub type Feedthrough2<T> = Feedthrough<T, TWO_MODE_NP>;
+
+impl<T: Real, const NP: usize> Feedthrough<T, NP>
+where
+    FeedthroughRegression<T>: Regression<T, FEEDTHROUGH_NP, NP>,
+{
+    /// The defaults: [`AdaptiveConfig::default`] for 9 parameters.
+    ///
+    /// # Errors
+    /// As [`Identifier::new`].
+    pub fn with_default_gains(filter: &FilterConfig) -> Result<Self, ConfigError> {
+        Self::new(filter, &AdaptiveConfig::default())
     }
 
-    fn supervision(&self) -> Option<Supervision<T>> {
-        self.supervised.then(|| self.supervisor.status())
+    /// The fitted coefficients in physical units: `a` = [a_3..a_0] of A
+    /// (monic, degree 4) and `n` = [n_4..n_0] of N = D·A + B.
+    pub fn coefficients(&self) -> ([T; 4], [T; 5]) {
+        self.regression.coefficients(&self.law.theta_scaled())
     }
 
-    fn health(&self) -> Health {
-        Health {
-            samples: self.samples,
-            rejected: self.screen.rejected,
-            skipped: self.skipped,
-            state_ok: self.law.is_healthy(),
+    /// The feedthrough D and the s³ numerator term left out of the modes.
+    pub fn residual(&self) -> Residual<T> {
+        let (a, n) = self.coefficients();
+        Residual {
+            feedthrough: n[0],
+            b3: n[1] - n[0] * a[0],
         }
-    }
-
-    /// Also restarts the change test's learning, as `Identifier`'s.
-    fn hold(&mut self, samples: u32) {
-        self.screen.hold(samples);
-        self.supervisor.restart_change();
-    }
-
-    fn feedthrough(&self) -> Option<T> {
-        Some(self.residual().feedthrough)
-    }
-
-    fn settling_samples(&self) -> u32 {
-        self.screen.quarantine_len()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimator::{Estimator, StepStatus};
     use crate::excitation::SquareWave;
     use crate::filter_bank::SignalScales;
     use crate::modal::modal_from_tf;

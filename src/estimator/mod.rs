@@ -1,16 +1,24 @@
 //! Online estimators of Θ (eq. 29) behind one trait.
 //!
-//! An estimator is a filter bank ([`FilterBank`]) feeding an update law
-//! ([`UpdateLaw`]); [`Identifier`] joins the two, screens the raw samples and
-//! keeps health counters. Three laws are provided:
+//! An [`Identifier`] is a [`Regression`] (the filters that turn a sample
+//! into the law's regressor, and the map from the law's θ_s back to the
+//! reported model) feeding an update law ([`UpdateLaw`]), inside a learner
+//! (`learner.rs`: the input screen, the supervisor and the health
+//! counters, owned by every estimator). [`PaperRegression`] is the paper's
+//! filter bank ([`FilterBank`], eqs. 28–29); the feedthrough estimator
+//! ([`feedthrough::Feedthrough`]) is the same identifier over another
+//! regression. Three laws are provided:
 //!
 //! * [`adaptive::AdaptiveLaw`] — the paper's proposed law, eqs. 33–41;
 //! * [`gradient::GradientLaw`] — the gradient baseline, eq. 47;
 //! * [`least_squares::LeastSquaresLaw`] — the least-squares baseline, eq. 48.
 //!
+//! The θ step of eq. 41 has one implementation (`theta_step.rs`), with
+//! Lemma 1 in the loop as its by-product (`supervise/lemma1.rs`).
+//!
 //! [`robust::RobustEstimator`] is not an `Identifier`: it runs the proposed
 //! law on the output error of a simulated model (unbiased under measurement
-//! noise, near the Cramér–Rao bound) and shares only the input screening.
+//! noise, near the Cramér–Rao bound), with the same learner and θ step.
 //!
 //! All laws work on the scaled regressor φ and scaled parameters θ_s (see
 //! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
@@ -40,25 +48,25 @@ pub mod adaptive;
 mod either;
 pub mod feedthrough;
 pub mod gradient;
+mod learner;
 pub mod least_squares;
 pub mod robust;
 mod screen;
-mod supervised;
+mod theta_step;
 
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor, Scaling};
-use crate::modal::excitation_min_eig;
 use crate::model::TransferFunction;
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+use crate::supervise::{excitation_min_eig, Supervision, SupervisorConfig};
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use either::Either;
 pub use feedthrough::{Feedthrough, Feedthrough2};
 pub use gradient::{GradientConfig, GradientLaw};
+use learner::Learner;
+pub use learner::SUPERVISE_EVERY;
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
-use screen::{InputScreen, Screened};
-pub use supervised::SUPERVISE_EVERY;
 
 /// A sample more than this many signal scales away from zero is rejected.
 pub const INPUT_LIMIT: f64 = 1e6;
@@ -308,54 +316,123 @@ impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> fo
     }
 }
 
-/// A filter bank and an update law: a complete estimator.
+/// What an [`Identifier`] regresses on: the filters that turn a sample
+/// (u, y) into the law's regressor of `NL` entries (scaled φ and target,
+/// eq. 29), and the map from the law's scaled estimate θ_s back to the
+/// reported model, whose Θ has `NP` entries. [`PaperRegression`] is the
+/// paper's (eqs. 28–29); [`feedthrough::FeedthroughRegression`] adds a
+/// feedthrough term on a sixth-order filter.
+pub trait Regression<T: Real, const NL: usize, const NP: usize>: Sized {
+    /// Build for a filter configuration.
+    ///
+    /// # Errors
+    /// [`ConfigError::Filter`] for an invalid `filter`;
+    /// [`ConfigError::Dimensions`] for sizes the regression cannot report.
+    fn new(filter: &FilterConfig) -> Result<Self, ConfigError>;
+    /// One sample through the filters: the law's regressor.
+    fn push(&mut self, u: T, y: T) -> Regressor<T, NL>;
+    /// Filters back to rest.
+    fn reset(&mut self);
+    /// The filter pole λ (rad/s).
+    fn lambda_rad_s(&self) -> f64;
+    /// Θ of the reported model (eq. 29) in physical units, from θ_s.
+    fn theta(&self, theta_s: &[T; NL]) -> [T; NP];
+    /// The reported transfer function (a, b of eqs. 25–27), from θ_s.
+    fn transfer_function(&self, theta_s: &[T; NL]) -> TransferFunction<T>;
+    /// The law's information matrix P as the reported model's
+    /// ([`Estimator::information`]), `None` if it is not one (another size).
+    fn information(p: [[T; NL]; NL]) -> Option<[[T; NP]; NP]>;
+    /// The feedthrough D ([`Estimator::feedthrough`]), from θ_s.
+    fn feedthrough(&self, _theta_s: &[T; NL]) -> Option<T> {
+        None
+    }
+}
+
+/// The paper's regression (eqs. 28–29): the filter bank's regressor Ψ
+/// through Λ(s) = (s+λ)^D, Θ = θ_s·(Y0·E_j) of [`Scaling`].
 ///
 /// `D = 2n` is the model order and `NP = 2D − 1` the number of parameters.
 #[derive(Debug, Clone)]
-pub struct Identifier<T, L, const D: usize, const NP: usize> {
+pub struct PaperRegression<T, const D: usize, const NP: usize> {
     bank: FilterBank<T, D, NP>,
-    law: L,
     /// Θ_j = θ_s,j·unscale_j (Y0·E_j of [`Scaling`]), in working precision.
     unscale: [T; NP],
     lambda_rad_s: f64,
-    screen: InputScreen<T>,
-    samples: u64,
-    skipped: u32,
-    /// 1/U0, for the supervisor's input monitor.
-    inv_u_scale: T,
-    supervisor: Supervisor<T>,
-    supervised: bool,
-    /// A change was detected: discount the old data when the hold ends.
-    pending_discount: bool,
-    /// Samples since the change test last ran.
-    supervise_phase: u32,
 }
 
-impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T, L, D, NP> {
-    /// Build from a filter configuration and a law configuration (which
-    /// carries the supervisor's settings, [`UpdateLaw::supervision_config`]).
-    pub fn new(filter: &FilterConfig, law: &L::Config) -> Result<Self, ConfigError> {
-        let sup = L::supervision_config(law);
-        let bank = FilterBank::new(filter)?;
-        let law = L::new(law, filter.ts_s)?;
+impl<T: Real, const D: usize, const NP: usize> Regression<T, NP, NP> for PaperRegression<T, D, NP> {
+    fn new(filter: &FilterConfig) -> Result<Self, ConfigError> {
         Ok(Self {
-            bank,
-            law,
+            bank: FilterBank::new(filter)?,
             unscale: Scaling::<NP>::new(filter).to_physical(&[T::ONE; NP]),
             lambda_rad_s: filter.lambda_rad_s,
-            screen: InputScreen::new(filter),
-            samples: 0,
-            skipped: 0,
-            inv_u_scale: T::from_f64(1.0 / filter.scales.u_scale),
-            supervisor: if L::MEASURES_LEMMA1 {
-                Supervisor::new(&sup, filter.ts_s).with_lemma1()
-            } else {
-                Supervisor::new(&sup, filter.ts_s)
-            }
-            .with_residual_every(SUPERVISE_EVERY, filter.ts_s),
-            supervised: sup != SupervisorConfig::OFF,
-            pending_discount: false,
-            supervise_phase: 0,
+        })
+    }
+
+    #[inline(always)]
+    fn push(&mut self, u: T, y: T) -> Regressor<T, NP> {
+        self.bank.push(u, y)
+    }
+
+    fn reset(&mut self) {
+        self.bank.reset();
+    }
+
+    fn lambda_rad_s(&self) -> f64 {
+        self.lambda_rad_s
+    }
+
+    fn theta(&self, theta_s: &[T; NP]) -> [T; NP] {
+        let mut th = *theta_s;
+        for (t, k) in th.iter_mut().zip(self.unscale.iter()) {
+            *t *= *k;
+        }
+        th
+    }
+
+    fn transfer_function(&self, theta_s: &[T; NP]) -> TransferFunction<T> {
+        let th = self.theta(theta_s);
+        // NP = 4n − 1 with n ≤ MAX_MODES is guaranteed by FilterConfig::validate.
+        TransferFunction::from_theta(&th, self.lambda_rad_s).unwrap_or(TransferFunction {
+            modes: 0,
+            a: Default::default(),
+            b: Default::default(),
+        })
+    }
+
+    fn information(p: [[T; NP]; NP]) -> Option<[[T; NP]; NP]> {
+        Some(p)
+    }
+}
+
+/// A regression ([`Regression`]: filters and the map back to the reported
+/// model), an update law on its regressor, and the [`Learner`] around them
+/// (input screen, supervisor, counters): a complete estimator.
+///
+/// `NL` is the law's number of parameters, `NP` the reported Θ's.
+#[derive(Debug, Clone)]
+pub struct Identifier<T, L, R, const NL: usize, const NP: usize> {
+    regression: R,
+    law: L,
+    learner: Learner<T>,
+}
+
+impl<T: Real, L: UpdateLaw<T, NL>, R: Regression<T, NL, NP>, const NL: usize, const NP: usize>
+    Identifier<T, L, R, NL, NP>
+{
+    /// Build from a filter configuration and a law configuration (which
+    /// carries the supervisor's settings, [`UpdateLaw::supervision_config`]).
+    ///
+    /// # Errors
+    /// As [`Regression::new`], then as the law's `new`.
+    pub fn new(filter: &FilterConfig, law: &L::Config) -> Result<Self, ConfigError> {
+        let sup = L::supervision_config(law);
+        let regression = R::new(filter)?;
+        let law = L::new(law, filter.ts_s)?;
+        Ok(Self {
+            regression,
+            law,
+            learner: Learner::new(filter, &sup, L::MEASURES_LEMMA1),
         })
     }
 
@@ -366,64 +443,40 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Identifier<T
 
     /// Samples the law stays frozen after a rejected sample.
     pub fn quarantine_samples(&self) -> u32 {
-        self.screen.quarantine_len()
+        self.learner.screen.quarantine_len()
     }
 
     /// The filter pole λ (rad/s).
     pub fn lambda_rad_s(&self) -> f64 {
-        self.lambda_rad_s
+        self.regression.lambda_rad_s()
     }
 }
 
-impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T, NP>
-    for Identifier<T, L, D, NP>
+impl<T: Real, L: UpdateLaw<T, NL>, R: Regression<T, NL, NP>, const NL: usize, const NP: usize>
+    Estimator<T, NP> for Identifier<T, L, R, NL, NP>
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.samples = self.samples.wrapping_add(1);
-        match self.screen.screen(u, y) {
-            Screened::Good(u, y) => self.learn(u, y),
-            Screened::Quarantined(u, y) => {
-                self.bank.push(u, y);
-                if self.supervised {
-                    self.supervisor.admit(u * self.inv_u_scale);
-                }
-                StepStatus::Frozen
-            }
-            Screened::Rejected(u, y) => {
-                self.bank.push(u, y);
-                StepStatus::Rejected
-            }
-        }
+        let Self {
+            regression,
+            law,
+            learner,
+        } = self;
+        learner.step(u, y, |u, y| regression.push(u, y), law)
     }
 
     fn theta(&self) -> [T; NP] {
-        let mut th = self.law.theta_scaled();
-        for (t, k) in th.iter_mut().zip(self.unscale.iter()) {
-            *t *= *k;
-        }
-        th
+        self.regression.theta(&self.law.theta_scaled())
     }
 
     fn transfer_function(&self) -> TransferFunction<T> {
-        let th = self.theta();
-        // NP = 4n − 1 with n ≤ MAX_MODES is guaranteed by FilterConfig::validate.
-        TransferFunction::from_theta(&th, self.lambda_rad_s).unwrap_or(TransferFunction {
-            modes: 0,
-            a: Default::default(),
-            b: Default::default(),
-        })
+        self.regression.transfer_function(&self.law.theta_scaled())
     }
 
     fn reset(&mut self) {
-        self.bank.reset();
+        self.regression.reset();
         self.law.reset();
-        self.screen.reset();
-        self.supervisor.reset();
-        self.pending_discount = false;
-        self.supervise_phase = 0;
-        self.samples = 0;
-        self.skipped = 0;
+        self.learner.reset();
     }
 
     fn excitation_level(&self) -> Option<T> {
@@ -431,38 +484,36 @@ impl<T: Real, L: UpdateLaw<T, NP>, const D: usize, const NP: usize> Estimator<T,
     }
 
     fn information(&self) -> Option<[[T; NP]; NP]> {
-        self.law.information()
+        self.law.information().and_then(R::information)
     }
 
     /// Also restarts the change test's learning
-    /// ([`Supervisor::restart_change`]).
+    /// ([`Supervisor::restart_change`](crate::supervise::Supervisor::restart_change)).
     fn hold(&mut self, samples: u32) {
-        self.screen.hold(samples);
-        self.supervisor.restart_change();
+        self.learner.hold(samples);
     }
 
     fn settling_samples(&self) -> u32 {
-        self.screen.quarantine_len()
+        self.learner.settling_samples()
     }
 
     fn supervision(&self) -> Option<Supervision<T>> {
-        self.supervised.then(|| self.supervisor.status())
+        self.learner.supervision()
+    }
+
+    fn feedthrough(&self) -> Option<T> {
+        self.regression.feedthrough(&self.law.theta_scaled())
     }
 
     fn health(&self) -> Health {
-        Health {
-            samples: self.samples,
-            rejected: self.screen.rejected,
-            skipped: self.skipped,
-            state_ok: self.law.is_healthy(),
-        }
+        self.learner.health(self.law.is_healthy())
     }
 }
 
 /// The proposed estimator (eqs. 33–41) for `n` modes: `D = 2n`,
 /// `NP = 4n − 1`, `NS = NP(NP+1)/2` (packed symmetric storage).
 pub type AdaptiveEstimator<T, const D: usize, const NP: usize, const NS: usize> =
-    Identifier<T, AdaptiveLaw<T, NP, NS>, D, NP>;
+    Identifier<T, AdaptiveLaw<T, NP, NS>, PaperRegression<T, D, NP>, NP, NP>;
 /// The proposed estimator for one mode.
 pub type Adaptive1<T> = AdaptiveEstimator<T, 2, 3, 6>;
 /// The proposed estimator for two modes (the paper's case).
@@ -471,10 +522,10 @@ pub type Adaptive2<T> = AdaptiveEstimator<T, 4, 7, 28>;
 pub type Adaptive3<T> = AdaptiveEstimator<T, 6, 11, 66>;
 /// The gradient baseline (eq. 47).
 pub type GradientEstimator<T, const D: usize, const NP: usize> =
-    Identifier<T, GradientLaw<T, NP>, D, NP>;
+    Identifier<T, GradientLaw<T, NP>, PaperRegression<T, D, NP>, NP, NP>;
 /// The least-squares baseline (eq. 48).
 pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
-    Identifier<T, LeastSquaresLaw<T, NP>, D, NP>;
+    Identifier<T, LeastSquaresLaw<T, NP>, PaperRegression<T, D, NP>, NP, NP>;
 
 /// Samples covering [`QUARANTINE_TIME_CONSTANTS`] filter time constants
 /// (at least the interpolation window), saturating at `u32::MAX`: how long

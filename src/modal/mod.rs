@@ -1,7 +1,8 @@
 //! Modal recovery: transfer function (eq. 25–26) or parameter vector Θ
 //! (eq. 29) → natural frequencies ω_i, damping ratios ζ_i and modal gains
 //! b̄_i (eq. 30–32), generalised from the paper's two modes to
-//! n = 1..=[`MAX_MODES`]; and the excitation monitor of Lemma 1.
+//! n = 1..=[`MAX_MODES`]. (The excitation monitor of Lemma 1 is
+//! [`crate::supervise::excitation_min_eig`].)
 //!
 //! One concept per file:
 //! * this file: poles → ω, ζ ([`modes_from_denominator`]) and the entry
@@ -9,8 +10,6 @@
 //!   [`modal_from_theta`]);
 //! * [`gains`]: the numerator → b̄ least-squares solver of eq. 31–32
 //!   ([`gains_from_numerator`], [`GainWeighting`]);
-//! * [`excitation`]: the excitation monitor of Lemma 1, λ_min(P)
-//!   ([`excitation_min_eig`], [`excitation_ratio`]);
 //! * [`validity`]: physical bounds of an estimate ([`Validity`]) and what
 //!   to report when it is not physical ([`ModalHold`]).
 //!
@@ -36,11 +35,9 @@
 //! Everything is fixed-size, allocation-free and panic-free; NaN or
 //! infinite input is [`ModalError::NonFinite`].
 
-pub mod excitation;
 pub mod gains;
 pub mod validity;
 
-pub use excitation::{excitation_min_eig, excitation_ratio};
 pub use gains::{gains_from_numerator, GainWeighting};
 pub use validity::{ModalHold, Reported, Validity};
 

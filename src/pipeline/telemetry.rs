@@ -15,9 +15,10 @@
 //!   blocks: a full queue returns the record, which is counted as dropped).
 
 use crate::estimator::StepStatus;
-use crate::modal::{excitation_min_eig, modal_from_tf, ModalError};
+use crate::modal::{modal_from_tf, ModalError};
 use crate::model::{ModalParams, TransferFunction};
 use crate::scalar::Real;
+use crate::supervise::excitation_min_eig;
 use beam_protocol::StatusFlags;
 
 /// Samples per [`RawBlock`].

@@ -1,14 +1,17 @@
 //! The estimator's supervisor: what keeps the paper's law right on a real
 //! rig, where the excitation stops, the beam changes and sensors fail.
 //!
-//! * [`excitation`] — is the estimator excited? Lemma 1's λmin(P)/tr(P)
-//!   (computed in the loop by the law's θ step) and a per-sample "input
-//!   gone" detector; the **anti-windup**: adaptation is frozen while the
+//! * **excitation** — is the estimator excited? Lemma 1 (`lemma1.rs`, its
+//!   one home): λmin(P)/tr(P) against [`EXCITATION_REL_THRESHOLD`]
+//!   ([`lemma1_excited`]), computed in the loop as a by-product of the
+//!   law's θ step (`InLoopLemma1`) and at the telemetry rate
+//!   ([`excitation_min_eig`]); and `input.rs`: a per-sample "input gone"
+//!   detector ([`InputMonitor`]); the **anti-windup**: adaptation is frozen while the
 //!   input is gone (P, Q, R, θ̂ neither accumulate nor decay, the filters
 //!   keep running on the real samples so nothing needs to settle when it
 //!   returns), and forgetting is suspended while Lemma 1 fails after having
 //!   passed (the directions the input no longer excites keep what they
-//!   know);
+//!   know); one answer, [`ExcitationReason`];
 //! * [`change`] — **tracking**: a CUSUM test on the a-priori prediction
 //!   error; a detected change discounts the old data (P, Q, R × 2⁻⁴⁰, θ̂
 //!   kept) so the law follows the new beam within a fraction of a second;
@@ -24,18 +27,68 @@
 //! residual's CUSUM runs every [`crate::estimator::SUPERVISE_EVERY`]-th
 //! sample in [`crate::estimator::Identifier`]
 //! ([`Supervisor::with_residual_every`]), and the in-loop λmin is one
-//! inverse-iteration step every [`crate::estimator::adaptive::LEMMA1_EVERY`]
-//! θ steps. Its state is read at the telemetry rate through
+//! inverse-iteration step every [`LEMMA1_EVERY`] θ steps. Its state is
+//! read at the telemetry rate through
 //! [`crate::estimator::Estimator::supervision`] ([`Supervision`]).
 //! docs/ROBUSTNESS.md has the measurements behind every threshold.
 
 pub mod change;
-pub mod excitation;
+mod input;
+mod lemma1;
 
 pub use change::{ChangeDetector, TrackingConfig, DEFAULT_CHANGE_THRESHOLD, DISCOUNT};
-pub use excitation::{lemma1_excited, ExcitationReason, InputMonitor, EXCITATION_REL_THRESHOLD};
+pub use input::{
+    InputMonitor, INPUT_BACK_RATIO, INPUT_GONE_RATIO, INPUT_REFERENCE_S, INPUT_WINDOW_S,
+};
+pub(crate) use lemma1::InLoopLemma1;
+pub use lemma1::{
+    excitation_min_eig, excitation_ratio, lemma1_excited, EXCITATION_REL_THRESHOLD, LEMMA1_EVERY,
+};
 
 use crate::scalar::Real;
+
+/// Why the estimator is or is not excited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ExcitationReason {
+    /// Input present and Lemma 1 satisfied (or not known yet).
+    #[default]
+    Excited,
+    /// The input's short-window energy fell more than 20 dB below its
+    /// level: adaptation is frozen.
+    InputGone,
+    /// The input is there but λmin(P)/tr(P) is below the threshold: some
+    /// direction of Θ is not excited; forgetting is suspended so it cannot
+    /// decay.
+    NotPersistent,
+    /// The input is there, Lemma 1 not measured yet (no θ step since the
+    /// estimator started).
+    Starting,
+}
+
+impl ExcitationReason {
+    /// True for [`ExcitationReason::Excited`].
+    pub fn is_excited(self) -> bool {
+        self == Self::Excited
+    }
+
+    /// A short lowercase name (`"excited"`, `"input_gone"`,
+    /// `"not_persistent"`, `"starting"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Excited => "excited",
+            Self::InputGone => "input_gone",
+            Self::NotPersistent => "not_persistent",
+            Self::Starting => "starting",
+        }
+    }
+}
+
+impl core::fmt::Display for ExcitationReason {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
 
 /// What the supervisor does.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -24,8 +24,8 @@
 //! (docs/NUMERICS.md). θ̂ and θ_m are double words so their difference is
 //! exact.
 
-use crate::estimator::LawError;
-use crate::linalg::{all_finite, ldlt_solve_floored};
+use crate::estimator::theta_step::ThetaStep;
+use crate::estimator::{ConfigError, LawError};
 use crate::scalar::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::scalar::Real;
 
@@ -35,10 +35,9 @@ const STEP_DAMPING: f64 = 16.0;
 /// State of the output-error law. `NS = NP(NP+1)/2`.
 #[derive(Debug, Clone)]
 pub(crate) struct OeLaw<T, const NP: usize, const NS: usize> {
-    /// K·Ts·Γ.
-    step_gain: T,
-    update_every: u32,
-    pending: u32,
+    /// The θ step of eq. 41 (gain K·Ts·Γ, every K samples); no Lemma 1 in
+    /// the loop (the robust estimator's supervisor does not use it).
+    step: ThetaStep<T, NP, ()>,
     ts: T,
     decay: T,
     /// Lazy scale g: P = g·P̃, q = g·q̃.
@@ -62,12 +61,19 @@ pub(crate) struct OeLaw<T, const NP: usize, const NS: usize> {
 }
 
 impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
-    /// Gains validated by the caller.
-    pub fn new(gain: f64, forgetting: f64, r0_diag: &[f64; NP], every: u32, ts_s: f64) -> Self {
-        Self {
-            step_gain: T::from_f64(ts_s * gain * every as f64),
-            update_every: every,
-            pending: 0,
+    /// Forgetting and R(0) validated by the caller.
+    ///
+    /// # Errors
+    /// As [`ThetaStep::new`] for Γ = `gain`, Ts = `ts_s`, K = `every`.
+    pub fn new(
+        gain: f64,
+        forgetting: f64,
+        r0_diag: &[f64; NP],
+        every: u32,
+        ts_s: f64,
+    ) -> Result<Self, ConfigError> {
+        Ok(Self {
+            step: ThetaStep::new::<NS>(gain, ts_s, every, ())?,
             ts: T::from_f64(ts_s),
             decay: T::from_f64(libm::exp(-forgetting * ts_s)),
             scale: T::ONE,
@@ -80,7 +86,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
             wsum: T::ZERO,
             theta: CompensatedArray::default(),
             model: CompensatedArray::default(),
-        }
+        })
     }
 
     /// θ̂ = θ_m = `theta`, no information.
@@ -91,7 +97,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
         self.q = CompensatedArray::default();
         self.e2 = T::ZERO;
         self.wsum = T::ZERO;
-        self.pending = 0;
+        self.step.reset();
         self.theta = *theta;
         self.model = *theta;
     }
@@ -199,11 +205,9 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
         }
         self.e2 += w * eps * eps;
         self.wsum += w;
-        self.pending += 1;
-        if self.pending < self.update_every {
+        if !self.step.due() {
             return Ok(());
         }
-        self.pending = 0;
         self.step()
     }
 
@@ -220,37 +224,30 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
     /// slows that direction; the fixed point W = 0 is unchanged.
     fn step(&mut self) -> Result<(), LawError> {
         let w = self.w_unscaled();
-        let one_plus = T::ONE + self.step_gain;
-        let mut s = [[T::ZERO; NP]; NP];
-        let mut rhs = [T::ZERO; NP];
-        let mut idx = 0;
+        let one_plus = T::ONE + self.step.gain();
+        // S packed like P̃ (upper triangle row by row).
+        let mut s = [T::ZERO; NS];
         let mut max_diag = T::ZERO;
+        for (v, &p) in s.iter_mut().zip(self.p.hi.iter()) {
+            *v = one_plus * p;
+        }
+        let mut idx = 0;
         for i in 0..NP {
-            for j in i..NP {
-                let v = one_plus * self.p.hi[idx];
-                s[i][j] = v;
-                s[j][i] = v;
-                idx += 1;
+            if let Some(&d) = s.get(idx) {
+                max_diag = max_diag.max(d);
             }
-            max_diag = max_diag.max(s[i][i]);
-            rhs[i] = -self.step_gain * w[i];
+            idx += NP - i;
         }
+        let mut idx = 0;
         for i in 0..NP {
-            s[i][i] += self.damping * max_diag + self.r0_weight * self.r0_diag[i];
+            if let (Some(v), Some(&r0)) = (s.get_mut(idx), self.r0_diag.get(i)) {
+                *v += self.damping * max_diag + self.r0_weight * r0;
+            }
+            idx += NP - i;
         }
-        let delta = ldlt_solve_floored(&mut s, &rhs).map_err(|_| LawError::Singular)?;
-        if !all_finite(&delta) {
-            return Err(LawError::NonFinite);
-        }
-        let mut next = self.theta;
-        for (i, v) in delta.iter().enumerate() {
-            next.add(i, *v);
-        }
-        if !next.is_finite() {
-            return Err(LawError::NonFinite);
-        }
-        self.theta = next;
-        Ok(())
+        // No by-product here: its inputs are never asked for.
+        self.step
+            .apply(&mut s, &w, &mut self.theta, || (T::ZERO, T::ZERO))
     }
 
     /// P (scaled, working precision, full symmetric).
@@ -296,7 +293,7 @@ mod tests {
         let mut m = CompensatedArray::<f64, 3>::default();
         m.set(0, 1.0);
         m.set(2, -0.5);
-        let mut law = OeLaw::<f64, 3, 6>::new(1e4, 0.01, &[1e-9; 3], 10, 1e-4);
+        let mut law = OeLaw::<f64, 3, 6>::new(1e4, 0.01, &[1e-9; 3], 10, 1e-4).unwrap();
         law.restart(&m);
         for k in 0..20_000 {
             let t = k as f64 * 1e-3;

@@ -161,16 +161,17 @@ mod oe;
 mod start;
 
 use crate::estimator::adaptive::{AdaptiveConfig, AdaptiveLaw};
-use crate::estimator::screen::{InputScreen, Screened};
+use crate::estimator::learner::Learner;
+use crate::estimator::screen::Screened;
 use crate::estimator::{
     all_positive, positive, ConfigError, Estimator, Health, LawError, StepStatus, UpdateLaw,
 };
 use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Scaling};
-use crate::modal::{excitation_min_eig, modes_from_denominator};
+use crate::modal::modes_from_denominator;
 use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
-use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
+use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
 pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};
 use law::OeLaw;
 use oe::{Filters, InitialFit, OeModel};
@@ -340,7 +341,8 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     startup: AdaptiveLaw<T, NP, NS>,
     oe: OeModel<T, D, NP>,
     law: OeLaw<T, NP, NS>,
-    screen: InputScreen<T>,
+    /// Input screen, supervisor and counters.
+    learner: Learner<T>,
     cfg: RobustConfig<NP>,
     filter: FilterConfig,
     inv_u_scale: T,
@@ -368,10 +370,7 @@ pub struct RobustEstimator<T, const D: usize, const NP: usize, const NS: usize, 
     countdown: u32,
     frozen: bool,
     initial: Option<(T, bool)>,
-    samples: u64,
-    skipped: u32,
     updates: u32,
-    supervisor: Supervisor<T>,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
@@ -400,13 +399,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             return Err(ConfigError::Filter(FilterConfigError::Timing));
         };
         let startup = AdaptiveLaw::new(&cfg.startup, filter.ts_s)?;
-        positive(cfg.gain)?;
+        // Γ and K are the θ step's to check (`OeLaw::new`).
         positive(cfg.forgetting)?;
         positive(cfg.start_tolerance)?;
         all_positive(&cfg.r0_diag)?;
-        if cfg.theta_update_every == 0 {
-            return Err(ConfigError::Gain);
-        }
         let rho_pow =
             core::array::from_fn(|k| T::from_f64(libm::pow(filter.lambda_rad_s, (D - k) as f64)));
         let zero = CompensatedArray::default();
@@ -420,8 +416,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 &cfg.r0_diag,
                 cfg.theta_update_every,
                 filter.ts_s,
+            )?,
+            learner: Learner::with_supervisor(
+                filter,
+                Supervisor::new(&cfg.supervision, filter.ts_s),
+                true,
             ),
-            screen: InputScreen::new(filter),
             cfg: *cfg,
             filter: *filter,
             inv_u_scale: T::from_f64(1.0 / filter.scales.u_scale),
@@ -440,10 +440,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             countdown: cfg.update_every,
             frozen: false,
             initial: None,
-            samples: 0,
-            skipped: 0,
             updates: 0,
-            supervisor: Supervisor::new(&cfg.supervision, filter.ts_s),
         })
     }
 
@@ -600,7 +597,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             return;
         }
         self.countdown = self.countdown.saturating_sub(1);
-        if self.countdown > 0 || self.screen.in_quarantine() {
+        if self.countdown > 0 || self.learner.screen.in_quarantine() {
             return;
         }
         self.countdown = self.cfg.update_every;
@@ -634,7 +631,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         };
         if let Some((_, true)) = self.initial {
             self.startup.reset();
-            self.screen.start_quarantine();
+            self.learner.screen.start_quarantine();
         }
     }
 
@@ -658,7 +655,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             if self.rec_len == START_TEST_SAMPLES.min(B) {
                 self.decide_initial_state();
                 // A restarted start-up law must not take this sample either.
-                update &= !self.screen.in_quarantine();
+                update &= !self.learner.screen.in_quarantine();
             }
         } else if !leading {
             self.unrecorded = self.unrecorded.saturating_add(1);
@@ -675,7 +672,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
                 let s = self.oe.push(us, ys);
                 if update {
                     if self.phase == Phase::Steady
-                        && self.supervisor.residual(s.eps, self.samples).is_some()
+                        && self
+                            .learner
+                            .supervisor
+                            .residual(s.eps, self.learner.samples)
+                            .is_some()
                     {
                         self.restart_record();
                         return Ok(());
@@ -721,21 +722,21 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.samples = self.samples.wrapping_add(1);
-        let status = match self.screen.screen(u, y) {
+        self.learner.samples = self.learner.samples.wrapping_add(1);
+        let status = match self.learner.screen.screen(u, y) {
             Screened::Good(u, y) => {
-                let adapt = self.supervisor.admit(u * self.inv_u_scale) && !self.frozen;
+                let adapt = self.learner.admit(u) && !self.frozen;
                 match self.push(u, y, adapt, true) {
                     Ok(()) if !adapt => StepStatus::Frozen,
                     Ok(()) => StepStatus::Updated,
                     Err(_) => {
-                        self.skipped = self.skipped.saturating_add(1);
+                        self.learner.skipped = self.learner.skipped.saturating_add(1);
                         StepStatus::Skipped
                     }
                 }
             }
             Screened::Quarantined(u, y) => {
-                self.supervisor.admit(u * self.inv_u_scale);
+                self.learner.admit(u);
                 let _ = self.push(u, y, false, true);
                 StepStatus::Frozen
             }
@@ -743,7 +744,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
                 // The simulation must see the input the plant saw: keep a
                 // good u even when y is bad (a wrong u would leave a model
                 // transient lasting as long as the slowest mode).
-                let u = if self.screen.accepts_u(u) { u } else { u_sub };
+                let u = if self.learner.screen.accepts_u(u) {
+                    u
+                } else {
+                    u_sub
+                };
                 let _ = self.push(u, y_sub, false, false);
                 StepStatus::Rejected
             }
@@ -779,7 +784,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     fn reset(&mut self) {
         self.bank.reset();
         self.startup.reset();
-        self.screen.reset();
+        self.learner.reset();
         self.rec_len = 0;
         self.unrecorded = 0;
         self.phase = Phase::Startup;
@@ -788,10 +793,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
         self.adapted = 0;
         self.initial = None;
         self.countdown = self.cfg.update_every;
-        self.samples = 0;
-        self.skipped = 0;
         self.updates = 0;
-        self.supervisor.reset();
     }
 
     fn excitation_level(&self) -> Option<T> {
@@ -805,28 +807,22 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     /// Also restarts the change test's learning
     /// ([`Supervisor::restart_change`]).
     fn hold(&mut self, samples: u32) {
-        self.screen.hold(samples);
-        self.supervisor.restart_change();
+        self.learner.hold(samples);
     }
 
     fn settling_samples(&self) -> u32 {
-        self.screen.quarantine_len()
+        self.learner.settling_samples()
     }
 
     fn supervision(&self) -> Option<Supervision<T>> {
-        Some(self.supervisor.status())
+        self.learner.supervision()
     }
 
     fn health(&self) -> Health {
-        Health {
-            samples: self.samples,
-            rejected: self.screen.rejected,
-            skipped: self.skipped,
-            state_ok: match self.phase {
-                Phase::Startup => self.startup.is_healthy(),
-                Phase::Refining | Phase::Steady => self.law.is_healthy(),
-            },
-        }
+        self.learner.health(match self.phase {
+            Phase::Startup => self.startup.is_healthy(),
+            Phase::Refining | Phase::Steady => self.law.is_healthy(),
+        })
     }
 }
 

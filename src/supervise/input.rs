@@ -1,29 +1,11 @@
-//! Is the estimator excited? Two detectors, one answer
-//! ([`ExcitationReason`]):
-//!
-//! * **Lemma 1** (Wang, Costa-Castelló, Na et al., *Modelling and Adaptive
-//!   Parameter Estimation for a Piezoelectric Cantilever Beam*): the
-//!   regressor is persistently exciting iff λmin(P) of the information
-//!   matrix (eq. 33) stays above some σ > 0. The test used everywhere —
-//!   the estimator's own supervision, the firmware's EXCITED flag, the host
-//!   tools — is [`lemma1_excited`]: λmin(P) ≥ [`EXCITATION_REL_THRESHOLD`]
-//!   · tr(P). With forgetting l, P reflects the last ~1/l seconds (20 s at
-//!   the default l = 0.05 /s), so λmin reacts on that time scale.
-//! * **Input gone** ([`InputMonitor`], per sample): the mean square of the
-//!   scaled input u/U0 over a short window ([`INPUT_WINDOW_S`]) against its
-//!   own level over the last excited seconds ([`INPUT_REFERENCE_S`]): an
-//!   excitation that stops (u = 0, or the DAC's offset) is seen within
-//!   ~50 ms instead of ~1/l.
+//! Is the input there? The per-sample "input gone" detector
+//! ([`InputMonitor`]): the mean square of the scaled input u/U0 over a
+//! short window ([`INPUT_WINDOW_S`]) against its own level over the last
+//! excited seconds ([`INPUT_REFERENCE_S`]): an excitation that stops (u = 0,
+//! or the DAC's offset) is seen within ~50 ms instead of the ~1/l of
+//! Lemma 1 ([`super::lemma1_excited`]).
 //!
 //! # Design
-//! * **Why relative to tr(P).** λmin alone cannot tell excitation from
-//!   rounding: in `f32` the λmin of a non-exciting input is rounding noise
-//!   whose size grows with P (above the square wave's early values), while
-//!   λmin/tr(P) separates them (the levels: BENCHMARKS.md, "Design
-//!   measurements"; host test `link::excited_flag_follows_the_excitation`). 1e-7 is near
-//!   `f32`'s ε (1.2e-7): below it λmin is within the rounding of P's
-//!   entries. A plant whose P is inherently worse conditioned than ~10⁷
-//!   (e.g. three modes, or a weak high mode) never passes, excited or not.
 //! * **Why a short-window energy for "input gone".** What must not happen
 //!   without excitation is adaptation on y alone: with u = 0 the y-channel
 //!   regressor carries only the decaying free response and the measurement
@@ -42,8 +24,6 @@
 
 use crate::scalar::Real;
 
-/// Lemma 1's threshold: excited iff λmin(P) ≥ this × tr(P) (scaled P).
-pub const EXCITATION_REL_THRESHOLD: f64 = 1e-7;
 /// Window of the input's short-term mean square (s).
 pub const INPUT_WINDOW_S: f64 = 0.01;
 /// Time constant of the input's reference level while present (s).
@@ -53,58 +33,6 @@ pub const INPUT_REFERENCE_S: f64 = 2.0;
 pub const INPUT_GONE_RATIO: f64 = 1e-2;
 /// ... and back when it rises above this fraction (−15 dB).
 pub const INPUT_BACK_RATIO: f64 = 3e-2;
-
-/// Lemma 1 as this project decides it: λmin(P) ≥
-/// [`EXCITATION_REL_THRESHOLD`]·tr(P), P the scaled information matrix.
-/// False for a non-finite or non-positive trace (fails safe).
-pub fn lemma1_excited<T: Real>(lambda_min: T, trace: T) -> bool {
-    trace > T::ZERO
-        && trace.is_finite()
-        && lambda_min >= T::from_f64(EXCITATION_REL_THRESHOLD) * trace
-}
-
-/// Why the estimator is or is not excited.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ExcitationReason {
-    /// Input present and Lemma 1 satisfied (or not known yet).
-    #[default]
-    Excited,
-    /// The input's short-window energy fell more than 20 dB below its
-    /// level: adaptation is frozen.
-    InputGone,
-    /// The input is there but λmin(P)/tr(P) is below the threshold: some
-    /// direction of Θ is not excited; forgetting is suspended so it cannot
-    /// decay.
-    NotPersistent,
-    /// The input is there, Lemma 1 not measured yet (no θ step since the
-    /// estimator started).
-    Starting,
-}
-
-impl ExcitationReason {
-    /// True for [`ExcitationReason::Excited`].
-    pub fn is_excited(self) -> bool {
-        self == Self::Excited
-    }
-
-    /// A short lowercase name (`"excited"`, `"input_gone"`,
-    /// `"not_persistent"`, `"starting"`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Excited => "excited",
-            Self::InputGone => "input_gone",
-            Self::NotPersistent => "not_persistent",
-            Self::Starting => "starting",
-        }
-    }
-}
-
-impl core::fmt::Display for ExcitationReason {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 /// The per-sample "input gone" detector (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -179,16 +107,6 @@ impl<T: Real> InputMonitor<T> {
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn lemma1_threshold_is_relative_and_fails_safe() {
-        assert!(lemma1_excited(1e-6f32, 1.0));
-        assert!(!lemma1_excited(0.99e-7f64, 1.0));
-        assert!(lemma1_excited(1e-7f64 * 5.0, 5.0));
-        assert!(!lemma1_excited(1.0f64, 0.0));
-        assert!(!lemma1_excited(f64::NAN, 1.0));
-        assert!(!lemma1_excited(1.0f64, f64::INFINITY));
-    }
 
     #[test]
     fn input_gone_within_fifty_ms_and_back_at_once() {
