@@ -63,7 +63,7 @@
 //!   affects conditioning and noise sensitivity, not what is tracked).
 //!
 //! # Using it
-//! The host driver is `beamctl::tuned`; the firmware does the same split
+//! The host driver is `beamctl::run::tuned`; the firmware does the same split
 //! across its two tasks: the sample task feeds [`AutoTune::startup_sample`]
 //! until it returns the first [`FilterConfig`]; the low-priority task builds
 //! the estimator (the matrix exponentials), calls
