@@ -406,7 +406,7 @@ impl<T: Real, const D: usize, const NP: usize> Regression<T, NP, NP> for PaperRe
 }
 
 /// A regression ([`Regression`]: filters and the map back to the reported
-/// model), an update law on its regressor, and the [`Learner`] around them
+/// model), an update law on its regressor, and the learner around them
 /// (input screen, supervisor, counters): a complete estimator.
 ///
 /// `NL` is the law's number of parameters, `NP` the reported Θ's.

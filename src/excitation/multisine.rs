@@ -18,7 +18,7 @@
 //! * **Cost.** Per sample and tone: one add and one [`sin_q30`]. The
 //!   construction scan costs N·M of those (2^16 × 16 ≈ 1 M at most): build
 //!   in the low-priority task, then hand the result over
-//!   ([`super::Excitation::set_waveform`]).
+//!   ([`super::Excitation::set_generator`]).
 //! * Measured crest factors (peak/RMS; all tones in phase: √(2M)):
 //!   Schroeder on consecutive harmonics is lowest (unit test); on a
 //!   log-spaced grid it is no better than random phases — 2–80 Hz, 8

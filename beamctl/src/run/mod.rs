@@ -82,7 +82,7 @@ pub struct RunConfig {
     pub u_amplitude: f64,
     /// Square-wave frequency.
     pub u_freq_hz: f64,
-    /// The firmware's excitation (wire settings, [`drive`]) instead
+    /// The firmware's excitation (wire settings, [`drive`](mod@drive)) instead
     /// of the square wave above; None: the square wave.
     pub excitation: Option<beam_protocol::Excitation>,
     /// White noise on y, as an SNR in dB relative to the RMS of the
@@ -368,7 +368,7 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
     })
 }
 
-/// The noise-free rig of a run: plant and drive ([`drive`]).
+/// The noise-free rig of a run: plant and drive ([`drive()`]).
 pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64, Drive>, RunError> {
     let plant = cfg
         .plant

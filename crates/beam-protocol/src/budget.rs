@@ -1,6 +1,6 @@
 //! Worst-case frame sizes and the link load they imply.
 //!
-//! Every payload size here is the [`MaxSize`](crate::size::MaxSize) of its message, derived next
+//! Every payload size here is the [`MaxSize`] of its message, derived next
 //! to the message's struct from its fields' sizes: an upper bound that the
 //! encoder can reach (all varints at their longest, all vectors full); COBS
 //! adds its worst case. The unit tests in `frame` encode messages that reach

@@ -83,7 +83,7 @@ pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, RejectReason, TelemetryRates,
+    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates,
     UnknownEstimator, Waveform, WaveformKind,
 };
 pub use decoder::{Decoder, Feed, LinkCounters};
@@ -95,7 +95,6 @@ pub use telemetry::{
     Ack, AckResult, DeviceCounters, Estimate, FirmwareVersion, ModeEstimate, RawSamples, Status,
     StatusFlags, UySample,
 };
-pub use validate::Limits;
 
 /// First two header bytes: 0xBE57 ("BEST"), sent little-endian (`57 BE`).
 pub const MAGIC: u16 = 0xBE57;

@@ -10,130 +10,10 @@
 use core::f32::consts::PI;
 
 use super::budget::LinkLoad;
-use super::command::EstimatorKind;
+use super::command::{check, finite, Limits};
 use super::command::{
     Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform,
 };
-
-/// What the device accepts: its sample rate, the piezo's safe window, the
-/// generators and estimators it has, and its link budget.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Limits {
-    /// Sample rate f_s (Hz). Nyquist: f_s/2.
-    pub sample_rate_hz: f32,
-    /// Lowest voltage the excitation may reach (V).
-    pub piezo_min_v: f32,
-    /// Highest voltage the excitation may reach (V).
-    pub piezo_max_v: f32,
-    /// Most tones of a multisine.
-    pub max_multisine_tones: u8,
-    /// Shortest PRBS shift register (bits).
-    pub prbs_bits_min: u8,
-    /// Longest PRBS shift register (bits).
-    pub prbs_bits_max: u8,
-    /// The estimators this firmware has: a set of [`EstimatorKind::bit`].
-    pub estimators: u8,
-    /// The estimator model's mode count (sets the estimate frame size).
-    pub modes: u8,
-    /// Link budget (bytes/s) that the worst-case telemetry load may use,
-    /// e.g. [`uart_bytes_per_s`](super::budget::uart_bytes_per_s) of the
-    /// baud rate, less any headroom the firmware wants for acknowledgements.
-    pub link_bytes_per_s: f32,
-}
-
-impl Limits {
-    /// True if the firmware has estimator `kind`.
-    pub const fn has_estimator(&self, kind: EstimatorKind) -> bool {
-        self.estimators & kind.bit() != 0
-    }
-
-    fn nyquist_hz(&self) -> f32 {
-        0.5 * self.sample_rate_hz
-    }
-}
-
-/// Finite, or [`RejectReason::NotFinite`].
-fn finite(values: &[f32]) -> Result<(), RejectReason> {
-    if values.iter().all(|v| v.is_finite()) {
-        Ok(())
-    } else {
-        Err(RejectReason::NotFinite)
-    }
-}
-
-/// `Ok` if `ok`, else `Err(reason)`.
-fn check(ok: bool, reason: RejectReason) -> Result<(), RejectReason> {
-    if ok {
-        Ok(())
-    } else {
-        Err(reason)
-    }
-}
-
-impl Waveform {
-    /// The waveform's own fields, finite and in range.
-    fn validate(&self, limits: &Limits) -> Result<(), RejectReason> {
-        let nyquist = limits.nyquist_hz();
-        match *self {
-            Self::Off => Ok(()),
-            Self::Square { freq_hz } => {
-                finite(&[freq_hz])?;
-                check(freq_hz > 0.0 && freq_hz < nyquist, RejectReason::Frequency)
-            }
-            Self::Multisine {
-                f_min_hz,
-                f_max_hz,
-                tones,
-            } => {
-                finite(&[f_min_hz, f_max_hz])?;
-                check(
-                    tones >= 1 && tones <= limits.max_multisine_tones,
-                    RejectReason::ToneCount,
-                )?;
-                check(
-                    f_min_hz > 0.0 && f_max_hz < nyquist,
-                    RejectReason::Frequency,
-                )?;
-                check(
-                    f_min_hz < f_max_hz || (tones == 1 && f_min_hz == f_max_hz),
-                    RejectReason::Band,
-                )
-            }
-            Self::Prbs {
-                bit_rate_hz,
-                register_bits,
-            } => {
-                finite(&[bit_rate_hz])?;
-                check(
-                    bit_rate_hz > 0.0 && bit_rate_hz <= limits.sample_rate_hz,
-                    RejectReason::Frequency,
-                )?;
-                check(
-                    register_bits >= limits.prbs_bits_min && register_bits <= limits.prbs_bits_max,
-                    RejectReason::PrbsLength,
-                )
-            }
-            Self::Chirp {
-                f_start_hz,
-                f_end_hz,
-                sweep_s,
-            } => {
-                finite(&[f_start_hz, f_end_hz, sweep_s])?;
-                check(
-                    f_start_hz > 0.0 && f_end_hz < nyquist,
-                    RejectReason::Frequency,
-                )?;
-                check(f_start_hz < f_end_hz, RejectReason::Band)?;
-                let samples = sweep_s * limits.sample_rate_hz;
-                check(
-                    (2.0..=2_147_483_648.0).contains(&samples),
-                    RejectReason::SweepTime,
-                )
-            }
-        }
-    }
-}
 
 impl Excitation {
     /// Check the waveform, the amplitude and that offset ± amplitude stays
@@ -225,6 +105,7 @@ impl Command {
 mod tests {
     use super::*;
     use crate::budget::uart_bytes_per_s;
+    use crate::command::EstimatorKind;
     use RejectReason as R;
 
     const LIMITS: Limits = Limits {
