@@ -276,7 +276,7 @@ impl<const NP: usize> Scaling<NP> {
 
     /// A diagonal gain given in physical units (H, Γ1, Γ2 of eqs. 37, 47,
     /// 48) in scaled coordinates: G_s = E⁻¹·G·E⁻¹, i.e. g_j/E_j².
-    pub fn gain_to_scaled(&self, gain_physical: &[f64; NP]) -> [f64; NP] {
+    pub(crate) fn gain_to_scaled(&self, gain_physical: &[f64; NP]) -> [f64; NP] {
         let mut g = [0.0; NP];
         for j in 0..NP {
             g[j] = gain_physical[j] / (self.e[j] * self.e[j]);
@@ -557,7 +557,7 @@ impl<T: Real, const D: usize, const NP: usize> FilterBank<T, D, NP> {
     }
 
     /// The current regressor (φ at t_{n−2} and y_{n−2}/Y0).
-    pub fn regressor(&self) -> Regressor<T, NP> {
+    pub(crate) fn regressor(&self) -> Regressor<T, NP> {
         let mut phi = [T::ZERO; NP];
         let mut phi_lo = [T::ZERO; NP];
         // u entries: z_{D−2} … z_0; y entries: z_{D−1} … z_0 (eq. 29 order).

@@ -156,7 +156,7 @@ pub fn lambda_poly(d: usize, lambda: f64) -> [f64; MAX_ORDER] {
 /// single precision (no `f64` `pow`, which cost ~3 KB of flash and a
 /// software-double call per recovery on the Cortex-M4F). Entries past `d`
 /// are zero.
-pub fn lambda_poly_in<T: Real>(d: usize, lambda: f64) -> [T; MAX_ORDER] {
+pub(crate) fn lambda_poly_in<T: Real>(d: usize, lambda: f64) -> [T; MAX_ORDER] {
     let mut k = [T::ZERO; MAX_ORDER];
     for (i, ki) in k.iter_mut().enumerate().take(d) {
         let j = d - 1 - i;
@@ -222,7 +222,7 @@ impl<T: Real> ModalParams<T> {
     }
 
     /// Mode polynomial q_i(s) = s² + 2ζ_iω_i s + ω_i² as [1, 2ζω, ω²].
-    pub fn mode_poly(&self, i: usize) -> [T; 3] {
+    pub(crate) fn mode_poly(&self, i: usize) -> [T; 3] {
         let w = self.omega_rad_s[i];
         let two = T::ONE + T::ONE;
         [T::ONE, two * self.zeta[i] * w, w * w]

@@ -149,7 +149,7 @@ impl BeamParams {
     }
 
     /// Wave number scale √(EI/(ρA)) (m²/s): ω_i = β_i²·√(EI/(ρA)).
-    pub fn wave_scale_m2_s(&self) -> f64 {
+    pub(crate) fn wave_scale_m2_s(&self) -> f64 {
         libm::sqrt(self.youngs_modulus_pa * self.inertia_m4 / (self.density_kg_m3 * self.area_m2))
     }
 

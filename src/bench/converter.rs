@@ -190,7 +190,7 @@ impl<'a> ConverterRig<'a> {
 
     /// The same rig with the converters' `timing` (the ADC's sinc³, the
     /// DAC's latency; [`ConverterTiming::IDEAL`] unless set).
-    pub fn with_timing(self, timing: ConverterTiming) -> Result<Self, RigError> {
+    pub(crate) fn with_timing(self, timing: ConverterTiming) -> Result<Self, RigError> {
         let plant = self
             .plant
             .with_timing(timing)

@@ -69,7 +69,7 @@ pub use sensitivity::{ModalOutputModel, OutputSensitivity, SensitivityError, Sen
 /// Largest number of raw sensitivity columns: ω, ζ, α, β per mode.
 const RAW: usize = 4 * MAX_MODES;
 /// Largest number of unknowns of a model set (4n − 1).
-pub const MAX_PARAMS: usize = 4 * MAX_MODES - 1;
+pub(crate) const MAX_PARAMS: usize = 4 * MAX_MODES - 1;
 
 /// Which parameters are unknown (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -378,7 +378,7 @@ impl FisherAccumulator {
     ///
     /// # Errors
     /// [`CrbError::NoiseOrData`], [`CrbError::NotExcited`].
-    pub fn covariance(
+    pub(crate) fn covariance(
         &self,
         set: ModelSet,
         sigma: f64,

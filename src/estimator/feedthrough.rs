@@ -70,13 +70,13 @@ use crate::model::{TransferFunction, MAX_ORDER};
 use crate::scalar::Real;
 
 /// Order of the filter Λ(s) = (s+λ)^6.
-pub const FILTER_ORDER: usize = 6;
+pub(crate) const FILTER_ORDER: usize = 6;
 /// Length of the three-mode bank's regressor (2·6 − 1).
 const BANK_NP: usize = 2 * FILTER_ORDER - 1;
 /// Parameters of the law: a_3..a_0 and n_4..n_0.
-pub const FEEDTHROUGH_NP: usize = 9;
+pub(crate) const FEEDTHROUGH_NP: usize = 9;
 /// Packed symmetric storage of the law's matrices (9·10/2).
-pub const FEEDTHROUGH_NS: usize = FEEDTHROUGH_NP * (FEEDTHROUGH_NP + 1) / 2;
+pub(crate) const FEEDTHROUGH_NS: usize = FEEDTHROUGH_NP * (FEEDTHROUGH_NP + 1) / 2;
 /// Θ length of the reported two-mode model (eq. 29).
 const TWO_MODE_NP: usize = 7;
 

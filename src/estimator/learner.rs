@@ -60,7 +60,7 @@ impl<T: Real> Learner<T> {
 
     /// With a supervisor built by the estimator (`supervised`: whether it
     /// acts and reports).
-    pub fn with_supervisor(
+    pub(crate) fn with_supervisor(
         filter: &FilterConfig,
         supervisor: Supervisor<T>,
         supervised: bool,
@@ -80,7 +80,7 @@ impl<T: Real> Learner<T> {
     /// The sample's input `u` (scaled by 1/U0) to the supervisor's input
     /// monitor; false if adaptation must be frozen for it (input gone).
     #[inline]
-    pub fn admit(&mut self, u: T) -> bool {
+    pub(crate) fn admit(&mut self, u: T) -> bool {
         self.supervisor.admit(u * self.inv_u_scale)
     }
 

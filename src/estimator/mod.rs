@@ -531,7 +531,7 @@ pub type LeastSquaresEstimator<T, const D: usize, const NP: usize> =
 /// (at least the interpolation window), saturating at `u32::MAX`: how long
 /// an [`Identifier`] built with `filter` holds its law after a rejected
 /// sample or [`Estimator::hold_for_settling`].
-pub fn quarantine_samples_for(filter: &FilterConfig) -> u32 {
+pub(crate) fn quarantine_samples_for(filter: &FilterConfig) -> u32 {
     let n = libm::ceil(QUARANTINE_TIME_CONSTANTS / (filter.lambda_rad_s * filter.ts_s));
     if n >= u32::MAX as f64 {
         u32::MAX

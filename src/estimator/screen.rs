@@ -69,7 +69,7 @@ impl<T: Real> InputScreen<T> {
     /// Freeze the law for the quarantine length from now on, as after a bad
     /// sample (e.g. at the first sample, when the filters start at rest but
     /// the plant may not).
-    pub fn start_quarantine(&mut self) {
+    pub(crate) fn start_quarantine(&mut self) {
         self.hold(self.quarantine_len);
     }
 
@@ -81,17 +81,17 @@ impl<T: Real> InputScreen<T> {
     }
 
     /// Whether `u` alone would pass the screen.
-    pub fn accepts_u(&self, u: T) -> bool {
+    pub(crate) fn accepts_u(&self, u: T) -> bool {
         u.is_finite() && u.abs() <= self.u_limit
     }
 
     /// True while a recent bad sample keeps the law frozen.
-    pub fn in_quarantine(&self) -> bool {
+    pub(crate) fn in_quarantine(&self) -> bool {
         self.quarantine > 0
     }
 
     /// Samples the law stays frozen after a rejected sample.
-    pub fn quarantine_len(&self) -> u32 {
+    pub(crate) fn quarantine_len(&self) -> u32 {
         self.quarantine_len
     }
 

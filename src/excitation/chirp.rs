@@ -99,7 +99,7 @@ impl Chirp {
 
     /// This sample's value (Q30), then advance one sample.
     #[inline]
-    pub fn next_raw(&mut self) -> i32 {
+    pub(crate) fn next_raw(&mut self) -> i32 {
         let v = sin_q30(self.phase);
         let step = self.current_step();
         self.phase = self.phase.wrapping_add(step);
@@ -122,7 +122,7 @@ impl Chirp {
     /// Phase step (2³²/cycle) applied after the current sample, i.e. the
     /// instantaneous frequency f = step·fs/2³².
     #[inline]
-    pub fn current_step(&self) -> u32 {
+    pub(crate) fn current_step(&self) -> u32 {
         match self.spec.sweep {
             Sweep::Linear => (self.step_q32 >> 32) as u32,
             // 0 ≤ step_f < 2³¹ by construction (f < fs/2).

@@ -252,7 +252,7 @@ impl Generator {
 
     /// This sample (|v| ≤ full scale), then advance one sample.
     #[inline]
-    pub fn next_raw(&mut self) -> i32 {
+    pub(crate) fn next_raw(&mut self) -> i32 {
         match &mut self.state {
             State::Off => 0,
             State::Square { phase, step } => {
@@ -446,7 +446,7 @@ impl<T: Real> Excitation<T> {
 
     /// Amplitude and offset together (one check: moving both can pass
     /// through an invalid intermediate state).
-    pub fn set_level(&mut self, amplitude_v: T, offset_v: T) -> Result<(), ExcitationError> {
+    pub(crate) fn set_level(&mut self, amplitude_v: T, offset_v: T) -> Result<(), ExcitationError> {
         check_level(amplitude_v, offset_v, &self.window)?;
         self.amplitude_v = amplitude_v;
         self.offset_v = offset_v;
@@ -466,7 +466,7 @@ impl<T: Real> Excitation<T> {
     /// PRBS register) is kept, so the output stays continuous.
     /// [`ExcitationError::Unsupported`] for the other kinds (use
     /// [`Excitation::set_band`] or [`Excitation::set_generator`]).
-    pub fn set_frequency(&mut self, freq_hz: f64) -> Result<(), ExcitationError> {
+    pub(crate) fn set_frequency(&mut self, freq_hz: f64) -> Result<(), ExcitationError> {
         let fs = self.wave.sample_rate_hz;
         match &mut self.wave.state {
             State::Square { step, .. } => *step = dds_step(freq_hz, fs)?,
@@ -523,7 +523,7 @@ impl<T: Real> Excitation<T> {
     }
 
     /// The generator.
-    pub fn generator(&self) -> &Generator {
+    pub(crate) fn generator(&self) -> &Generator {
         &self.wave
     }
 

@@ -180,7 +180,7 @@ impl Multisine {
     /// Sum of the tones for this sample (|v| ≤ [`Multisine::peak`]), then
     /// advance one sample.
     #[inline]
-    pub fn next_raw(&mut self) -> i32 {
+    pub(crate) fn next_raw(&mut self) -> i32 {
         let m = usize::from(self.tones);
         let mut acc = 0i32;
         for (p, st) in self.phase.iter_mut().zip(self.step.iter()).take(m) {

@@ -93,7 +93,7 @@ impl Prbs {
 
     /// +1 (`true`) or −1 (`false`) for this sample, then advance one sample.
     #[inline]
-    pub fn next_bit(&mut self) -> bool {
+    pub(crate) fn next_bit(&mut self) -> bool {
         let bit = self.state & 1 == 1;
         self.count += 1;
         if self.count >= self.divider {
@@ -116,7 +116,7 @@ impl Prbs {
 
     /// Change the bit period, keeping the register and the position within
     /// the current bit (clamped to the new period).
-    pub fn set_divider(&mut self, divider: u32) -> Result<(), ExcitationError> {
+    pub(crate) fn set_divider(&mut self, divider: u32) -> Result<(), ExcitationError> {
         if divider == 0 {
             return Err(ExcitationError::Frequency);
         }

@@ -18,7 +18,7 @@
 /// Table entries per quarter cycle.
 pub const QUARTER: usize = 256;
 /// Q30 unity: sin = 1 is `ONE_Q30`.
-pub const ONE_Q30: i32 = 1 << 30;
+pub(crate) const ONE_Q30: i32 = 1 << 30;
 /// log2 of [`QUARTER`].
 const QUARTER_BITS: u32 = 8;
 /// Phase bits below the table index, within a quarter (30 − 8).

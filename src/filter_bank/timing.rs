@@ -90,7 +90,7 @@ impl OutputTiming {
 
     /// Group delay of a sinc3 decimator at its data rate (samples): half its
     /// three-period window.
-    pub const SINC3_GROUP_DELAY_SAMPLES: f64 = 1.5;
+    pub(crate) const SINC3_GROUP_DELAY_SAMPLES: f64 = 1.5;
 
     /// A sinc3 ADC whose samples are paired with a DAC value that takes
     /// effect `dac_latency_s` after the tick, at sample period `ts_s`:
@@ -118,7 +118,7 @@ impl OutputTiming {
 
     /// Whether this is [`Self::IDEAL`] in effect (the u channel is a plain
     /// zero-order hold).
-    pub fn is_ideal(&self) -> bool {
+    pub(crate) fn is_ideal(&self) -> bool {
         self.delay_samples == 0.0 && self.average == OutputAverage::Point
     }
 

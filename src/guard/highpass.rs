@@ -92,13 +92,13 @@ impl<T: Real> HighPass<T> {
     /// Filter u alone (a sample whose y is faulty: u stays continuous, y's
     /// states hold).
     #[inline]
-    pub fn push_u(&mut self, u: T) -> T {
+    pub(crate) fn push_u(&mut self, u: T) -> T {
         self.u.push(self.alpha, u)
     }
 
     /// The level removed from y by the first stage (its low-pass state,
     /// units of y): the offset the filter is taking away.
-    pub fn y_level(&self) -> T {
+    pub(crate) fn y_level(&self) -> T {
         self.y.m1.hi + self.y.m1.lo
     }
 

@@ -79,7 +79,7 @@
 )]
 
 pub(crate) mod delay;
-pub mod highpass;
+pub(crate) mod highpass;
 mod level;
 pub mod monitor;
 pub mod residual;
@@ -137,17 +137,17 @@ pub const DEFAULT_HIGHPASS_RAD_S: f64 = 10.0;
 pub const STEP_FACTOR: f64 = 8.0;
 /// Time constant of d̂'s running mean square (s); also its learning time
 /// at the start.
-pub const STEP_REFERENCE_S: f64 = 0.1;
+pub(crate) const STEP_REFERENCE_S: f64 = 0.1;
 /// A jump to a rail from more than this fraction of full scale (half the
 /// range's span) away is an open bridge, not an overload: an overload
 /// reaches the rail within one sample's motion of the signal, an open gauge
 /// from wherever the signal was (3% of full scale on the rig).
-pub const OPEN_JUMP_FRACTION: f64 = 0.5;
+pub(crate) const OPEN_JUMP_FRACTION: f64 = 0.5;
 /// A drift is flagged when y's slow level has moved by this fraction of
 /// y's RMS since the last flag.
 pub const DRIFT_FRACTION: f64 = 0.05;
 /// Time constant of the slow level (two stages) and of y's RMS (s).
-pub const LEVEL_S: f64 = 0.25;
+pub(crate) const LEVEL_S: f64 = 0.25;
 /// After a gap (faulty samples that never reached the high-pass) the
 /// estimator is asked to hold for this many high-pass time constants 1/ω_c
 /// ([`SensorGuard::take_hold`]): the filter's memory then mixes the signal
@@ -633,7 +633,7 @@ impl<T: Real> SensorGuard<T> {
     /// The count starts afresh when the drive returns, so a sensor that
     /// stuck meanwhile is flagged `stuck_after` samples later. A live bridge
     /// never repeats that long, driven or not; call this before each push.
-    pub fn set_input_quiet(&mut self, quiet: bool) {
+    pub(crate) fn set_input_quiet(&mut self, quiet: bool) {
         self.quiet = quiet;
     }
 
@@ -691,7 +691,7 @@ impl<T: Real> SensorGuard<T> {
     }
 
     /// Counters back to zero.
-    pub fn reset_counts(&mut self) {
+    pub(crate) fn reset_counts(&mut self) {
         self.counts = GuardCounts::default();
     }
 

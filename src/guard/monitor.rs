@@ -69,16 +69,16 @@ pub const RAMP_FLOOR_Y0_PER_S: f64 = 1e-3;
 pub const RAMP_FIT_MAX: f64 = 0.15;
 /// Time constant of both tests' running mean squares, and their learning
 /// time after the model is set (s).
-pub const MONITOR_REFERENCE_S: f64 = 0.1;
+pub(crate) const MONITOR_REFERENCE_S: f64 = 0.1;
 /// After a gap the bank's states mix both sides of it: no test for this
 /// many filter time constants 1/λ (as the estimator's quarantine).
-pub const MONITOR_SETTLE_TIME_CONSTANTS: f64 = 40.0;
+pub(crate) const MONITOR_SETTLE_TIME_CONSTANTS: f64 = 40.0;
 /// After an offset step is corrected, ε carries what the bank saw of the
 /// uncorrected samples (a pulse of the step's size, ≤ 2.6 ms long): a kink
 /// that decays with the bank, as e^{−λt}; no test for this many 1/λ.
 /// Measured: without it a 0.05·Y0 step was found again 6 ms after its
 /// correction.
-pub const MONITOR_CORRECTION_TIME_CONSTANTS: f64 = 10.0;
+pub(crate) const MONITOR_CORRECTION_TIME_CONSTANTS: f64 = 10.0;
 /// [`model_for_monitor`]: no model within this long of a detected plant
 /// change (s), nor before the estimator has run this long.
 pub const CHANGE_QUIET_S: f64 = 1.0;

@@ -205,7 +205,7 @@ pub fn reject_config(e: ConfigError) -> RejectReason {
 }
 
 /// The reason to refuse an excitation the generators would not build.
-pub fn reject_excitation(e: ExcitationError) -> RejectReason {
+pub(crate) fn reject_excitation(e: ExcitationError) -> RejectReason {
     match e {
         ExcitationError::Frequency | ExcitationError::SampleRate | ExcitationError::Unsupported => {
             RejectReason::Frequency

@@ -117,7 +117,7 @@ impl Convergence {
 /// Modes that are physical: as many as the model has, every value finite,
 /// ω > 0, 0 < ζ < 1, ω strictly ascending (distinct modes) — the core's
 /// [`crate::modal::Validity`] test.
-pub fn physically_valid(m: &ModalParams<f32>, model_modes: usize) -> bool {
+pub(crate) fn physically_valid(m: &ModalParams<f32>, model_modes: usize) -> bool {
     crate::modal::Validity::of(m, model_modes).is_valid()
 }
 
@@ -161,7 +161,7 @@ fn queue_drops(c: &Counters) -> u32 {
 /// bridge + monitor; dac_saturations = rail + failed writes + clamped
 /// excitation samples; telemetry_dropped = records + raw blocks dropped on
 /// the sample side + frames dropped on the TX ring.
-pub fn device_counters(
+pub(crate) fn device_counters(
     c: &Counters,
     commands_accepted: u32,
     commands_rejected: u32,

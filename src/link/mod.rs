@@ -146,7 +146,7 @@ pub struct Settings {
 
 /// Samples between two events at `rate_hz` (round(f_s/rate), at least 1);
 /// `None` when the rate is 0 (off) or not positive.
-pub fn interval_samples(rate_hz: f32, sample_rate_hz: f32) -> Option<u32> {
+pub(crate) fn interval_samples(rate_hz: f32, sample_rate_hz: f32) -> Option<u32> {
     if !(rate_hz > 0.0) {
         return None;
     }
@@ -528,7 +528,7 @@ impl DeviceLink {
     }
 
     /// Send a Status with the counters read now (inside the lock).
-    pub fn send_status_now<D: Device>(&mut self, dev: &mut D, tx: &mut impl TxSink) {
+    pub(crate) fn send_status_now<D: Device>(&mut self, dev: &mut D, tx: &mut impl TxSink) {
         let (counters, uptime) = dev.with_pipeline(|p| (p.counters(), p.next_sample_index()));
         let status = self.status(uptime, &counters);
         self.tx.send(&status.into(), 0, tx);

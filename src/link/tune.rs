@@ -126,7 +126,7 @@ impl Tuner {
     }
 
     /// The estimator asked for, if any (taken by the build).
-    pub fn take_pending(&mut self) -> Option<Pending> {
+    pub(crate) fn take_pending(&mut self) -> Option<Pending> {
         self.pending.take()
     }
 
@@ -136,7 +136,7 @@ impl Tuner {
     }
 
     /// Forget a pending re-centring (a command replaced the estimator).
-    pub fn cancel_pending(&mut self) {
+    pub(crate) fn cancel_pending(&mut self) {
         if self
             .pending
             .as_ref()
@@ -148,14 +148,14 @@ impl Tuner {
 
     /// The estimator built from `filter` runs from sample `at`: its steps
     /// are counted from there.
-    pub fn swapped_in(&mut self, at: u64) {
+    pub(crate) fn swapped_in(&mut self, at: u64) {
         self.review_from = Some(at);
         self.counted_to = at;
     }
 
     /// A command rebuilt the estimator at `filter` with the automatic λ,
     /// running from `at`: review it again from its settling on.
-    pub fn rebuilt(&mut self, filter: FilterConfig, at: u64) {
+    pub(crate) fn rebuilt(&mut self, filter: FilterConfig, at: u64) {
         self.cancel_pending();
         self.rule.rebuilt(filter);
         self.swapped_in(at);
@@ -163,7 +163,7 @@ impl Tuner {
 
     /// Samples up to `index` are not counted (adaptation frozen by command,
     /// or λ fixed): the rule's clock resumes after them.
-    pub fn skip_to(&mut self, index: u64) {
+    pub(crate) fn skip_to(&mut self, index: u64) {
         if self.review_from.is_some() {
             self.counted_to = self.counted_to.max(index.saturating_add(1));
         }

@@ -28,19 +28,19 @@ pub struct Validity(pub u8);
 
 impl Validity {
     /// Valid.
-    pub const VALID: Self = Self(0);
+    pub(crate) const VALID: Self = Self(0);
     /// Recovery failed (roots or gains; [`ModalError`]).
     pub const NOT_RECOVERED: Self = Self(1 << 0);
     /// Another number of modes than the model has.
-    pub const MODE_COUNT: Self = Self(1 << 1);
+    pub(crate) const MODE_COUNT: Self = Self(1 << 1);
     /// A value is NaN or infinite.
-    pub const NON_FINITE: Self = Self(1 << 2);
+    pub(crate) const NON_FINITE: Self = Self(1 << 2);
     /// Some ω ≤ 0.
-    pub const OMEGA_NOT_POSITIVE: Self = Self(1 << 3);
+    pub(crate) const OMEGA_NOT_POSITIVE: Self = Self(1 << 3);
     /// Some ζ ≤ 0 (unstable or undamped) or ζ ≥ 1 (overdamped: real poles).
     pub const ZETA_OUT_OF_RANGE: Self = Self(1 << 4);
     /// Two modes with the same ω (not strictly ascending).
-    pub const NOT_DISTINCT: Self = Self(1 << 5);
+    pub(crate) const NOT_DISTINCT: Self = Self(1 << 5);
 
     /// The flags of `m` for a model of `model_modes` modes.
     pub fn of<T: Real>(m: &ModalParams<T>, model_modes: usize) -> Self {

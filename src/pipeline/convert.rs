@@ -138,7 +138,7 @@ pub struct Eq17 {
 
 impl Eq17 {
     /// w/ε = 2L³/(3L₁h) (m per unit strain).
-    pub fn factor_m(&self) -> Result<f64, ConversionError> {
+    pub(crate) fn factor_m(&self) -> Result<f64, ConversionError> {
         let (l, l1, h) = (self.length_m, self.gauge_lever_arm_m, self.thickness_m);
         if [l, l1, h].iter().all(|v| *v > 0.0 && v.is_finite()) {
             Ok(2.0 * l * l * l / (3.0 * l1 * h))
@@ -285,7 +285,7 @@ impl AnalogFrontEnd {
 
     /// Volts at the ADC's monitor input for actuator voltage `u_v`.
     #[inline]
-    pub fn monitor_volts(&self, u_v: f64) -> f64 {
+    pub(crate) fn monitor_volts(&self, u_v: f64) -> f64 {
         u_v * self.monitor_v_per_v
     }
 }

@@ -216,7 +216,7 @@ pub fn unpack_symmetric<T: Real, const NP: usize, const NS: usize>(
 }
 
 /// Pack the upper triangle of `p` row by row (the record's layout).
-pub fn pack_symmetric<T: Real, const NP: usize, const NS: usize>(
+pub(crate) fn pack_symmetric<T: Real, const NP: usize, const NS: usize>(
     p: &[[T; NP]; NP],
     out: &mut [T; NS],
 ) {

@@ -41,7 +41,7 @@ use crate::scalar::{pow2_nearest, Real};
 /// Largest number of Aberth–Ehrlich sweeps before giving up.
 pub const MAX_ITERATIONS: usize = 100;
 /// Largest number of Newton polishing steps per root.
-pub const POLISH_STEPS: usize = 3;
+pub(crate) const POLISH_STEPS: usize = 3;
 
 /// Why no roots could be returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,7 +101,7 @@ impl<T: Real> Roots<T> {
 
 /// Evaluate the monic polynomial s^d + a_{d−1}s^{d−1} + … + a_0 (coefficients
 /// highest power first, leading 1 implied) at `z` by Horner's rule.
-pub fn eval_monic<T: Real>(a: &[T], z: Complex<T>) -> Complex<T> {
+pub(crate) fn eval_monic<T: Real>(a: &[T], z: Complex<T>) -> Complex<T> {
     let mut p = Complex::from_real(T::ONE);
     for &ak in a {
         p = p * z + Complex::from_real(ak);

@@ -77,7 +77,7 @@ impl Xoshiro256PlusPlus {
 
     /// The next uniformly distributed 64-bit word.
     #[inline]
-    pub fn next_u64(&mut self) -> u64 {
+    pub(crate) fn next_u64(&mut self) -> u64 {
         let s = &mut self.s;
         let out = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
         let t = s[1] << 17;
@@ -93,7 +93,7 @@ impl Xoshiro256PlusPlus {
     /// A uniform number in [0, 1) with 53 random bits (the upper bits of
     /// [`next_u64`](Self::next_u64), which are the best ones).
     #[inline]
-    pub fn next_f64(&mut self) -> f64 {
+    pub(crate) fn next_f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * TWO_POW_M53
     }
 }

@@ -87,7 +87,7 @@ impl<T: Real, E: Iterator<Item = T>> Rig<T, E> {
     }
 
     /// The plant, mutably (e.g. to reset it or to swap it for a changed one).
-    pub fn plant_mut(&mut self) -> &mut ModalPlant<T> {
+    pub(crate) fn plant_mut(&mut self) -> &mut ModalPlant<T> {
         &mut self.plant
     }
 

@@ -237,7 +237,7 @@ impl TimedPlant {
 
     /// The same beam, in its current state, with another `timing` (the
     /// sinc³'s memory restarts at zero).
-    pub fn with_timing(&self, timing: ConverterTiming) -> Result<Self, PlantError> {
+    pub(crate) fn with_timing(&self, timing: ConverterTiming) -> Result<Self, PlantError> {
         let mut states = [[0.0; 2]; MAX_MODES];
         for (st, md) in states.iter_mut().zip(self.m.iter()) {
             *st = md.x;
@@ -339,7 +339,7 @@ impl TimedPlant {
 
     /// What the ADC converts of the drive at this tick: its sinc³ average,
     /// or (point sample) the value held just before the tick.
-    pub fn measured_drive(&self) -> f64 {
+    pub(crate) fn measured_drive(&self) -> f64 {
         if self.timing.sinc3 {
             self.u_adc
         } else {

@@ -37,7 +37,7 @@ use crate::scalar::Real;
 
 /// s + e = a + b exactly, with s = fl(a + b) (Knuth's TwoSum, 6 flops).
 #[inline(always)]
-pub fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
+pub(crate) fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
     let s = a + b;
     let bb = s - a;
     let e = (a - (s - bb)) + (b - bb);
@@ -49,7 +49,7 @@ pub fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
 /// ulp of hi; should hi have been cancelled below |lo|, the result is still
 /// hi + lo to within ulp(lo)·2⁻ᵖ.
 #[inline(always)]
-pub fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
+pub(crate) fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
     let s = a + b;
     (s, b - (s - a))
 }
@@ -57,7 +57,7 @@ pub fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
 /// p + e = a·b exactly, with p = fl(a·b) (Dekker's product with Veltkamp
 /// splitting, 17 flops, no fused multiply-add required).
 #[inline(always)]
-pub fn two_prod<T: Real>(a: T, b: T) -> (T, T) {
+pub(crate) fn two_prod<T: Real>(a: T, b: T) -> (T, T) {
     let p = a * b;
     let (ah, al) = split(a);
     let (bh, bl) = split(b);
@@ -78,7 +78,7 @@ fn split<T: Real>(a: T) -> (T, T) {
 /// product with another factor then costs 5 flops (Dekker's product with
 /// pre-split operands would cost 9, plus 4 for the low words).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Factor<T> {
+pub(crate) struct Factor<T> {
     h: T,
     hh: T,
     t: T,
@@ -110,7 +110,7 @@ impl<T: Real> Factor<T> {
     /// memory of 1/(l·Ts) ≈ 2e5 samples they add up to ~2⁻⁴² of P. Only
     /// used when `T::COMPENSATED`.
     #[inline(always)]
-    pub fn mul(&self, o: &Self) -> (T, T) {
+    pub(crate) fn mul(&self, o: &Self) -> (T, T) {
         let p = self.h * o.h;
         let e = ((self.hh * o.hh - p) + self.t * o.hh) + self.h * o.t;
         (p, e)
@@ -119,7 +119,7 @@ impl<T: Real> Factor<T> {
 
 /// A double-word accumulator: the value is `hi + lo`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Compensated<T> {
+pub(crate) struct Compensated<T> {
     /// Leading word.
     pub hi: T,
     /// Trailing word (rounding error of `hi`); zero when `T` is not compensated.
@@ -161,7 +161,7 @@ impl<T: Real> Compensated<T> {
 /// A double word prepared for exact products: h = hh + hl (Veltkamp) and
 /// the trailing word l.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ExactFactor<T> {
+pub(crate) struct ExactFactor<T> {
     h: T,
     hh: T,
     hl: T,
@@ -181,7 +181,7 @@ impl<T: Real> ExactFactor<T> {
     /// dropped). e is exact up to the rounding of the two cross terms and
     /// of the last two additions, ≲ 2⁻²ᵖ·|p|.
     #[inline(always)]
-    pub fn mul(&self, o: &Self) -> (T, T) {
+    pub(crate) fn mul(&self, o: &Self) -> (T, T) {
         let p = self.h * o.h;
         let e = ((self.hh * o.hh - p) + self.hh * o.hl + self.hl * o.hh) + self.hl * o.hl;
         (p, (e + self.h * o.l) + self.l * o.h)
@@ -196,7 +196,7 @@ impl<T: Real> ExactFactor<T> {
 /// call [`CompensatedArray::renormalize`] every few dozen additions and
 /// before the words are read one at a time.
 #[inline(always)]
-pub fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
+pub(crate) fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
     let (s, err) = two_sum(*hi, p);
     *hi = s;
     *lo += err + e;
@@ -205,7 +205,7 @@ pub fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
 /// (xh + xl)·(yh + yl) as a double word (p, e), dropping xl·yl (below the
 /// working precision squared).
 #[inline(always)]
-pub fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
+pub(crate) fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
     let (p, e) = two_prod(xh, yh);
     (p, e + (xh * yl + xl * yh))
 }
@@ -214,7 +214,7 @@ pub fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
 /// (structure of arrays), so that with `T::COMPENSATED = false` the update
 /// loops touch one contiguous array and vectorize.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CompensatedArray<T, const N: usize> {
+pub(crate) struct CompensatedArray<T, const N: usize> {
     /// Leading words.
     pub hi: [T; N],
     /// Trailing words (all zero when `T` is not compensated).
@@ -248,7 +248,7 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
     /// [`Compensated::add`]; the adaptive law adds lazily instead, with
     /// [`add_lazy`], and renormalizes at its θ step).
     #[inline(always)]
-    pub fn add_dw(&mut self, i: usize, p: T, e: T) {
+    pub(crate) fn add_dw(&mut self, i: usize, p: T, e: T) {
         if T::COMPENSATED {
             let (s, e2) = two_sum(self.hi[i], p);
             let lo = self.lo[i] + (e + e2);
@@ -262,7 +262,7 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
 
     /// Restore |lo| ≤ ulp(hi)/2 for every element (exact: a two-sum).
     #[inline(always)]
-    pub fn renormalize(&mut self) {
+    pub(crate) fn renormalize(&mut self) {
         for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
             let (s, err) = two_sum(*h, *l);
             *h = s;
@@ -296,7 +296,7 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
 
     /// Every element *= 1/2 (exact).
     #[inline(always)]
-    pub fn halve(&mut self) {
+    pub(crate) fn halve(&mut self) {
         let half = T::from_f64(0.5);
         for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
             *h *= half;
@@ -306,7 +306,7 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
 
     /// Every element × `k` (exact when `k` is a power of two and nothing
     /// underflows).
-    pub fn scale_by(&mut self, k: T) {
+    pub(crate) fn scale_by(&mut self, k: T) {
         for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
             *h *= k;
             *l *= k;
@@ -322,7 +322,7 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
 /// Dot product accumulator "as if computed in twice the working precision"
 /// (Ogita, Rump & Oishi 2005, Algorithm Dot2) when `T::COMPENSATED`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Dot2<T> {
+pub(crate) struct Dot2<T> {
     p: T,
     s: T,
 }
@@ -340,7 +340,7 @@ impl<T: Real> Dot2<T> {
     /// Accumulate the product of two double words (the lo·lo term is below
     /// the working precision squared and dropped).
     #[inline(always)]
-    pub fn add_product_dd(&mut self, x: Compensated<T>, y: Compensated<T>) {
+    pub(crate) fn add_product_dd(&mut self, x: Compensated<T>, y: Compensated<T>) {
         if T::COMPENSATED {
             let (h, r) = two_prod(x.hi, y.hi);
             let (p, q) = two_sum(self.p, h);
@@ -353,7 +353,7 @@ impl<T: Real> Dot2<T> {
 
     /// Start at the double word hi + lo.
     #[inline(always)]
-    pub fn from_dw(hi: T, lo: T) -> Self {
+    pub(crate) fn from_dw(hi: T, lo: T) -> Self {
         Self { p: hi, s: lo }
     }
 
@@ -361,7 +361,7 @@ impl<T: Real> Dot2<T> {
     /// [`Factor::mul`]): an exact two-sum of the leading words, whose error
     /// joins `e` in the trailing sum.
     #[inline(always)]
-    pub fn add_dw(&mut self, p: T, e: T) {
+    pub(crate) fn add_dw(&mut self, p: T, e: T) {
         let (s, q) = two_sum(self.p, p);
         self.p = s;
         self.s += q + e;
@@ -369,7 +369,7 @@ impl<T: Real> Dot2<T> {
 
     /// Accumulate a double-word value.
     #[inline(always)]
-    pub fn add_value(&mut self, x: Compensated<T>) {
+    pub(crate) fn add_value(&mut self, x: Compensated<T>) {
         if T::COMPENSATED {
             let (p, q) = two_sum(self.p, x.hi);
             self.p = p;
@@ -397,7 +397,7 @@ impl<T: Real> Dot2<T> {
 /// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
 /// P adds P_ij·θ_j to W_i and, by symmetry, P_ij·θ_i to W_j (j > i).
 /// Meant for `T::COMPENSATED` (in `f64` it is merely exact and slow).
-pub fn residual_exact<T: Real, const NP: usize, const NS: usize>(
+pub(crate) fn residual_exact<T: Real, const NP: usize, const NS: usize>(
     p: &mut CompensatedArray<T, NS>,
     q: &mut CompensatedArray<T, NP>,
     theta: &CompensatedArray<T, NP>,

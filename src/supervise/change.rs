@@ -67,7 +67,7 @@ pub const LEARN_S: f64 = 0.02;
 /// Corner of the high-pass on the residual (rad/s; see the module docs).
 pub const RESIDUAL_HIGHPASS_RAD_S: f64 = 10.0;
 /// The test's 1/σ̂² is recomputed every this many samples.
-pub const INVERSE_EVERY: u32 = 8;
+pub(crate) const INVERSE_EVERY: u32 = 8;
 /// Learning time before the test is armed (s).
 pub const ARM_S: f64 = 0.5;
 /// Old data are multiplied by this on a detection (2⁻⁴⁰ ≈ 9.1e-13: exact
@@ -219,7 +219,7 @@ impl<T: Real> ChangeDetector<T> {
     }
 
     /// The CUSUM statistic g now (for telemetry and tests).
-    pub fn statistic(&self) -> T {
+    pub(crate) fn statistic(&self) -> T {
         self.cusum
     }
 

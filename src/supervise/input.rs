@@ -87,7 +87,7 @@ impl<T: Real> InputMonitor<T> {
 
     /// Short-window mean square over the reference (dimensionless; < 0.01
     /// means gone).
-    pub fn relative_level(&self) -> T {
+    pub(crate) fn relative_level(&self) -> T {
         if self.reference > T::ZERO {
             self.level / self.reference
         } else {

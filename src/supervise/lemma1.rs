@@ -164,7 +164,7 @@ impl<T: Real, const NP: usize> InLoopLemma1<T, NP> {
     /// step; `trace` = tr(P̃), `prior` = the R(0) share of λmin(S) taken off
     /// (see the type's docs), `step_gain` = K·TsΓ. ~NP² + 3·NP flops.
     #[inline(never)]
-    pub fn iterate<const NS: usize>(
+    pub(crate) fn iterate<const NS: usize>(
         &mut self,
         s: &[T; NS],
         inv_d: &[T; NP],

@@ -68,7 +68,7 @@ pub enum ExcitationReason {
 
 impl ExcitationReason {
     /// True for [`ExcitationReason::Excited`].
-    pub fn is_excited(self) -> bool {
+    pub(crate) fn is_excited(self) -> bool {
         self == Self::Excited
     }
 
@@ -207,15 +207,10 @@ impl<T: Real> Supervisor<T> {
         self
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &SupervisorConfig {
-        &self.cfg
-    }
-
     /// Take the scaled input u/U0 of a sample; false if adaptation must be
     /// frozen for it (input gone).
     #[inline]
-    pub fn admit(&mut self, u_scaled: T) -> bool {
+    pub(crate) fn admit(&mut self, u_scaled: T) -> bool {
         let present = self.input.push(u_scaled);
         self.frozen = self.cfg.freeze_without_input && !present;
         !self.frozen
@@ -287,11 +282,6 @@ impl<T: Real> Supervisor<T> {
     /// level; that is not a change of the plant).
     pub fn restart_change(&mut self) {
         self.change.restart();
-    }
-
-    /// The change detector (read).
-    pub fn change_detector(&self) -> &ChangeDetector<T> {
-        &self.change
     }
 
     /// Back to the start (a reset estimator).

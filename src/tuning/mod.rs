@@ -85,9 +85,9 @@ use crate::scalar::Real;
 
 /// Default start-up window (s): a little more than one period of the
 /// paper's 7 Hz excitation.
-pub const DEFAULT_STARTUP_S: f64 = 0.2;
+pub(crate) const DEFAULT_STARTUP_S: f64 = 0.2;
 /// Default review period (s).
-pub const DEFAULT_REVIEW_PERIOD_S: f64 = 0.01;
+pub(crate) const DEFAULT_REVIEW_PERIOD_S: f64 = 0.01;
 /// Most reviews a stability window can span.
 pub const MAX_STABLE_REVIEWS: usize = 32;
 /// Largest λ·Ts the rule picks: the filters' time constant stays above
@@ -441,7 +441,7 @@ impl AutoTune {
     /// commanded with the automatic λ): review again from this build, with
     /// the settling time, the re-centring count and the stability window
     /// reset. Ignored during the start-up window (the rule builds first).
-    pub fn rebuilt(&mut self, filter: FilterConfig) {
+    pub(crate) fn rebuilt(&mut self, filter: FilterConfig) {
         if self.phase == Phase::Startup {
             return;
         }

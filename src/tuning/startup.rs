@@ -127,7 +127,7 @@ impl StartupStats {
     }
 
     /// RMS of the accepted u (0 before the first sample).
-    pub fn u_rms(&self) -> f64 {
+    pub(crate) fn u_rms(&self) -> f64 {
         if self.n == 0 {
             0.0
         } else {
@@ -145,7 +145,7 @@ impl StartupStats {
     }
 
     /// Estimated white-noise variance σ² of y (from third differences).
-    pub fn noise_variance(&self) -> f64 {
+    pub(crate) fn noise_variance(&self) -> f64 {
         if self.n_d3 == 0 {
             0.0
         } else {
@@ -155,7 +155,7 @@ impl StartupStats {
 
     /// Noise-corrected frequency centroid of y in rad/s (see the module
     /// docs), or `None` if y has no measurable variation above its noise.
-    pub fn centroid_rad_s(&self, ts_s: f64) -> Option<f64> {
+    pub(crate) fn centroid_rad_s(&self, ts_s: f64) -> Option<f64> {
         if self.n < 2 || self.n_d1 == 0 || !(ts_s > 0.0) {
             return None;
         }

@@ -114,7 +114,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
 
     /// Weighted mean squared residual ε (scaled units); `None` before the
     /// first sample.
-    pub fn residual_variance(&self) -> Option<T> {
+    pub(crate) fn residual_variance(&self) -> Option<T> {
         if self.wsum > T::ZERO {
             Some(self.e2 / self.wsum)
         } else {
@@ -134,7 +134,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
     /// damped step is slow (weak directions in `f32`). Off the sample path.
     /// Returns false if a step failed (θ̂ unchanged by it; the caller stops
     /// refining).
-    pub fn refine(&mut self, steps: u32) -> bool {
+    pub(crate) fn refine(&mut self, steps: u32) -> bool {
         for _ in 0..steps {
             if self.step().is_err() {
                 return false;
@@ -266,7 +266,7 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
     }
 
     /// Every word finite, P's diagonal non-negative.
-    pub fn is_healthy(&self) -> bool {
+    pub(crate) fn is_healthy(&self) -> bool {
         let mut idx = 0;
         for i in 0..NP {
             if !(self.p.hi[idx] >= T::ZERO) {

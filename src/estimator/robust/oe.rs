@@ -189,7 +189,7 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
 
     /// Set the simulation state at the first sample (before any push): ξ(t_0)
     /// = `xi0`. The gradient filter and the windows stay at rest.
-    pub fn start_at(&mut self, xi0: &[T; D]) {
+    pub(crate) fn start_at(&mut self, xi0: &[T; D]) {
         for (i, v) in xi0.iter().enumerate() {
             self.xi.set(i, *v);
         }
