@@ -22,10 +22,7 @@ use std::hint::black_box;
 use beam_protocol::Waveform;
 use beamest::bench::conversion;
 use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Feedthrough2};
-use beamest::excitation::{
-    Chirp, ChirpSpec, Excitation, Generator, Multisine, MultisineSpec, Phases, Prbs, SafeWindow,
-    SquareWave, Sweep,
-};
+use beamest::excitation::{Excitation, SafeWindow, SquareWave};
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{
@@ -173,87 +170,7 @@ fn run<T: Real>(mode: &str) {
     for _ in 0..WARMUP {
         p.tick();
     }
-    let shapes = [
-        (
-            "square",
-            Generator::new(&Waveform::Square { freq_hz: 7.0 }, 1e4).expect("square"),
-        ),
-        (
-            "multisine1",
-            Generator::multisine(
-                Multisine::new(
-                    &MultisineSpec {
-                        f_min_hz: 7.0,
-                        f_max_hz: 7.0,
-                        tones: 1,
-                        period_log2: 14,
-                        phases: Phases::Schroeder,
-                    },
-                    1e4,
-                )
-                .expect("multisine"),
-                1e4,
-            )
-            .expect("multisine"),
-        ),
-        (
-            "multisine8",
-            Generator::multisine(
-                Multisine::new(
-                    &MultisineSpec {
-                        f_min_hz: 2.0,
-                        f_max_hz: 80.0,
-                        tones: 8,
-                        period_log2: 14,
-                        phases: Phases::Schroeder,
-                    },
-                    1e4,
-                )
-                .expect("multisine"),
-                1e4,
-            )
-            .expect("multisine"),
-        ),
-        (
-            "prbs",
-            // 500 bit/s at 10 kHz: a bit every 20 samples.
-            Generator::prbs(Prbs::new(12, 20, 1).expect("prbs"), 1e4).expect("prbs"),
-        ),
-        (
-            "chirp_lin",
-            Generator::chirp(
-                Chirp::new(
-                    &ChirpSpec {
-                        f0_hz: 2.0,
-                        f1_hz: 80.0,
-                        period_s: 10.0,
-                        sweep: Sweep::Linear,
-                    },
-                    1e4,
-                )
-                .expect("chirp"),
-                1e4,
-            )
-            .expect("chirp"),
-        ),
-        (
-            "chirp_log",
-            Generator::chirp(
-                Chirp::new(
-                    &ChirpSpec {
-                        f0_hz: 2.0,
-                        f1_hz: 80.0,
-                        period_s: 10.0,
-                        sweep: Sweep::Logarithmic,
-                    },
-                    1e4,
-                )
-                .expect("chirp"),
-                1e4,
-            )
-            .expect("chirp"),
-        ),
-    ];
+    let shapes = host_tests::excitation_cost::generators();
     // Build every generator in every mode (the multisine scan is set-up).
     let mut gens: Vec<(&str, Excitation<T>)> = shapes
         .iter()

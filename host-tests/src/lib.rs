@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod excitation_cost;
 pub mod naive;
 pub mod noise_study;
 pub mod scenario;
