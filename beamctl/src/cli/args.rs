@@ -312,7 +312,7 @@ pub struct SimulateArgs {
         flatten,
         next_help_heading = "Drive: the firmware's generators instead of the paper's square wave (flags of `send excitation`; what is not given is the paper's 0.1 V square at 7 Hz, offset 0)"
     )]
-    pub excitation: crate::cli::send::ExcitationArgs,
+    pub excitation: crate::link::grammar::ExcitationArgs,
 }
 
 /// Options of `beamctl replay`.

@@ -9,8 +9,11 @@
 //!   their acknowledgement;
 //! * [`record`]: `--record`: every frame to a CSV file, the raw samples to a
 //!   second CSV in the form `beamctl replay` reads (`docs/RECORDING.md`);
-//! * [`text`]: names and one-line descriptions of flags, waveforms,
-//!   commands and answers, shared by every output;
+//! * [`grammar`]: commands as text, both ways: the grammar of `beamctl
+//!   send` and the monitor's command line (parsed into a [`beam_protocol::Command`]) and
+//!   a command written back in it;
+//! * [`text`]: names and one-line descriptions of flags, waveforms and
+//!   answers, shared by every output;
 //! * [`fake`]: a fake device that speaks the protocol (estimates, raw
 //!   samples, status, acknowledgements) over any byte stream, for tests and
 //!   for trying the tools without a rig.
@@ -19,6 +22,7 @@
 //! core's [`beam_protocol`]; nothing here re-implements it.
 
 pub mod fake;
+pub mod grammar;
 pub mod host;
 pub mod record;
 pub mod text;

@@ -21,7 +21,7 @@
 //! device sent, so a replay reads back the same bits.
 
 use super::host::Host;
-use super::text;
+use super::{grammar, text};
 use beam_protocol::{
     Command, DecodeError, Estimate, Frame, Message, RawSamples, Status, MAX_MODES, MAX_THETA,
 };
@@ -252,7 +252,7 @@ impl Recorder {
                     row.set(cols, "detail", r.describe());
                 }
             }
-            Message::Command(c) => row.set(cols, "detail", text::command_text(c)),
+            Message::Command(c) => row.set(cols, "detail", grammar::command_text(c)),
         }
         self.write(row)?;
         self.stats.frame_rows += 1;
@@ -269,7 +269,7 @@ impl Recorder {
         let cols = &self.columns;
         let mut row = self.row(host_s, "command");
         row.set(cols, "seq", seq);
-        row.set(cols, "detail", text::command_text(command));
+        row.set(cols, "detail", grammar::command_text(command));
         self.write(row)
     }
 
@@ -278,7 +278,7 @@ impl Recorder {
         let cols = &self.columns;
         let mut row = self.row(host_s, "timeout");
         row.set(cols, "command_seq", seq);
-        row.set(cols, "detail", text::command_text(command));
+        row.set(cols, "detail", grammar::command_text(command));
         self.write(row)
     }
 

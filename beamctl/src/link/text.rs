@@ -1,14 +1,9 @@
 //! Names and one-line descriptions of protocol values, shared by the plain
-//! output, the terminal view, the record files and `beamctl send`.
-//!
-//! [`command_text`] writes a command in the syntax `beamctl send` accepts,
-//! so a line of a record or of the monitor's log can be sent again as is.
+//! output, the terminal view, the record files and `beamctl send`. Commands
+//! as text are the grammar's ([`super::grammar::command_text`]).
 
-use beam_protocol::{
-    AckResult, Command, EstimatorSettings, Excitation, LinkCounters, Status, StatusFlags,
-    TelemetryRates, Waveform,
-};
-use std::fmt::Write as _;
+use super::grammar::{estimator_text, excitation_text, telemetry_text};
+use beam_protocol::{AckResult, LinkCounters, Status, StatusFlags, Waveform};
 
 /// Every defined status flag with its name (`docs/PROTOCOL.md` §4.1).
 pub const FLAG_NAMES: [(StatusFlags, &str); 13] = [
@@ -47,99 +42,15 @@ pub fn flags_text(flags: StatusFlags, sep: &str) -> String {
     }
 }
 
-/// The waveform's own parameters as `beamctl send` flags
-/// (`--freq 7`, `--band 5:50 --tones 8`, …); empty for `off`.
-pub fn waveform_flags(w: &Waveform) -> String {
-    match *w {
-        Waveform::Off => String::new(),
-        Waveform::Square { freq_hz } => format!("--freq {freq_hz}"),
-        Waveform::Multisine {
-            f_min_hz,
-            f_max_hz,
-            tones,
-        } => format!("--band {f_min_hz}:{f_max_hz} --tones {tones}"),
-        Waveform::Prbs {
-            bit_rate_hz,
-            register_bits,
-        } => format!("--bit-rate {bit_rate_hz} --bits {register_bits}"),
-        Waveform::Chirp {
-            f_start_hz,
-            f_end_hz,
-            sweep_s,
-        } => format!("--band {f_start_hz}:{f_end_hz} --sweep {sweep_s}"),
-    }
-}
-
 /// The waveform's parameters as `key=value` pairs joined by `;` (record
-/// files); empty for `off`.
+/// files); empty for `off`. The keys are the wire's field names
+/// ([`Waveform::params`]).
 pub fn waveform_params(w: &Waveform) -> String {
-    match *w {
-        Waveform::Off => String::new(),
-        Waveform::Square { freq_hz } => format!("freq_hz={freq_hz}"),
-        Waveform::Multisine {
-            f_min_hz,
-            f_max_hz,
-            tones,
-        } => format!("f_min_hz={f_min_hz};f_max_hz={f_max_hz};tones={tones}"),
-        Waveform::Prbs {
-            bit_rate_hz,
-            register_bits,
-        } => format!("bit_rate_hz={bit_rate_hz};register_bits={register_bits}"),
-        Waveform::Chirp {
-            f_start_hz,
-            f_end_hz,
-            sweep_s,
-        } => format!("f_start_hz={f_start_hz};f_end_hz={f_end_hz};sweep_s={sweep_s}"),
-    }
-}
-
-/// `excitation --wave … --amplitude … --offset …`.
-pub fn excitation_text(e: &Excitation) -> String {
-    let mut s = format!("excitation --wave {}", e.waveform.kind().name());
-    let flags = waveform_flags(&e.waveform);
-    if !flags.is_empty() {
-        let _ = write!(s, " {flags}");
-    }
-    let _ = write!(s, " --amplitude {} --offset {}", e.amplitude_v, e.offset_v);
-    s
-}
-
-/// `estimator --law … --gain … --forgetting-p … --forgetting-h …
-/// --initial-gain … --lambda …`.
-pub fn estimator_text(e: &EstimatorSettings) -> String {
-    let lambda = e
-        .lambda_rad_s
-        .map_or_else(|| "auto".to_string(), |l| l.to_string());
-    format!(
-        "estimator --law {} --gain {} --forgetting-p {} --forgetting-h {} --initial-gain {} --lambda {lambda}",
-        e.kind.name(),
-        e.gain,
-        e.forgetting_p,
-        e.forgetting_h,
-        e.initial_gain,
-    )
-}
-
-/// `telemetry --estimates … --raw-decimation … --status …`.
-pub fn telemetry_text(t: &TelemetryRates) -> String {
-    format!(
-        "telemetry --estimates {} --raw-decimation {} --status {}",
-        t.estimate_rate_hz, t.raw_decimation, t.status_rate_hz
-    )
-}
-
-/// The command in `beamctl send` syntax (without `beamctl send` and the
-/// connection flags).
-pub fn command_text(c: &Command) -> String {
-    match c {
-        Command::SetExcitation(e) => excitation_text(e),
-        Command::SetEstimator(e) => estimator_text(e),
-        Command::SetTelemetry(t) => telemetry_text(t),
-        Command::Reset => "reset".to_string(),
-        Command::Freeze => "freeze".to_string(),
-        Command::Resume => "resume".to_string(),
-        Command::RequestStatus => "status".to_string(),
-    }
+    w.params()
+        .iter()
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect::<Vec<_>>()
+        .join(";")
 }
 
 /// `accepted`, or the reject reason's name (`SafeWindow`, …).
@@ -245,29 +156,37 @@ mod tests {
     }
 
     #[test]
-    fn commands_in_send_syntax() {
-        let e = Excitation {
-            waveform: Waveform::Multisine {
+    fn waveform_parameters_by_field_name() {
+        let params = |w| waveform_params(&w);
+        assert_eq!(params(Waveform::Off), "");
+        assert_eq!(params(Waveform::Square { freq_hz: 7.0 }), "freq_hz=7");
+        assert_eq!(
+            params(Waveform::Multisine {
                 f_min_hz: 5.0,
-                f_max_hz: 50.0,
-                tones: 8,
-            },
-            amplitude_v: 0.2,
-            offset_v: 0.5,
-        };
-        assert_eq!(
-            command_text(&Command::SetExcitation(e)),
-            "excitation --wave multisine --band 5:50 --tones 8 --amplitude 0.2 --offset 0.5"
+                f_max_hz: 50.5,
+                tones: 8
+            }),
+            "f_min_hz=5;f_max_hz=50.5;tones=8"
         );
         assert_eq!(
-            command_text(&Command::SetEstimator(EstimatorSettings::default())),
-            "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda auto"
+            params(Waveform::Prbs {
+                bit_rate_hz: 1250.0,
+                register_bits: 31
+            }),
+            "bit_rate_hz=1250;register_bits=31"
         );
         assert_eq!(
-            command_text(&Command::SetTelemetry(TelemetryRates::default())),
-            "telemetry --estimates 100 --raw-decimation 0 --status 1"
+            params(Waveform::Chirp {
+                f_start_hz: 0.1,
+                f_end_hz: 80.0,
+                sweep_s: 2.5
+            }),
+            "f_start_hz=0.1;f_end_hz=80;sweep_s=2.5"
         );
-        assert_eq!(command_text(&Command::RequestStatus), "status");
+    }
+
+    #[test]
+    fn results_in_text() {
         assert_eq!(
             result_text(AckResult::Rejected(RejectReason::SafeWindow)),
             "rejected (3 SafeWindow): offset ± amplitude outside the piezo's safe window"

@@ -156,6 +156,45 @@ impl Waveform {
             Self::Chirp { .. } => WaveformKind::Chirp,
         }
     }
+
+    /// The waveform's own parameters, each by its field's name, in
+    /// declaration order (none for `Off`); integer fields as exact `f32`.
+    /// Host tools write them as `name=value` (the recording's header,
+    /// `docs/RECORDING.md`), so a new variant's parameters need no code
+    /// there.
+    pub fn params(&self) -> heapless::Vec<(&'static str, f32), 3> {
+        let list: &[(&'static str, f32)] = match *self {
+            Self::Off => &[],
+            Self::Square { freq_hz } => &[("freq_hz", freq_hz)],
+            Self::Multisine {
+                f_min_hz,
+                f_max_hz,
+                tones,
+            } => &[
+                ("f_min_hz", f_min_hz),
+                ("f_max_hz", f_max_hz),
+                ("tones", tones as f32),
+            ],
+            Self::Prbs {
+                bit_rate_hz,
+                register_bits,
+            } => &[
+                ("bit_rate_hz", bit_rate_hz),
+                ("register_bits", register_bits as f32),
+            ],
+            Self::Chirp {
+                f_start_hz,
+                f_end_hz,
+                sweep_s,
+            } => &[
+                ("f_start_hz", f_start_hz),
+                ("f_end_hz", f_end_hz),
+                ("sweep_s", sweep_s),
+            ],
+        };
+        // At most three parameters per variant: the capacity holds them.
+        heapless::Vec::from_slice(list).unwrap_or_default()
+    }
 }
 
 /// A [`Waveform`]'s variant without its fields (not sent on its own): the

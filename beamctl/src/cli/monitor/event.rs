@@ -2,7 +2,7 @@
 //! stdin lines) and what a key asks it to do ([`KeyAction`]); shared by
 //! the loop ([`crate::cli::monitor`]) and the terminal view (`tui.rs`).
 
-use crate::cli::send::CommandArgs;
+use crate::link::grammar::CommandArgs;
 use crate::link::Incoming;
 
 /// Everything the event loop waits for.

@@ -28,8 +28,9 @@ mod plot;
 pub mod state;
 mod tui;
 
-use crate::cli::send::{self, CommandArgs, DeviceArgs};
+use crate::cli::send::{self, DeviceArgs};
 use crate::error::CliError;
+use crate::link::grammar::{self, command_text, CommandArgs};
 use crate::link::{text, transport, Endpoint, Host, Incoming, Recorder, StreamEnd};
 use beam_protocol::{Command, DecodeError, Message};
 use clap::{ArgGroup, Args};
@@ -284,7 +285,7 @@ impl Loop<'_> {
                 let msg = format!(
                     "#{} {}: no acknowledgement within {} s",
                     p.seq,
-                    text::command_text(&p.command),
+                    command_text(&p.command),
                     self.args.timeout
                 );
                 self.note(st, msg);
@@ -337,7 +338,7 @@ impl Loop<'_> {
                                 Some(p) => format!(
                                     "#{} {}: {}",
                                     p.seq,
-                                    text::command_text(&p.command),
+                                    command_text(&p.command),
                                     text::result_text(a.result)
                                 ),
                                 None => format!(
@@ -409,7 +410,7 @@ impl Loop<'_> {
         if line.is_empty() || line.starts_with('#') {
             return;
         }
-        match send::parse_line(line) {
+        match grammar::parse_line(line) {
             Ok(c) => self.submit_args(st, &c, Instant::now()),
             Err(m) => self.note(st, format!("'{line}': {m}")),
         }
@@ -424,7 +425,7 @@ impl Loop<'_> {
 
     /// Check, send and record a command.
     fn submit(&mut self, st: &mut State, command: Command, now: Instant) {
-        let text = text::command_text(&command);
+        let text = command_text(&command);
         if self.writer.is_none() {
             let why = if self.endpoint.is_live() {
                 "--listen-only"

@@ -29,7 +29,7 @@
 
 use super::event::{Event, KeyAction};
 use super::state::State;
-use crate::cli::send::{self, CommandArgs};
+use crate::link::grammar::{self, CommandArgs};
 use crate::link::text;
 use beam_protocol::{StatusFlags, MAX_MODES};
 use ratatui::crossterm::event::{self as ct, KeyCode, KeyEventKind, KeyModifiers};
@@ -81,7 +81,7 @@ pub fn key(st: &mut State, k: ct::KeyEvent) -> KeyAction {
                 if line.is_empty() {
                     return KeyAction::None;
                 }
-                return match send::parse_line(line) {
+                return match grammar::parse_line(line) {
                     Ok(c) => KeyAction::Send(c),
                     Err(m) => {
                         st.log(format!("'{line}': {m}"));
@@ -149,7 +149,7 @@ fn title_line(st: &State) -> String {
         parts.push(format!("{} modes", s.modes));
         parts.push(format!("{} Hz", s.sample_rate_hz));
         let e = &s.excitation;
-        let flags = text::waveform_flags(&e.waveform);
+        let flags = grammar::waveform_flags(&e.waveform);
         parts.push(format!(
             "{}{}{}, {} V, offset {} V",
             e.waveform.kind().name(),

@@ -18,13 +18,12 @@
 //! answer within `--timeout`.
 
 use crate::error::CliError;
+use crate::link::grammar::{command_text, CommandArgs};
 use crate::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
 use beam_protocol::budget::uart_bytes_per_s;
 use beam_protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
 use clap::{ArgGroup, Args};
 
-mod grammar;
-pub use grammar::{parse_line, CommandArgs, ExcitationArgs};
 use std::io::Write;
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Duration, Instant};
@@ -279,7 +278,7 @@ pub fn run(args: &SendArgs) -> Result<(), CliError> {
             let _ = writeln!(
                 out,
                 "accepted: {} (command seq {seq}, {:.0} ms)",
-                text::command_text(&command),
+                command_text(&command),
                 s.start.elapsed().as_secs_f64() * 1e3
             );
             if command == Command::RequestStatus {
@@ -302,7 +301,7 @@ pub fn run(args: &SendArgs) -> Result<(), CliError> {
         AckResult::Rejected(_) => Err(CliError::failure(format!(
             "the device {}: {} (command seq {seq})",
             text::result_text(ack.result),
-            text::command_text(&command)
+            command_text(&command)
         ))),
     }
 }
@@ -323,6 +322,7 @@ fn command_name(c: &CommandArgs) -> &'static str {
 mod tests {
     use super::*;
     use crate::link::fake::FakeDevice;
+    use crate::link::grammar::parse_line;
     use beam_protocol::Status;
 
     fn status() -> Status {

@@ -6,9 +6,9 @@
 
 use crate::cli::args::SimulateArgs;
 use crate::cli::estimator_flags::{self, EstimatorPlan};
-use crate::cli::send::ExcitationArgs;
 use crate::error::CliError;
 use crate::io::plot;
+use crate::link::grammar::ExcitationArgs;
 use crate::run::{samples, RunConfig, RunReport};
 use beam_protocol as protocol;
 use serde::Serialize;
@@ -196,7 +196,7 @@ fn drive_text(cfg: &RunConfig) -> String {
     match &cfg.excitation {
         None => format!("{}·square({} Hz)", cfg.u_amplitude, cfg.u_freq_hz),
         Some(e) => {
-            let text = crate::link::text::excitation_text(e);
+            let text = crate::link::grammar::excitation_text(e);
             format!(
                 "the firmware's {}",
                 text.strip_prefix("excitation ").unwrap_or(&text)

@@ -1,7 +1,10 @@
-//! The command grammar shared by `beamctl send` and the monitor's command
-//! line: clap definitions ([`CommandArgs`]) and how they become a protocol
-//! [`Command`], with the settings not given taken from the device's last
-//! Status.
+//! The text form of the link's commands, both ways: the grammar shared by
+//! `beamctl send`, the monitor's command line and `beamctl simulate`'s
+//! excitation flags — clap definitions ([`CommandArgs`]) and how they become
+//! a protocol [`Command`], with the settings not given taken from the
+//! device's last Status — and [`command_text`], which writes a command back
+//! in this grammar, so a line of a record or of the monitor's log can be
+//! sent again as is.
 
 use beam_protocol::{
     Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
@@ -9,6 +12,7 @@ use beam_protocol::{
 };
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
+use std::fmt::Write as _;
 
 /// A command to the device.
 #[derive(Debug, Clone, Subcommand)]
@@ -166,9 +170,9 @@ fn parse_lambda(s: &str) -> Result<Lambda, String> {
 /// A command typed in the monitor (`excitation --amplitude 0.2`, `freeze`).
 #[derive(Debug, Parser)]
 #[command(name = "command", no_binary_name = true, disable_help_flag = true)]
-pub struct CommandLine {
+struct CommandLine {
     #[command(subcommand)]
-    pub command: CommandArgs,
+    command: CommandArgs,
 }
 
 /// Parse a typed command line (words separated by white space).
@@ -419,11 +423,84 @@ impl TelemetryArgs {
     }
 }
 
+// ----- The other direction: a command as text in this grammar -----
+
+/// The waveform's own parameters as `beamctl send` flags
+/// (`--freq 7`, `--band 5:50 --tones 8`, …); empty for `off`.
+pub fn waveform_flags(w: &Waveform) -> String {
+    match *w {
+        Waveform::Off => String::new(),
+        Waveform::Square { freq_hz } => format!("--freq {freq_hz}"),
+        Waveform::Multisine {
+            f_min_hz,
+            f_max_hz,
+            tones,
+        } => format!("--band {f_min_hz}:{f_max_hz} --tones {tones}"),
+        Waveform::Prbs {
+            bit_rate_hz,
+            register_bits,
+        } => format!("--bit-rate {bit_rate_hz} --bits {register_bits}"),
+        Waveform::Chirp {
+            f_start_hz,
+            f_end_hz,
+            sweep_s,
+        } => format!("--band {f_start_hz}:{f_end_hz} --sweep {sweep_s}"),
+    }
+}
+
+/// `excitation --wave … --amplitude … --offset …`.
+pub fn excitation_text(e: &Excitation) -> String {
+    let mut s = format!("excitation --wave {}", e.waveform.kind().name());
+    let flags = waveform_flags(&e.waveform);
+    if !flags.is_empty() {
+        let _ = write!(s, " {flags}");
+    }
+    let _ = write!(s, " --amplitude {} --offset {}", e.amplitude_v, e.offset_v);
+    s
+}
+
+/// `estimator --law … --gain … --forgetting-p … --forgetting-h …
+/// --initial-gain … --lambda …`.
+pub fn estimator_text(e: &EstimatorSettings) -> String {
+    let lambda = e
+        .lambda_rad_s
+        .map_or_else(|| "auto".to_string(), |l| l.to_string());
+    format!(
+        "estimator --law {} --gain {} --forgetting-p {} --forgetting-h {} --initial-gain {} --lambda {lambda}",
+        e.kind.name(),
+        e.gain,
+        e.forgetting_p,
+        e.forgetting_h,
+        e.initial_gain,
+    )
+}
+
+/// `telemetry --estimates … --raw-decimation … --status …`.
+pub fn telemetry_text(t: &TelemetryRates) -> String {
+    format!(
+        "telemetry --estimates {} --raw-decimation {} --status {}",
+        t.estimate_rate_hz, t.raw_decimation, t.status_rate_hz
+    )
+}
+
+/// The command in `beamctl send` syntax (without `beamctl send` and the
+/// connection flags).
+pub fn command_text(c: &Command) -> String {
+    match c {
+        Command::SetExcitation(e) => excitation_text(e),
+        Command::SetEstimator(e) => estimator_text(e),
+        Command::SetTelemetry(t) => telemetry_text(t),
+        Command::Reset => "reset".to_string(),
+        Command::Freeze => "freeze".to_string(),
+        Command::Resume => "resume".to_string(),
+        Command::RequestStatus => "status".to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::link::fake::FakeDevice;
-    use crate::link::text;
 
     fn status() -> Status {
         FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
@@ -446,7 +523,7 @@ mod tests {
         );
         let c = build("excitation --wave chirp --band 1:100 --sweep 10", Some(&s)).unwrap();
         assert_eq!(
-            text::command_text(&c),
+            command_text(&c),
             "excitation --wave chirp --band 1:100 --sweep 10 --amplitude 0.1 --offset 0"
         );
         let c = build("estimator --gain 2e4", Some(&s)).unwrap();
@@ -468,6 +545,49 @@ mod tests {
                 ..s.telemetry
             })
         );
+    }
+
+    /// One of each waveform kind, with parameters a device accepts.
+    fn every_waveform() -> [Waveform; 5] {
+        [
+            Waveform::Off,
+            Waveform::Square { freq_hz: 7.0 },
+            Waveform::Multisine {
+                f_min_hz: 5.0,
+                f_max_hz: 50.5,
+                tones: 8,
+            },
+            Waveform::Prbs {
+                bit_rate_hz: 1250.0,
+                register_bits: 11,
+            },
+            Waveform::Chirp {
+                f_start_hz: 1.0,
+                f_end_hz: 80.0,
+                sweep_s: 2.5,
+            },
+        ]
+    }
+
+    #[test]
+    fn every_waveform_reads_back_from_its_text() {
+        // The printer and the parser are inverses: a new waveform's flags
+        // are checked here as soon as its kind is in `WaveformKind::ALL`.
+        let waves = every_waveform();
+        assert_eq!(
+            waves.map(|w| w.kind()),
+            WaveformKind::ALL,
+            "one waveform per kind, in tag order"
+        );
+        for waveform in waves {
+            let c = Command::SetExcitation(Excitation {
+                waveform,
+                amplitude_v: 0.25,
+                offset_v: -0.5,
+            });
+            let text = command_text(&c);
+            assert_eq!(build(&text, None), Ok(c), "{text}");
+        }
     }
 
     #[test]
@@ -498,5 +618,31 @@ mod tests {
         assert_eq!(build("freeze", None).unwrap(), Command::Freeze);
         assert!(parse_line("excitation --band 5").is_err());
         assert!(parse_line("launch").is_err());
+    }
+
+    #[test]
+    fn commands_in_send_syntax() {
+        let e = Excitation {
+            waveform: Waveform::Multisine {
+                f_min_hz: 5.0,
+                f_max_hz: 50.0,
+                tones: 8,
+            },
+            amplitude_v: 0.2,
+            offset_v: 0.5,
+        };
+        assert_eq!(
+            command_text(&Command::SetExcitation(e)),
+            "excitation --wave multisine --band 5:50 --tones 8 --amplitude 0.2 --offset 0.5"
+        );
+        assert_eq!(
+            command_text(&Command::SetEstimator(EstimatorSettings::default())),
+            "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda auto"
+        );
+        assert_eq!(
+            command_text(&Command::SetTelemetry(TelemetryRates::default())),
+            "telemetry --estimates 100 --raw-decimation 0 --status 1"
+        );
+        assert_eq!(command_text(&Command::RequestStatus), "status");
     }
 }
