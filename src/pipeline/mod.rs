@@ -511,24 +511,16 @@ where
             );
             self.changes_seen = sup.changes;
         }
-        let counters = self.counters();
-        let mut information = [T::ZERO; NS];
-        let p = self.estimator.information();
-        if let Some(p) = &p {
-            telemetry::pack_symmetric(p, &mut information);
-        }
         let record = TelemetryRecord {
             sample_index: index,
-            theta: self.estimator.theta(),
-            information,
-            has_information: p.is_some(),
             lambda_rad_s: self.lambda_rad_s,
             u_v: self.last_fed.0,
             y: self.last_fed.1,
             flags,
             supervised: sup.is_some(),
             steps: self.steps,
-            counters,
+            counters: self.counters(),
+            ..TelemetryRecord::from_estimator(&self.estimator)
         };
         if self.telemetry.try_push(record).is_ok() {
             self.flags = StatusFlags::default();

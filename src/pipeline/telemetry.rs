@@ -14,7 +14,7 @@
 //! * [`Sink`] — where records go: a `heapless::spsc::Producer` (never
 //!   blocks: a full queue returns the record, which is counted as dropped).
 
-use crate::estimator::StepStatus;
+use crate::estimator::{Estimator, StepStatus};
 use crate::modal::{modal_from_tf, ModalError};
 use crate::model::{ModalParams, TransferFunction};
 use crate::scalar::Real;
@@ -157,6 +157,33 @@ pub struct TelemetryRecord<T, const NP: usize, const NS: usize> {
     pub steps: StepCounts,
     /// Counters at the newest sample.
     pub counters: Counters,
+}
+
+impl<T: Real, const NP: usize, const NS: usize> TelemetryRecord<T, NP, NS> {
+    /// The estimator's part of a record — Θ̂ (eq. 29) and the packed P
+    /// (eq. 33) — with the sample task's part empty, for the sample task
+    /// to fill in. A value the estimator knows joins the record here, beside
+    /// its field (docs/ARCHITECTURE.md, "Where to change what").
+    pub(crate) fn from_estimator<E: Estimator<T, NP> + ?Sized>(estimator: &E) -> Self {
+        let mut information = [T::ZERO; NS];
+        let p = estimator.information();
+        if let Some(p) = &p {
+            pack_symmetric(p, &mut information);
+        }
+        Self {
+            sample_index: 0,
+            theta: estimator.theta(),
+            information,
+            has_information: p.is_some(),
+            lambda_rad_s: 0.0,
+            u_v: T::ZERO,
+            y: T::ZERO,
+            flags: StatusFlags::default(),
+            supervised: false,
+            steps: StepCounts::default(),
+            counters: Counters::default(),
+        }
+    }
 }
 
 /// Up to [`RAW_BLOCK_LEN`] decimated (u, y) pairs as fed to the estimator

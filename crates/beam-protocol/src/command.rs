@@ -12,11 +12,13 @@ use serde::{Deserialize, Serialize};
 use super::size::{max, tag_len, MaxSize};
 
 /// Which update law produced an estimate. Wire value: the discriminant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// Default: the paper's law, as in [`EstimatorSettings::default`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 pub enum EstimatorKind {
     /// The paper's proposed law, eqs. 33–41.
+    #[default]
     Adaptive = 0,
     /// The gradient baseline, eq. 47.
     Gradient = 1,

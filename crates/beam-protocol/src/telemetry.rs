@@ -94,8 +94,10 @@ impl MaxSize for ModeEstimate {
     const MAX_SIZE: usize = fields_of::<Self, f32>() * f32::MAX_SIZE;
 }
 
-/// The current estimate, sent at the estimate rate (default 100 Hz).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The current estimate, sent at the estimate rate (default 100 Hz). The
+/// default is an estimate of nothing (sample 0, no modes, empty Θ̂, no
+/// flags): not [`Estimate::is_consistent`], a base to build on.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Estimate {
     /// Index of the newest sample included, counted from 0 at start-up
