@@ -34,7 +34,7 @@
 //! * [`tuning`] — truth-free settings: signal scales from a start-up
 //!   window, the filter pole λ from the user's band or the data, re-centred
 //!   on the estimated band;
-//! * [`scalar`] — the `f32`/`f64` abstraction;
+//! * `scalar` — the `f32`/`f64` abstraction;
 //! * [`link`] — the device end of the serial link (its messages, framing
 //!   and stream decoder are the [`beam_protocol`] crate, shared with the
 //!   host; `docs/PROTOCOL.md`): telemetry records →
@@ -114,7 +114,7 @@ pub mod model;
 pub mod pipeline;
 pub mod poly;
 pub mod rig;
-pub mod scalar;
+pub(crate) mod scalar;
 pub mod supervise;
 pub mod tuning;
 

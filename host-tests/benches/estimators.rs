@@ -25,10 +25,11 @@ use std::time::{Duration, Instant};
 use beamctl::run::plant::PlantSpec;
 use beamctl::run::tuned_filter;
 use beamctl::run::RunConfig;
+use beamest::estimator::robust::RobustConfig;
 use beamest::estimator::robust::{Phase, RobustEstimator, DEFAULT_RECORD};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, GradientConfig, GradientEstimator,
-    LeastSquaresConfig, LeastSquaresEstimator, RobustConfig, StepStatus,
+    LeastSquaresConfig, LeastSquaresEstimator, StepStatus,
 };
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterBank, FilterConfig};

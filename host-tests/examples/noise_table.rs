@@ -9,9 +9,10 @@
 //! seeds 1…N. "RMS" is over the seeds, "max" the largest |error|.
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
+use beamest::estimator::robust::{Robust2, RobustConfig};
 use beamest::estimator::{
     Adaptive2, AdaptiveConfig, GradientConfig, GradientEstimator, LeastSquaresConfig,
-    LeastSquaresEstimator, Robust2, RobustConfig,
+    LeastSquaresEstimator,
 };
 use beamest::filter_bank::FilterConfig;
 use beamest::model::paper_plant_tf;

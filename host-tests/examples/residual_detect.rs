@@ -13,7 +13,9 @@
 //! detected plant change. ε is recorded and the tests are evaluated on it
 //! here, offline, so that their variants can be compared on the same data.
 
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, Robust2, RobustConfig};
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+
+use beamest::estimator::robust::{Robust2, RobustConfig};
 use beamest::guard::{GuardCounts, LevelEvent, ResidualFilter, RESIDUAL_LAG};
 use beamest::rig::{FaultKind, Scenario, SensorFault, Window};
 use beamest::Real;

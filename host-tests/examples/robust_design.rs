@@ -8,7 +8,8 @@
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
 use beamest::estimator::robust::{InitialState, RobustEstimator};
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Robust2, RobustConfig};
+use beamest::estimator::robust::{Robust2, RobustConfig};
+use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
 use beamest::model::paper_plant_tf;
 use host_tests::noise_study::{rms, run, study_filter, Errors, Record};

@@ -9,14 +9,15 @@
 
 use beam_protocol::{EstimatorKind, EstimatorSettings};
 use beamest::bench;
-use beamest::estimator::{Estimator, Robust2};
+use beamest::estimator::robust::Robust2;
+use beamest::estimator::Estimator;
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
 use beamest::link::robust_configs;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
-use beamest::rig::timing::{ConverterTiming, TimedPlant};
-use beamest::scalar::Real;
+use beamest::rig::{ConverterTiming, TimedPlant};
+use beamest::Real;
 
 fn err<T: Real>(est: &Robust2<T>) -> (f64, f64) {
     let w = [T::from_f64(-2.0), T::from_f64(2.0)];

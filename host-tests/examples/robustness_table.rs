@@ -10,7 +10,9 @@
 //! U0, Y0 = RMS of the measured u, y over the first 0.2 s; the supervisor
 //! at its defaults.
 
-use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator, Robust2, RobustConfig};
+use beamest::estimator::{Adaptive2, Adaptive3, AdaptiveConfig, Estimator};
+
+use beamest::estimator::robust::{Robust2, RobustConfig};
 use beamest::guard::LevelEvent;
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 use beamest::rig::{FaultKind, Scenario};

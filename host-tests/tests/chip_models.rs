@@ -8,7 +8,7 @@ use std::cell::{Cell, RefCell};
 
 use ad5761r::{Ad5761r, BipolarCoding, OutputRange, Reference, ScaleLevel};
 use ads131m02::{Ads131m02, Command, Config, CrcType, Error, PgaGain, Rail, Register, WordLength};
-use beamest::rig::chips::ads131m02::quantize;
+use beamest::rig::chips::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, ModelBusError, Shared};
 use common::{crc16_bitwise, CCITT, DAC_SPANS};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};

@@ -44,7 +44,7 @@ use beamest::model::{ModalParams, PAPER_OMEGA, PAPER_ZETA};
 use beamest::pipeline::{
     bring_up, recover, Counters, NoSink, PiezoDac, Pipeline, TelemetryRecord, Tick,
 };
-use beamest::rig::chips::ads131m02::quantize;
+use beamest::rig::chips::quantize;
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
 use beamest::rig::{Rig, TimedPlant};
 use beamest::tuning::LambdaSource;

@@ -8,7 +8,8 @@
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
 use beamest::estimator::robust::Phase;
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator, Robust2, RobustConfig};
+use beamest::estimator::robust::{Robust2, RobustConfig};
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
 use beamest::model::{paper_plant_tf, PAPER_OMEGA, PAPER_ZETA};
 use beamest::Real;
 use host_tests::noise_study::{
@@ -211,7 +212,7 @@ fn robust_noise_free_accuracy() {
 #[test]
 fn robust_one_and_three_modes_noise_free() {
     use beamctl::run::plant::PlantSpec;
-    use beamest::estimator::{Robust1, Robust3};
+    use beamest::estimator::robust::{Robust1, Robust3};
     use beamest::excitation::SquareWave;
     use beamest::filter_bank::{FilterConfig, SignalScales};
     use beamest::modal::modal_from_tf;

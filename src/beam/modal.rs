@@ -32,11 +32,11 @@ pub struct BeamModal {
     /// Modal damping c_ii (N·s/m), eq. 55.
     pub damping_n_s_m: [f64; MAX_MODES],
     /// Modal inputs z_i, eq. 57 (first line; N/(V·m), see
-    /// [`galerkin`](super::galerkin) for the sign and units).
+    /// `galerkin` for the sign and units).
     pub input_z: [f64; MAX_MODES],
     /// Modal input gains b̄_i = z_i/m_ii (eq. 24), in 1/(V·s²) as eq. 8 is
     /// written (m/(V·s²) once multiplied by the patch width; see
-    /// [`galerkin`](super::galerkin)).
+    /// `galerkin`).
     pub bbar: [f64; MAX_MODES],
     /// Output weights c_i (row C_w of eq. 22, C̄ of eq. 24).
     pub output_weight: [f64; MAX_MODES],
@@ -167,7 +167,7 @@ pub struct ModeModel {
     /// ζ_i = c_ii/(2 m_ii ω_i).
     pub zeta: f64,
     /// b̄_i = z_i/m_ii (1/(V·s²), per metre of patch width as eq. 8 is
-    /// written; see [`galerkin`](super::galerkin)).
+    /// written; see `galerkin`).
     pub bbar: f64,
     /// Output weight c_i.
     pub output_weight: f64,

@@ -50,7 +50,9 @@ mod converter;
 
 pub use converter::{ConverterModels, ConverterRig, RigError, RigTick};
 
-use crate::excitation::{multisine, prbs, Excitation, ExcitationError, SafeWindow};
+use crate::excitation::{
+    Excitation, ExcitationError, SafeWindow, MULTISINE_MAX_TONES, PRBS_MAX_ORDER, PRBS_MIN_ORDER,
+};
 use crate::filter_bank::{FilterConfig, OutputTiming, SignalScales};
 use crate::link::{FlagRules, LinkConfig, Settings, FIRMWARE_VERSION};
 use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
@@ -218,9 +220,9 @@ pub fn link_limits(baud: u32) -> Limits {
         sample_rate_hz: SAMPLE_RATE_HZ as f32,
         piezo_min_v: -WINDOW_V as f32,
         piezo_max_v: WINDOW_V as f32,
-        max_multisine_tones: multisine::MAX_TONES as u8,
-        prbs_bits_min: prbs::MIN_ORDER,
-        prbs_bits_max: prbs::MAX_ORDER,
+        max_multisine_tones: MULTISINE_MAX_TONES as u8,
+        prbs_bits_min: PRBS_MIN_ORDER,
+        prbs_bits_max: PRBS_MAX_ORDER,
         estimators: EstimatorKind::Adaptive.bit(),
         modes: 2,
         link_bytes_per_s: uart_bytes_per_s(baud) as f32,

@@ -14,7 +14,7 @@
 //! * [`ModelSet::Modal`]: the paper's model (23) — unknowns ω_i, ζ_i, b̄_i
 //!   (3n), output weights c_i known. If the plant's numerator is not of the
 //!   form (26) (the paper's simulation plant, eq. 46, needs small velocity
-//!   weights β_i, see [`sensitivity`]), those β_i are treated as *known*.
+//!   weights β_i, see `sensitivity`), those β_i are treated as *known*.
 //!   This is the set of the figures quoted in the project's issue 9
 //!   (ζ2 3.2e-3 at 40 dB over 60 s).
 //! * [`ModelSet::TransferFunction`]: the estimator's model — the 4n − 1
@@ -59,7 +59,7 @@
 //! converts an SNR relative to the RMS of the noise-free model output over
 //! the pushed record. Everything is `f64`, fixed-size and allocation-free.
 
-pub mod sensitivity;
+pub(crate) mod sensitivity;
 
 use crate::modal::{gains_from_numerator, modes_from_denominator, GainWeighting, Modes};
 use crate::model::{poly_mul_quadratic, ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};

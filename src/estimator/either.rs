@@ -90,7 +90,8 @@ impl<T: Real, L: Estimator<T, NP>, R: Estimator<T, NP>, const NP: usize> Estimat
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimator::{Adaptive2, AdaptiveConfig, Robust2, RobustConfig};
+    use crate::estimator::robust::{Robust2, RobustConfig};
+    use crate::estimator::{Adaptive2, AdaptiveConfig};
     use crate::filter_bank::{FilterConfig, SignalScales};
 
     #[test]

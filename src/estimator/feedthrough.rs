@@ -207,7 +207,7 @@ impl<T: Real, const NP: usize> Regression<T, FEEDTHROUGH_NP, NP> for Feedthrough
 }
 
 /// The two-mode estimator with a feedthrough term (module docs): the
-/// proposed law on the [`FeedthroughRegression`], an [`Identifier`] like
+/// proposed law on the `FeedthroughRegression`, an [`Identifier`] like
 /// every other.
 ///
 /// `NP` is the length of the reported Θ (eq. 29 of the two-mode model):

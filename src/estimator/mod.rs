@@ -44,12 +44,12 @@
 //! [`Estimator::settling_samples`] is the length that lets the filters
 //! forget the disturbance (the quarantine's).
 
-pub mod adaptive;
+pub(crate) mod adaptive;
 mod either;
-pub mod feedthrough;
-pub mod gradient;
+pub(crate) mod feedthrough;
+pub(crate) mod gradient;
 mod learner;
-pub mod least_squares;
+pub(crate) mod least_squares;
 pub mod robust;
 mod screen;
 mod theta_step;
@@ -66,7 +66,6 @@ pub use gradient::{GradientConfig, GradientLaw};
 use learner::Learner;
 pub use learner::SUPERVISE_EVERY;
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
-pub use robust::{Robust1, Robust2, Robust3, RobustConfig, RobustEstimator};
 
 /// A sample more than this many signal scales away from zero is rejected.
 pub const INPUT_LIMIT: f64 = 1e6;
@@ -320,7 +319,7 @@ impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> fo
 /// (u, y) into the law's regressor of `NL` entries (scaled φ and target,
 /// eq. 29), and the map from the law's scaled estimate θ_s back to the
 /// reported model, whose Θ has `NP` entries. [`PaperRegression`] is the
-/// paper's (eqs. 28–29); [`feedthrough::FeedthroughRegression`] adds a
+/// paper's (eqs. 28–29); `feedthrough::FeedthroughRegression` adds a
 /// feedthrough term on a sixth-order filter.
 pub trait Regression<T: Real, const NL: usize, const NP: usize>: Sized {
     /// Build for a filter configuration.

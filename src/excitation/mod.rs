@@ -49,15 +49,15 @@
     clippy::indexing_slicing
 )]
 
-pub mod chirp;
-pub mod multisine;
-pub mod prbs;
+pub(crate) mod chirp;
+pub(crate) mod multisine;
+pub(crate) mod prbs;
 pub mod sine;
 mod square;
 
 pub use chirp::{Chirp, ChirpSpec, Sweep};
-pub use multisine::{Multisine, MultisineSpec, Phases};
-pub use prbs::Prbs;
+pub use multisine::{Multisine, MultisineSpec, Phases, MAX_TONES as MULTISINE_MAX_TONES};
+pub use prbs::{Prbs, MAX_ORDER as PRBS_MAX_ORDER, MIN_ORDER as PRBS_MIN_ORDER};
 pub use square::SquareWave;
 
 use crate::scalar::Real;
@@ -82,11 +82,11 @@ pub enum ExcitationError {
     Window,
     /// offset ± amplitude would leave the safe window.
     OutsideWindow,
-    /// Number of multisine tones outside 1..=[`multisine::MAX_TONES`].
+    /// Number of multisine tones outside 1..=`multisine::MAX_TONES`.
     Tones,
     /// Period out of range (multisine 2^8..2^16 samples, chirp ≥ 2 samples).
     Period,
-    /// PRBS order outside [`prbs::MIN_ORDER`]..=[`prbs::MAX_ORDER`].
+    /// PRBS order outside `prbs::MIN_ORDER`..=`prbs::MAX_ORDER`.
     PrbsOrder,
     /// The sample rate is not positive and finite, or a waveform was built
     /// for another sample rate.
@@ -165,12 +165,12 @@ impl Generator {
     ///
     /// * square: phase 0 at the first sample (high first);
     /// * multisine: Schroeder phases ([`Phases::Schroeder`]) over a period
-    ///   of 2^k samples, k = [`multisine::period_log2_for`] the lowest tone;
+    ///   of 2^k samples, k = `multisine::period_log2_for` the lowest tone;
     /// * PRBS: one bit every round(f_s/bit rate) samples, from the
     ///   all-ones register (seed 0);
     /// * chirp: linear sweep ([`Sweep::Linear`]).
     ///
-    /// A multisine scans one period here (see [`multisine`]): call this
+    /// A multisine scans one period here (see `multisine`): call this
     /// outside the sample interrupt. Other phases, seeds or sweep laws:
     /// build the generator itself and wrap it ([`Generator::multisine`],
     /// [`Generator::prbs`], [`Generator::chirp`]).

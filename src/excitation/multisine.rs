@@ -67,10 +67,10 @@ pub struct MultisineSpec {
     pub f_min_hz: f64,
     /// Highest tone (Hz), below half the sample rate.
     pub f_max_hz: f64,
-    /// Number of tones, 1..=[`MAX_TONES`].
+    /// Number of tones, 1..=`MAX_TONES`.
     pub tones: u8,
     /// Period 2^`period_log2` samples (grid fs/2^k),
-    /// [`MIN_PERIOD_LOG2`]..=[`MAX_PERIOD_LOG2`].
+    /// `MIN_PERIOD_LOG2`..=`MAX_PERIOD_LOG2`.
     pub period_log2: u8,
     /// Initial phases.
     pub phases: Phases,

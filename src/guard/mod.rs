@@ -81,8 +81,8 @@
 pub(crate) mod delay;
 pub(crate) mod highpass;
 mod level;
-pub mod monitor;
-pub mod residual;
+pub(crate) mod monitor;
+pub(crate) mod residual;
 mod step;
 
 pub use delay::MAX_DELAY;

@@ -103,8 +103,8 @@ pub enum MonitorEvent<T> {
 }
 
 /// The model the estimator `est` offers the monitor now: its Θ̂ when it is
-/// excited, has run [`MODEL_AFTER_S`] and has not detected a plant change
-/// within [`CHANGE_QUIET_S`]; `None` otherwise (the monitor then rests).
+/// excited, has run `MODEL_AFTER_S` and has not detected a plant change
+/// within `CHANGE_QUIET_S`; `None` otherwise (the monitor then rests).
 /// `ts_s` is the sample period.
 pub fn model_for_monitor<T: Real, const NP: usize, E: Estimator<T, NP> + ?Sized>(
     est: &E,

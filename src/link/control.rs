@@ -16,7 +16,8 @@
 //! running generator inside the lock and written back only if every
 //! setter accepted it, so a refused change leaves the output untouched.
 
-use crate::estimator::{AdaptiveConfig, ConfigError, Estimator, RobustConfig};
+use crate::estimator::robust::RobustConfig;
+use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
 use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};

@@ -6,11 +6,11 @@
 //! the board supplies the byte rings ([`TxSink`], any byte iterator) and
 //! the lock and estimator storage ([`Device`]).
 //!
-//! * [`tx`]: whole frames or nothing into the TX ring, exact drop counts;
+//! * `tx`: whole frames or nothing into the TX ring, exact drop counts;
 //! * [`estimate`]: record → [`Estimate`](beam_protocol::Estimate) with its
 //!   flags, counters → [`DeviceCounters`](beam_protocol::DeviceCounters);
-//! * [`raw`]: raw blocks → 64-pair frames;
-//! * [`control`]: what a command changes and how it is prepared.
+//! * `raw`: raw blocks → 64-pair frames;
+//! * `control`: what a command changes and how it is prepared.
 //!
 //! # Where it runs
 //! In the low-priority context (thread mode on the QEMU board), never in the
@@ -66,16 +66,16 @@
     clippy::todo
 )]
 
-pub mod control;
-pub mod estimate;
-pub mod raw;
-pub mod tune;
-pub mod tx;
+pub(crate) mod control;
+pub(crate) mod estimate;
+pub(crate) mod raw;
+pub(crate) mod tune;
+pub(crate) mod tx;
 
 pub use control::{
-    estimator_configs, robust_configs, with_theta0, Control, Device, ExcitationPlan,
+    estimator_configs, reject_config, robust_configs, with_theta0, Control, Device, ExcitationPlan,
 };
-pub use estimate::{Convergence, EstimateContext, FlagRules};
+pub use estimate::{estimate, Convergence, EstimateContext, FlagRules};
 pub use raw::RawAssembler;
 pub use tune::{BuildKind, Pending, StartupCollector, Tuner};
 pub use tx::{Sent, Transmitter, TxSink, TxStats};
@@ -291,7 +291,7 @@ impl DeviceLink {
         self.tuner.collecting()
     }
 
-    /// One block of start-up pairs from the sample task (see [`tune`]).
+    /// One block of start-up pairs from the sample task (see `tune`).
     /// Returns true when it closed the window: the first estimator is then
     /// built by the next [`DeviceLink::poll`].
     pub fn on_startup_block<T: Real>(&mut self, block: &RawBlock<T>) -> bool {
@@ -486,7 +486,7 @@ impl DeviceLink {
     }
 
     /// One raw block from the sample task: sent in frames of up to 64 pairs
-    /// ([`raw`]).
+    /// (`raw`).
     pub fn on_raw<T: Real>(&mut self, block: &RawBlock<T>, tx: &mut impl TxSink) {
         let sender = &mut self.tx;
         self.raw.push(block, |frame| {

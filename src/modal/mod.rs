@@ -8,9 +8,9 @@
 //! * this file: poles → ω, ζ ([`modes_from_denominator`]) and the entry
 //!   points that chain the steps ([`modal_from_tf`], [`modal_from_tf_weighted`],
 //!   [`modal_from_theta`]);
-//! * [`gains`]: the numerator → b̄ least-squares solver of eq. 31–32
+//! * `gains`: the numerator → b̄ least-squares solver of eq. 31–32
 //!   ([`gains_from_numerator`], [`GainWeighting`]);
-//! * [`validity`]: physical bounds of an estimate ([`Validity`]) and what
+//! * `validity`: physical bounds of an estimate ([`Validity`]) and what
 //!   to report when it is not physical ([`ModalHold`]).
 //!
 //! # Method
@@ -30,13 +30,13 @@
 //!    (the paper's C̄ = [−2, 2] puts −2 on the lower mode).
 //! 2. **Gains (eq. 31–32).** B(s) = Σ_i c_i·b̄_i·Π_{j≠i} q_j(s) is linear in
 //!    b̄ and solved in the least-squares (Moore–Penrose) sense like eq. 32;
-//!    see [`gains`] for the weighting and the solver.
+//!    see `gains` for the weighting and the solver.
 //!
 //! Everything is fixed-size, allocation-free and panic-free; NaN or
 //! infinite input is [`ModalError::NonFinite`].
 
-pub mod gains;
-pub mod validity;
+pub(crate) mod gains;
+pub(crate) mod validity;
 
 pub use gains::{gains_from_numerator, GainWeighting};
 pub use validity::{ModalHold, Reported, Validity};

@@ -4,7 +4,7 @@
 //! ([`StrainAdc`], [`PiezoDac`]), the estimator ([`Estimator`]) and the
 //! scalar type.
 //!
-//! The real converter drivers plug in through [`adapters`] (and are
+//! The real converter drivers plug in through `adapters` (and are
 //! brought up by [`bring_up`]).
 //!
 //! # One tick, in order ([`Pipeline::tick`], called on each data-ready)
@@ -20,11 +20,11 @@
 //!    whole run, through a delay line of `stuck_after` + 1 samples: the
 //!    run's early samples would otherwise reach the estimator and corrupt
 //!    P and Q for as long as they are remembered), a non-finite conversion.
-//! 4. **Convert** codes → volts → strain → y ([`convert`]: quarter bridge,
+//! 4. **Convert** codes → volts → strain → y (`convert`: quarter bridge,
 //!    optionally eq. 17's deflection), monitor code → actuator volts.
 //! 5. **Pair u with y** as the estimator's contract requires ([`Estimator::step`]:
 //!    u held over the coming period, y sampled now) — see *Alignment*.
-//! 6. **Prefilter** u and y identically (optional, [`prefilter`]).
+//! 6. **Prefilter** u and y identically (optional, `prefilter`).
 //! 7. **Estimator step**; an invalid sample is passed as NaN (see *Bad
 //!    samples*).
 //! 8. **Raw block** of the (u, y) pairs (optional, decimated) and, every K
@@ -104,12 +104,12 @@
     clippy::indexing_slicing
 )]
 
-pub mod adapters;
+pub(crate) mod adapters;
 mod config;
-pub mod convert;
-pub mod converters;
-pub mod prefilter;
-pub mod telemetry;
+pub(crate) mod convert;
+pub(crate) mod converters;
+pub(crate) mod prefilter;
+pub(crate) mod telemetry;
 
 pub use adapters::{adc_scales, bring_up, lost_configuration, BringUp, BringUpError};
 pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
@@ -123,13 +123,13 @@ pub use converters::{
 };
 pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
 pub use telemetry::{
-    recover, Counters, NoSink, RawBlock, Recovered, Sink, StepCounts, TelemetryRecord,
-    RAW_BLOCK_LEN,
+    recover, unpack_symmetric, Counters, NoSink, RawBlock, Recovered, Sink, StepCounts,
+    TelemetryRecord, RAW_BLOCK_LEN,
 };
 
 use crate::estimator::Estimator;
 use crate::excitation::Excitation;
-pub use crate::guard::MAX_DELAY;
+use crate::guard::MAX_DELAY;
 use crate::guard::{GuardConfig, GuardError, SensorGuard};
 use crate::scalar::Real;
 use crate::supervise::ExcitationReason;

@@ -29,7 +29,7 @@ const MAX_SECTIONS: usize = 2;
 /// Invalid prefilter settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PrefilterError {
-    /// Order outside 1..=[`MAX_ORDER`].
+    /// Order outside 1..=`MAX_ORDER`.
     Order,
     /// Cutoff not in (0, 0.45·f_s), or f_s not positive and finite.
     Cutoff,

@@ -2,13 +2,13 @@
 //! `no_std` core, so `beamctl simulate`, the host tests and the emulated
 //! firmware all run the same rig.
 //!
-//! * [`plant`] — an exact discrete simulator of the modal model (eq. 22–23)
+//! * `plant` — an exact discrete simulator of the modal model (eq. 22–23)
 //!   under a held input: what the beam does between two samples;
-//! * [`noise`] — seeded, deterministic Gaussian measurement noise;
-//! * [`sim`] — [`Rig`], which joins them per 10 kHz tick exactly as the
+//! * `noise` — seeded, deterministic Gaussian measurement noise;
+//! * `sim` — [`Rig`], which joins them per 10 kHz tick exactly as the
 //!   firmware's sample path sees the beam: the input u held over the coming
 //!   period and the output y sampled now (plus noise);
-//! * [`scenario`] — [`ScenarioRig`]: a [`Rig`] going through the events of
+//! * `scenario` — [`ScenarioRig`]: a [`Rig`] going through the events of
 //!   a [`Scenario`] (a plant change with the state continuous, excitation
 //!   off, sensor faults on the measured y) and with modes beyond the
 //!   estimator's model.
@@ -16,7 +16,7 @@
 //! * [`chips`] — behavioural models of the converters (ADS131M02 ADC,
 //!   AD5761R DAC) behind `SpiDevice`, so the real drivers run against the
 //!   simulated beam;
-//! * [`timing`] — [`TimedPlant`]: the beam as the converters see it, the
+//! * `timing` — [`TimedPlant`]: the beam as the converters see it, the
 //!   ADS131M02's sinc³ averaging and the DAC's update latency simulated
 //!   exactly ([`ConverterTiming`]).
 //!
@@ -35,11 +35,11 @@
 )]
 
 pub mod chips;
-pub mod noise;
-pub mod plant;
-pub mod scenario;
-pub mod sim;
-pub mod timing;
+pub(crate) mod noise;
+pub(crate) mod plant;
+pub(crate) mod scenario;
+pub(crate) mod sim;
+pub(crate) mod timing;
 
 pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
 pub use plant::{ModalPlant, PlantError};

@@ -87,7 +87,7 @@ pub trait Real:
     fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self;
     /// Square root (correctly rounded; for `f32` without `f64`: the
     /// hardware instruction where libm has a path to it, else
-    /// [`sqrt_f32`]).
+    /// `sqrt_f32`).
     fn sqrt(self) -> Self;
     /// Absolute value.
     fn abs(self) -> Self;
@@ -105,7 +105,7 @@ pub trait Real:
     fn cosh(self) -> Self;
     /// Four-quadrant arctangent.
     fn atan2(self, x: Self) -> Self;
-    /// √(x² + y²) without undue overflow (`f32`: [`hypot_f32`], within
+    /// √(x² + y²) without undue overflow (`f32`: `hypot_f32`, within
     /// 1 ulp, no `f64`).
     fn hypot(self, other: Self) -> Self;
     /// x^n for a small integer exponent.
@@ -345,6 +345,14 @@ fn scaled_powi_f32(base: f64, n: u32, coef: u32) -> f32 {
 /// rounded `f64` square root for every positive `f32` (test
 /// `sqrt_f32_is_correctly_rounded_exhaustive`, ignored by default, ~1 min
 /// in release) and on a strided sample in the default test run.
+// Where `sqrtf_select` takes the hardware instruction, only the tests call it.
+#[cfg_attr(
+    any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon")
+    ),
+    allow(dead_code)
+)]
 pub fn sqrt_f32(x: f32) -> f32 {
     if !(x > 0.0) || x == f32::INFINITY {
         return if x == 0.0 || x == f32::INFINITY {
@@ -446,9 +454,10 @@ pub(crate) fn pow2_nearest<T: Real>(log2: T) -> T {
     T::from_f64(2.0).powi(e.to_i32())
 }
 
-/// Relative closeness check used by tests and validation:
+/// Relative closeness check used by the unit tests:
 /// `|a − b| ≤ atol + rtol·|b|`.
-pub fn isclose<T: Real>(a: T, b: T, rtol: T, atol: T) -> bool {
+#[cfg(test)]
+pub(crate) fn isclose<T: Real>(a: T, b: T, rtol: T, atol: T) -> bool {
     (a - b).abs() <= atol + rtol * b.abs()
 }
 

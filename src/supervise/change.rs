@@ -168,7 +168,7 @@ impl<T: Real> ChangeDetector<T> {
         self
     }
 
-    /// Learn the residual's level afresh and arm after [`ARM_S`] (a new
+    /// Learn the residual's level afresh and arm after `ARM_S` (a new
     /// estimate, or one that has just discounted its past).
     pub fn restart(&mut self) {
         self.warmup = self.arm_samples;

@@ -12,17 +12,17 @@
 //!   returns), and forgetting is suspended while Lemma 1 fails after having
 //!   passed (the directions the input no longer excites keep what they
 //!   know); one answer, [`ExcitationReason`];
-//! * [`change`] — **tracking**: a CUSUM test on the a-priori prediction
+//! * `change` — **tracking**: a CUSUM test on the a-priori prediction
 //!   error; a detected change discounts the old data (P, Q, R × 2⁻⁴⁰, θ̂
 //!   kept) so the law follows the new beam within a fraction of a second;
 //!   its threshold is the one knob that trades tracking speed against
 //!   noise;
 //!
 //! and, outside the estimator, [`crate::guard`] screens the sensor's
-//! samples and [`crate::modal::validity`] flags unphysical estimates.
+//! samples and `crate::modal::validity` flags unphysical estimates.
 //!
 //! [`Supervisor`] joins the first two for an estimator
-//! ([`crate::estimator::Identifier`], [`crate::estimator::RobustEstimator`]):
+//! ([`crate::estimator::Identifier`], [`crate::estimator::robust::RobustEstimator`]):
 //! per sample it costs a few flops (the input's mean square); the
 //! residual's CUSUM runs every [`crate::estimator::SUPERVISE_EVERY`]-th
 //! sample in [`crate::estimator::Identifier`]
@@ -32,7 +32,7 @@
 //! [`crate::estimator::Estimator::supervision`] ([`Supervision`]).
 //! docs/ROBUSTNESS.md has the measurements behind every threshold.
 
-pub mod change;
+pub(crate) mod change;
 mod input;
 mod lemma1;
 

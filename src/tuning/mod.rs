@@ -73,7 +73,7 @@
 //! its law's θ(0) = [`carry_over`] of the current transfer function, holds
 //! it for settling and swaps it in at a sample boundary.
 
-pub mod startup;
+pub(crate) mod startup;
 
 pub use startup::StartupStats;
 

@@ -1,4 +1,4 @@
-//! `cargo xtask layout`: two checks of the workspace's layout, read from
+//! `cargo xtask layout`: three checks of the workspace's layout, read from
 //! the sources with `syn` (nothing is compiled).
 //!
 //! 1. **Import cycles** (the check that fails). Every crate of every
@@ -19,11 +19,20 @@
 //!    the first place (file:line) that makes it, the last one being the
 //!    edge that closes it. Code under
 //!    `#[cfg(test)]` is left out: a module's tests may use its neighbours.
-//! 2. **`pub` items of the core that nothing outside it names** (reported;
-//!    fails only with `--deny-unused-pub`). The core is the `beamest`
-//!    library without `board` (the board support the binaries use). Its
+//! 2. **One public path per item of the core** (fails). The core is the
+//!    `beamest` library without `board` (the board support the binaries
+//!    use). A module is *exported* if it and every module above it are
+//!    declared `pub mod`. A `pub use` in an exported module whose target is
+//!    declared `pub` in an exported module (or is an exported module) gives
+//!    that item a second public path, and is reported with its place. A
+//!    module whose items its parent re-exports is therefore `pub(crate)`,
+//!    and a module kept `pub` as a namespace (`estimator::robust`) is not
+//!    re-exported from above.
+//! 3. **`pub` items of the core that nothing outside it names** (reported;
+//!    fails only with `--deny-unused-pub`). Its
 //!    items declared `pub` (not `pub(crate)`) outside `#[cfg(test)]` are
-//!    collected: module-level `fn`, `struct`, `enum`, `union`, `const`,
+//!    collected, in exported modules and, in the others, those an exported
+//!    module re-exports (and the methods of such a module): module-level `fn`, `struct`, `enum`, `union`, `const`,
 //!    `static`, `type`, `trait`, `mod`, exported `macro_rules!`, and the
 //!    `pub` functions, constants and types of inherent `impl` blocks. One is
 //!    *used* if its identifier occurs as a token in any file of another
@@ -63,6 +72,13 @@ struct Module {
     /// Paths written in it (first segment `crate`, `self`, `super` or a
     /// child's name), with their line.
     refs: Vec<(Vec<String>, usize)>,
+    /// Declared `pub mod` (not `pub(crate)` or narrower) in its parent; the
+    /// root counts as public.
+    public: bool,
+    /// Names of the items it declares `pub`.
+    pub_items: BTreeSet<String>,
+    /// Its `pub use`s (not `pub(crate)`): name, path, line.
+    pub_uses: Vec<(String, Vec<String>, usize)>,
 }
 
 /// One crate's module tree (module 0 is the root).
@@ -258,6 +274,22 @@ fn item_attrs(i: &Item) -> Option<&[Attribute]> {
 }
 
 /// The declared name of an item (modules and `use`s excepted).
+/// The visibility of an item that has one.
+fn item_vis(i: &Item) -> Option<&Visibility> {
+    match i {
+        Item::Const(x) => Some(&x.vis),
+        Item::Enum(x) => Some(&x.vis),
+        Item::Fn(x) => Some(&x.vis),
+        Item::Static(x) => Some(&x.vis),
+        Item::Struct(x) => Some(&x.vis),
+        Item::Trait(x) => Some(&x.vis),
+        Item::Type(x) => Some(&x.vis),
+        Item::Union(x) => Some(&x.vis),
+        Item::Mod(x) => Some(&x.vis),
+        _ => None,
+    }
+}
+
 fn item_name(i: &Item) -> Option<String> {
     Some(match i {
         Item::Const(x) => x.ident.to_string(),
@@ -291,7 +323,14 @@ impl Crate {
         };
         let file = parse_file(root)?;
         let dir = root.parent().unwrap_or(Path::new(".")).to_path_buf();
-        c.add_module(Vec::new(), root.to_path_buf(), None, &file.items, &dir)?;
+        c.add_module(
+            Vec::new(),
+            root.to_path_buf(),
+            None,
+            true,
+            &file.items,
+            &dir,
+        )?;
         Ok(c)
     }
 
@@ -301,6 +340,7 @@ impl Crate {
         path: Vec<String>,
         file: PathBuf,
         parent: Option<usize>,
+        public: bool,
         items: &[Item],
         dir: &Path,
     ) -> Result<usize, String> {
@@ -318,16 +358,23 @@ impl Crate {
             reexports: Vec::new(),
             globs: Vec::new(),
             refs: collector.paths,
+            public,
+            pub_items: BTreeSet::new(),
+            pub_uses: Vec::new(),
         };
         for i in items {
             if item_attrs(i).is_some_and(is_cfg_test) {
                 continue;
             }
             if let Some(n) = item_name(i) {
+                if item_vis(i).is_some_and(is_pub) {
+                    m.pub_items.insert(n.clone());
+                }
                 m.items.insert(n);
             }
             if let Item::Use(u) = i {
                 if !matches!(u.vis, Visibility::Inherited) {
+                    let line = u.use_token.span.start().line;
                     let mut out = Vec::new();
                     use_paths(&u.tree, &mut Vec::new(), &mut out);
                     for (mut p, name) in out {
@@ -335,6 +382,9 @@ impl Crate {
                             p.pop();
                             m.globs.push(p);
                         } else {
+                            if is_pub(&u.vis) {
+                                m.pub_uses.push((name.clone(), p.clone(), line));
+                            }
                             m.reexports.push((name, p));
                         }
                     }
@@ -356,7 +406,15 @@ impl Crate {
                         Some(p) => dir.join(p),
                         None => dir.join(&name),
                     };
-                    self.add_module(child_path, file.clone(), Some(idx), inner, &child_dir)?
+                    let public = is_pub(&md.vis);
+                    self.add_module(
+                        child_path,
+                        file.clone(),
+                        Some(idx),
+                        public,
+                        inner,
+                        &child_dir,
+                    )?
                 }
                 None => {
                     let (child_file, child_dir) = match path_attr(&md.attrs) {
@@ -375,7 +433,15 @@ impl Crate {
                         }
                     };
                     let parsed = parse_file(&child_file)?;
-                    self.add_module(child_path, child_file, Some(idx), &parsed.items, &child_dir)?
+                    let public = is_pub(&md.vis);
+                    self.add_module(
+                        child_path,
+                        child_file,
+                        Some(idx),
+                        public,
+                        &parsed.items,
+                        &child_dir,
+                    )?
                 }
             };
             self.modules[idx].children.insert(name, child);
@@ -439,6 +505,61 @@ impl Crate {
         module.items.contains(name)
             || module.children.contains_key(name)
             || module.reexports.iter().any(|(n, _)| n == name)
+    }
+
+    /// Module `m` can be named from outside the crate: it and every
+    /// module above it are declared `pub mod`.
+    fn exported(&self, m: usize) -> bool {
+        self.chain(m).iter().all(|&a| self.modules[a].public)
+    }
+
+    /// Module `m`'s item `name` has a public path there: `m` is exported
+    /// and declares it `pub` or `pub use`s it, or `name` is an exported
+    /// child module of `m`.
+    fn has_own_public_path(&self, m: usize, name: &str) -> bool {
+        if !self.exported(m) {
+            return false;
+        }
+        let module = &self.modules[m];
+        module.pub_items.contains(name)
+            || module.pub_uses.iter().any(|(n, _, _)| n == name)
+            || module
+                .children
+                .get(name)
+                .is_some_and(|&c| self.modules[c].public)
+    }
+
+    /// `pub use`s of exported modules that give an item a second public
+    /// path: what they name already has one where it is declared. `skip`
+    /// leaves a subtree out (the board support).
+    fn second_paths(&self, skip: Option<usize>) -> Vec<SecondPath> {
+        let mut out = Vec::new();
+        for (i, m) in self.modules.iter().enumerate() {
+            if skip.is_some_and(|b| self.within(i, b)) || !self.exported(i) {
+                continue;
+            }
+            for (name, path, line) in &m.pub_uses {
+                let Some((last, head)) = path.split_last() else {
+                    continue;
+                };
+                // Where the last segment lives: the module the rest names.
+                let home = if head.is_empty() {
+                    Some(i)
+                } else {
+                    self.resolve(i, head)
+                };
+                let Some(home) = home else { continue };
+                if home != i && self.has_own_public_path(home, last) {
+                    out.push(SecondPath {
+                        file: m.file.clone(),
+                        line: *line,
+                        name: name.clone(),
+                        reexported: path.join("::"),
+                    });
+                }
+            }
+        }
+        out
     }
 
     /// `a` is `b` or inside it.
@@ -778,6 +899,17 @@ fn workspace_crates(root: &Path) -> Result<Vec<(String, Crate)>, String> {
     Ok(out)
 }
 
+/// A `pub use` that gives an item a second public path.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SecondPath {
+    file: PathBuf,
+    line: usize,
+    /// The name it brings in.
+    name: String,
+    /// The path it re-exports, which is public already.
+    reexported: String,
+}
+
 /// A `pub` item of the core.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub struct PubItem {
@@ -865,6 +997,25 @@ fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), Strin
         .map(|(_, c)| c)
         .ok_or("no beamest library")?;
     let board = core.modules[0].children.get("board").copied();
+    // What exported modules re-export: (the module it is declared in, name).
+    let mut via_use = BTreeSet::new();
+    for (j, m) in core.modules.iter().enumerate() {
+        if board.is_some_and(|b| core.within(j, b)) || !core.exported(j) {
+            continue;
+        }
+        for (_, path, _) in &m.pub_uses {
+            if let Some((last, head)) = path.split_last() {
+                let home = if head.is_empty() {
+                    Some(j)
+                } else {
+                    core.resolve(j, head)
+                };
+                if let Some(home) = home {
+                    via_use.insert((home, last.clone()));
+                }
+            }
+        }
+    }
     let mut items = Vec::new();
     let mut seen = BTreeSet::new();
     for (i, m) in core.modules.iter().enumerate() {
@@ -873,7 +1024,22 @@ fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), Strin
         }
         // One parse per file; inline modules are walked with their file.
         let parsed = parse_file(&m.file)?;
-        collect_in_file(&m.file, &parsed.items, &mut items);
+        let mut found = Vec::new();
+        collect_in_file(&m.file, &parsed.items, &mut found);
+        if !core.exported(i) {
+            // A `pub` item of a module that outside code cannot name counts
+            // only if an exported module re-exports it; methods count if
+            // anything of their module is re-exported (their type may be).
+            let any = via_use.iter().any(|(h, _)| *h == i);
+            found.retain(|it| {
+                if it.kind == "method" || it.kind.starts_with("assoc") {
+                    any
+                } else {
+                    via_use.contains(&(i, it.name.clone()))
+                }
+            });
+        }
+        items.extend(found);
     }
     let mut names = BTreeSet::new();
     let mut files = BTreeSet::new();
@@ -937,6 +1103,27 @@ pub fn run(args: &[String]) -> Result<(), String> {
     for c in &cycles {
         print!("{c}");
     }
+    let core = crates
+        .iter()
+        .find(|(m, c)| m == "." && c.name.ends_with("/lib"))
+        .map(|(_, c)| c)
+        .ok_or("no beamest library")?;
+    let board = core.modules[0].children.get("board").copied();
+    let second = core.second_paths(board);
+    println!(
+        "\nsecond public paths in the core (a `pub use` of what is public where it is declared): {}",
+        second.len()
+    );
+    for d in &second {
+        let file = d.file.strip_prefix(&root).unwrap_or(&d.file);
+        println!(
+            "  {}:{} pub use {} (as {})",
+            file.display(),
+            d.line,
+            d.reexported,
+            d.name
+        );
+    }
     let (unused, total) = unused_pub(&crates)?;
     println!(
         "\npub items of the core (beamest less board) named by no other crate: {} of {total}",
@@ -961,6 +1148,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let mut failures = Vec::new();
     if !cycles.is_empty() {
         failures.push(format!("{} import cycle(s)", cycles.len()));
+    }
+    if !second.is_empty() {
+        failures.push(format!("{} second public path(s)", second.len()));
     }
     if deny_unused && !unused.is_empty() {
         failures.push(format!("{} unused pub item(s) of the core", unused.len()));
@@ -1008,6 +1198,38 @@ mod tests {
                 )
             })
             .collect()
+    }
+
+    #[test]
+    fn a_reexport_of_a_public_item_is_a_second_path() {
+        let d = tempdir("second");
+        write(
+            &d,
+            "lib.rs",
+            "pub mod a;\nmod b;\npub use a::A;\npub use b::B;\npub(crate) use a::C;\npub use a::D;\n",
+        );
+        write(
+            &d,
+            "a.rs",
+            "pub struct A;\npub struct C;\npub use crate::b::B as D;\n",
+        );
+        write(&d, "b.rs", "pub struct B;\n");
+        let c = Crate::load("t/lib", &d.join("lib.rs")).unwrap();
+        let found: Vec<_> = c
+            .second_paths(None)
+            .into_iter()
+            .map(|s| (s.name, s.reexported))
+            .collect();
+        // `a::A` is public where it is declared, `a::D` where `a`
+        // re-exports it; `b::B` only through the re-export; a
+        // `pub(crate) use` adds no public path.
+        assert_eq!(
+            found,
+            [
+                ("A".to_string(), "a::A".to_string()),
+                ("D".to_string(), "a::D".to_string())
+            ]
+        );
     }
 
     #[test]

@@ -10,10 +10,10 @@
 //! law keeps [`RobustConfig::default`]'s.
 
 use crate::run::error::RunError;
-use beamest::estimator::robust::DEFAULT_RECORD;
+use beamest::estimator::robust::{RobustConfig, RobustEstimator, DEFAULT_RECORD};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, Feedthrough, GradientConfig, GradientEstimator,
-    LeastSquaresConfig, LeastSquaresEstimator, RobustConfig, RobustEstimator,
+    LeastSquaresConfig, LeastSquaresEstimator,
 };
 use beamest::filter_bank::{FilterConfig, Scaling};
 use beamest::Real;

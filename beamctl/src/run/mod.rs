@@ -270,7 +270,7 @@ pub struct Trace<'a> {
     /// The supervisor's state (excitation flag and reason, changes).
     pub supervision: Option<SupervisionReport>,
     /// The physical-validity flags of the estimate
-    /// ([`beamest::modal::validity::Validity`] bits; 0 = valid).
+    /// ([`beamest::modal::Validity`] bits; 0 = valid).
     pub validity: u8,
 }
 

@@ -17,7 +17,7 @@ use beamest::guard::{
     SampleFault, Screening, SensorGuard,
 };
 use beamest::modal::modal_from_tf;
-use beamest::modal::validity::Validity;
+use beamest::modal::Validity;
 use beamest::model::{ModalParams, TransferFunction};
 use beamest::tuning::TuningConfig;
 use beamest::Real;
@@ -154,7 +154,7 @@ pub struct Outcome {
     /// without an estimator.
     pub supervision: Option<SupervisionReport>,
     /// Why the final estimate is not a physical beam
-    /// ([`beamest::modal::validity::Validity`] names; empty: valid):
+    /// ([`beamest::modal::Validity`] names; empty: valid):
     /// `not_recovered`, `mode_count`, `non_finite`, `omega_not_positive`,
     /// `zeta_out_of_range`, `not_distinct`.
     pub validity: Vec<&'static str>,

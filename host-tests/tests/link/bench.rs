@@ -21,7 +21,7 @@ use beam_protocol::{
 use beamest::bench::{self, ConverterModels, ConverterRig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
-use beamest::link::control::reject_config;
+use beamest::link::reject_config;
 use beamest::link::{
     estimator_configs, with_theta0, Device, DeviceLink, Settings, StartupCollector, Tuned, TxSink,
 };

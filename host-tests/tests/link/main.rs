@@ -331,8 +331,7 @@ fn excitation_levels(x: Option<Excitation>) -> Levels {
                 let rec = b.link.on_record(&r, &[-2.0f32, 2.0], &mut tx);
                 if let (Some(rec), true) = (rec, r.sample_index >= next) {
                     next += FS / 2;
-                    let p: [[f32; 7]; 7] =
-                        beamest::pipeline::telemetry::unpack_symmetric(&r.information);
+                    let p: [[f32; 7]; 7] = beamest::pipeline::unpack_symmetric(&r.information);
                     let tr: f32 = (0..7).map(|i| p[i][i]).sum();
                     let lmin = rec.excitation_min_eig.unwrap();
                     ratios.push((r.sample_index as f64 / FS as f64, lmin / tr));

@@ -12,9 +12,9 @@ use beam_protocol::{
     EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
 };
 use beamest::estimator::Adaptive2;
-use beamest::excitation::{multisine, prbs};
+use beamest::excitation::{MULTISINE_MAX_TONES, PRBS_MAX_ORDER, PRBS_MIN_ORDER};
 use beamest::filter_bank::FilterConfig;
-use beamest::link::control::reject_config;
+use beamest::link::reject_config;
 use beamest::link::{
     estimator_configs, with_theta0, Device, FlagRules, LinkConfig, Settings, FIRMWARE_VERSION,
 };
@@ -34,9 +34,9 @@ pub fn link_config() -> LinkConfig {
             sample_rate_hz: rig::SAMPLE_RATE_HZ as f32,
             piezo_min_v: rig::SAFE_WINDOW.min_v as f32,
             piezo_max_v: rig::SAFE_WINDOW.max_v as f32,
-            max_multisine_tones: multisine::MAX_TONES as u8,
-            prbs_bits_min: prbs::MIN_ORDER,
-            prbs_bits_max: prbs::MAX_ORDER,
+            max_multisine_tones: MULTISINE_MAX_TONES as u8,
+            prbs_bits_min: PRBS_MIN_ORDER,
+            prbs_bits_max: PRBS_MAX_ORDER,
             estimators: EstimatorKind::Adaptive.bit(),
             modes: 2,
             link_bytes_per_s: uart_bytes_per_s(clocks::BAUD) as f32,

@@ -24,9 +24,10 @@ use beam_protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::TimedEstimator;
 use beamest::board::qemu::{IsrOwned, Shared};
-use beamest::estimator::{Adaptive2, Either, Robust2};
+use beamest::estimator::robust::Robust2;
+use beamest::estimator::{Adaptive2, Either};
 use beamest::filter_bank::FilterConfig;
-use beamest::link::control::reject_config;
+use beamest::link::reject_config;
 use beamest::link::{estimator_configs, with_theta0, Device};
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};

@@ -53,7 +53,8 @@ use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Either, Robust2};
+use beamest::estimator::robust::Robust2;
+use beamest::estimator::{Adaptive2, AdaptiveConfig, Either};
 use beamest::link::{DeviceLink, Settings};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::tuning::{LambdaSource, TuningConfig};
@@ -414,8 +415,14 @@ fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
         ..bench::filter_config(1.0)
     };
     let (Ok(a), Ok(b)) = (
-        Robust2::<f32>::new(&filter, &beamest::estimator::RobustConfig::default()),
-        Robust2::<f32>::new(&filter, &beamest::estimator::RobustConfig::default()),
+        Robust2::<f32>::new(
+            &filter,
+            &beamest::estimator::robust::RobustConfig::default(),
+        ),
+        Robust2::<f32>::new(
+            &filter,
+            &beamest::estimator::robust::RobustConfig::default(),
+        ),
     ) else {
         fail("robust estimator settings")
     };

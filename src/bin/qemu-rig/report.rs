@@ -46,7 +46,7 @@ use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
 use beamest::board::qemu::uart::{self, UartTx};
 use beamest::filter_bank::FilterConfig;
-use beamest::link::estimate::{estimate, Convergence, EstimateContext};
+use beamest::link::{estimate, Convergence, EstimateContext};
 use beamest::link::{BuildKind, DeviceLink, Sent, Transmitter, Tuned, TxSink};
 use beamest::modal::modal_from_tf;
 use beamest::model::ModalParams;

@@ -25,11 +25,11 @@
     clippy::indexing_slicing
 )]
 
-pub mod ad5761r;
-pub mod ads131m02;
+pub(crate) mod ad5761r;
+pub(crate) mod ads131m02;
 
 pub use ad5761r::Ad5761rModel;
-pub use ads131m02::Ads131m02Model;
+pub use ads131m02::{quantize, Ads131m02Model};
 
 use core::cell::RefCell;
 use core::fmt;
