@@ -37,10 +37,11 @@
 //!    `pub` functions, constants and types of inherent `impl` blocks. One is
 //!    *used* if its identifier occurs as a token in any file of another
 //!    crate (beamctl, host-tests, xtask, the binaries `src/bin/*`, every
-//!    test, example and bench): a textual heuristic on identifiers, so a
-//!    name shared with something else (`new`, `len`) counts as used, and
-//!    an item needed only because another public item's signature shows it
-//!    counts as unused.
+//!    test, example and bench), under a name a `pub use … as` gives it, or
+//!    in the public face of a used item (its signature, `pub` fields,
+//!    variant fields, type; to a fixed point): a textual heuristic on
+//!    identifiers, so a name shared with something else (`new`, `len`)
+//!    counts as used.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::fmt;
@@ -50,6 +51,7 @@ use std::str::FromStr;
 
 use proc_macro2::{TokenStream, TokenTree};
 use syn::visit::{self, Visit};
+use quote::ToTokens;
 use syn::{Attribute, ImplItem, Item, UseTree, Visibility};
 
 use crate::workspace_root;
@@ -917,6 +919,11 @@ pub struct PubItem {
     line: usize,
     kind: &'static str,
     name: String,
+    /// The identifiers its public face shows: a function's signature, the
+    /// types of a struct's `pub` fields, an enum's variant fields, a
+    /// constant's or alias's type, a trait's items. Whoever uses the item
+    /// uses these too.
+    shows: BTreeSet<String>,
 }
 
 /// `pub`, not `pub(crate)` or narrower.
@@ -926,44 +933,71 @@ fn is_pub(v: &Visibility) -> bool {
 
 /// The `pub` items of `items` (module level and inherent `impl`s).
 fn pub_items(file: &Path, items: &[Item], out: &mut Vec<PubItem>) {
-    let mut push = |kind: &'static str, ident: &proc_macro2::Ident| {
+    let mut push = |kind: &'static str, ident: &proc_macro2::Ident, face: TokenStream| {
+        let mut shows = BTreeSet::new();
+        idents(face, &mut shows);
         out.push(PubItem {
             file: file.to_path_buf(),
             line: ident.span().start().line,
             kind,
             name: ident.to_string(),
+            shows,
         })
+    };
+    let pub_fields = |fields: &syn::Fields, all: bool| -> TokenStream {
+        fields
+            .iter()
+            .filter(|f| all || is_pub(&f.vis))
+            .map(|f| f.ty.to_token_stream())
+            .collect()
     };
     for i in items {
         if item_attrs(i).is_some_and(is_cfg_test) {
             continue;
         }
         match i {
-            Item::Fn(x) if is_pub(&x.vis) => push("fn", &x.sig.ident),
-            Item::Struct(x) if is_pub(&x.vis) => push("struct", &x.ident),
-            Item::Enum(x) if is_pub(&x.vis) => push("enum", &x.ident),
-            Item::Union(x) if is_pub(&x.vis) => push("union", &x.ident),
-            Item::Const(x) if is_pub(&x.vis) => push("const", &x.ident),
-            Item::Static(x) if is_pub(&x.vis) => push("static", &x.ident),
-            Item::Type(x) if is_pub(&x.vis) => push("type", &x.ident),
-            Item::Trait(x) if is_pub(&x.vis) => push("trait", &x.ident),
-            Item::Mod(x) if is_pub(&x.vis) => push("mod", &x.ident),
+            Item::Fn(x) if is_pub(&x.vis) => push("fn", &x.sig.ident, x.sig.to_token_stream()),
+            Item::Struct(x) if is_pub(&x.vis) => {
+                push("struct", &x.ident, pub_fields(&x.fields, false))
+            }
+            Item::Enum(x) if is_pub(&x.vis) => push(
+                "enum",
+                &x.ident,
+                x.variants
+                    .iter()
+                    .flat_map(|v| pub_fields(&v.fields, true))
+                    .collect(),
+            ),
+            Item::Union(x) if is_pub(&x.vis) => push(
+                "union",
+                &x.ident,
+                pub_fields(&syn::Fields::Named(x.fields.clone()), false),
+            ),
+            Item::Const(x) if is_pub(&x.vis) => push("const", &x.ident, x.ty.to_token_stream()),
+            Item::Static(x) if is_pub(&x.vis) => push("static", &x.ident, x.ty.to_token_stream()),
+            Item::Type(x) if is_pub(&x.vis) => push("type", &x.ident, x.ty.to_token_stream()),
+            Item::Trait(x) if is_pub(&x.vis) => push(
+                "trait",
+                &x.ident,
+                x.items.iter().map(|i| i.to_token_stream()).collect(),
+            ),
+            Item::Mod(x) if is_pub(&x.vis) => push("mod", &x.ident, TokenStream::new()),
             Item::Macro(x) if x.attrs.iter().any(|a| a.path().is_ident("macro_export")) => {
                 if let Some(id) = &x.ident {
-                    push("macro", id);
+                    push("macro", id, TokenStream::new());
                 }
             }
             Item::Impl(imp) if imp.trait_.is_none() => {
                 for ii in &imp.items {
                     match ii {
                         ImplItem::Fn(f) if is_pub(&f.vis) && !is_cfg_test(&f.attrs) => {
-                            push("method", &f.sig.ident)
+                            push("method", &f.sig.ident, f.sig.to_token_stream())
                         }
                         ImplItem::Const(c) if is_pub(&c.vis) && !is_cfg_test(&c.attrs) => {
-                            push("assoc const", &c.ident)
+                            push("assoc const", &c.ident, c.ty.to_token_stream())
                         }
                         ImplItem::Type(t) if is_pub(&t.vis) && !is_cfg_test(&t.attrs) => {
-                            push("assoc type", &t.ident)
+                            push("assoc type", &t.ident, t.ty.to_token_stream())
                         }
                         _ => {}
                     }
@@ -1053,6 +1087,34 @@ fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), Strin
         let tokens = TokenStream::from_str(&text)
             .map_err(|e| format!("{}: not Rust tokens: {e}", f.display()))?;
         idents(tokens, &mut names);
+    }
+    // A `pub use … as NEW` of the core: NEW named outside uses the item.
+    let aliases: Vec<(String, String)> = core
+        .modules
+        .iter()
+        .flat_map(|m| m.pub_uses.iter())
+        .filter_map(|(name, path, _)| {
+            let last = path.last()?;
+            (last != name).then(|| (name.clone(), last.clone()))
+        })
+        .collect();
+    // What a used item shows is used with it (to a fixed point): an error
+    // type a used function returns, a field's type, a trait's arguments.
+    loop {
+        let before = names.len();
+        for (alias, original) in &aliases {
+            if names.contains(alias) {
+                names.insert(original.clone());
+            }
+        }
+        for i in &items {
+            if names.contains(&i.name) {
+                names.extend(i.shows.iter().cloned());
+            }
+        }
+        if names.len() == before {
+            break;
+        }
     }
     let total = items.len();
     let mut unused: Vec<PubItem> = items
