@@ -89,6 +89,13 @@ pub fn fp_bench() -> Result<(), String> {
                 for line in out.lines().filter(|l| l.starts_with("fp_bench:")) {
                     println!("  {line}");
                 }
+                for precision in ["f32", "f64"] {
+                    let prefix = format!("fp_bench: {precision} omega=");
+                    if let Err(e) = judge_estimate(&out, &prefix) {
+                        println!("  FAIL: {precision}: {e}");
+                        failures.push(format!("{}: {precision}: {e}", m.name));
+                    }
+                }
             }
             Err(e) => {
                 println!("  FAIL: {e}");
@@ -122,7 +129,66 @@ pub fn robust_bench() -> Result<(), String> {
     for line in out.lines().filter(|l| l.starts_with("robust_bench:")) {
         println!("  {line}");
     }
-    Ok(())
+    judge_estimate(&out, "robust_bench: omega=").map_err(|e| format!("robust-bench failed: {e}"))
+}
+
+/// Largest relative error of each ω and ζ the benches accept against the
+/// paper's plant, which they simulate.
+const TOLERANCE: f64 = 1e-3;
+
+/// Judge the estimate a bench printed on the line starting with `prefix`
+/// (`… omega=ω1,ω2 zeta=ζ1,ζ2`, or `omega=none`) against the paper's ω, ζ
+/// (the only read of the simulated truth: the images print, xtask judges).
+fn judge_estimate(out: &str, prefix: &str) -> Result<(), String> {
+    let line = out
+        .lines()
+        .find(|l| l.starts_with(prefix))
+        .ok_or_else(|| format!("no line `{prefix}…`"))?;
+    let worst = estimate_error(&line[prefix.len() - "omega=".len()..])?;
+    println!("  worst relative error of omega, zeta: {worst:.1e} (limit {TOLERANCE:.0e})");
+    if worst <= TOLERANCE {
+        Ok(())
+    } else {
+        Err(format!(
+            "estimate off by {worst:.1e} (> {TOLERANCE:.0e}): {line}"
+        ))
+    }
+}
+
+/// The largest relative error of `omega=ω1,ω2 zeta=ζ1,ζ2` against the
+/// paper's plant.
+fn estimate_error(text: &str) -> Result<f64, String> {
+    let field = |key: &str| -> Result<Vec<f64>, String> {
+        let v = text
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(key))
+            .ok_or_else(|| format!("no {key} in `{text}`"))?;
+        if v == "none" {
+            return Err("no estimate recovered".to_string());
+        }
+        v.split(',')
+            .map(|x| x.parse::<f64>().map_err(|e| format!("{key}{x}: {e}")))
+            .collect()
+    };
+    let omega = field("omega=")?;
+    let zeta = field("zeta=")?;
+    let truth = beamest::model::PAPER_OMEGA
+        .iter()
+        .chain(beamest::model::PAPER_ZETA.iter());
+    if omega.len() != 2 || zeta.len() != 2 {
+        return Err(format!("expected 2 modes in `{text}`"));
+    }
+    let errors: Vec<f64> = omega
+        .iter()
+        .chain(zeta.iter())
+        .zip(truth)
+        .map(|(e, t)| (e / t - 1.0).abs())
+        .collect();
+    if errors.iter().all(|r| r.is_finite()) {
+        Ok(errors.into_iter().fold(0.0, f64::max))
+    } else {
+        Err(format!("non-finite estimate in `{text}`"))
+    }
 }
 
 /// Run `elf` on machine `m` to its semihosting exit; its stdout, or why
@@ -165,5 +231,30 @@ fn run_qemu(m: &Machine, elf: &Path) -> Result<String, String> {
         Ok(out)
     } else {
         Err(format!("exited with {status}:\n{out}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bench_estimate_is_judged_against_the_paper_plant() {
+        let [w1, w2] = beamest::model::PAPER_OMEGA;
+        let [z1, z2] = beamest::model::PAPER_ZETA;
+        let line = |k: f64| {
+            format!(
+                "fp_bench: f32 omega={:.9e},{:.9e} zeta={:.9e},{:.9e}",
+                w1,
+                w2 * k,
+                z1,
+                z2
+            )
+        };
+        assert!(judge_estimate(&line(1.0 + 5e-4), "fp_bench: f32 omega=").is_ok());
+        assert!(judge_estimate(&line(1.0 + 2e-3), "fp_bench: f32 omega=").is_err());
+        assert!(judge_estimate("fp_bench: f32 omega=none", "fp_bench: f32 omega=").is_err());
+        assert!(judge_estimate("fp_bench: f64 omega=none", "fp_bench: f32 omega=").is_err());
+        assert!(estimate_error("omega=NaN,1 zeta=1,1").is_err());
     }
 }

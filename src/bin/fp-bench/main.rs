@@ -22,8 +22,11 @@
 //! [`cycles::dither`]); one modal recovery (eqs. 30–32) timed at the end.
 //! The simulated truth is read only to report the final errors.
 //!
-//! Output (semihosting): one `fp_bench:` line per precision, then exit 0 if
-//! both precisions converged (ω, ζ within 1e-3 of the truth).
+//! Output (semihosting): one `fp_bench:` line per precision with its
+//! figures and its final estimate (`omega=ω1,ω2 zeta=ζ1,ζ2`, or
+//! `omega=none` if none was recovered), then exit 0. The image does not
+//! read the simulated truth: `cargo xtask fp-bench` judges the estimates
+//! (both precisions within 1e-3 of the paper's ω, ζ).
 
 #![no_std]
 #![no_main]
@@ -59,14 +62,13 @@ const LAMBDA_RAD_S: f64 = 100.0;
 const U_SCALE: f64 = 0.1;
 /// Output weights c_i of the paper's two-mode beam (eq. 24), for b̄.
 const OUTPUT_WEIGHT: [f64; 2] = [-2.0, 2.0];
-/// Convergence check after the run (relative error of each ω and ζ).
-const TOLERANCE: f64 = 1e-3;
 
 /// One precision's figures.
 struct Figures {
     step: SpanSum,
     recovery_instructions: f32,
-    worst_error: f64,
+    /// The final ω1, ω2, ζ1, ζ2 (`None`: no modes recovered).
+    estimate: Option<[f64; 4]>,
 }
 
 #[entry]
@@ -86,27 +88,31 @@ fn main() -> ! {
         board::exit(false);
     }
     let ipt = cal.instructions_per_tick();
-    let mut pass = true;
     for result in [run::<f32>(), run::<f64>()] {
         let Ok((name, f)) = result else {
             fail("plant or estimator construction")
         };
         hprintln!(
-            "fp_bench: {} step_instructions={} (max {}) recovery_instructions={} \
-             worst_rel_error={:.1e} steps={}",
+            "fp_bench: {} step_instructions={} (max {}) recovery_instructions={} steps={}",
             name,
             libm::roundf(f.step.mean_instructions(ipt)) as u32,
             (f.step.max_ticks as f32 * ipt) as u32,
             libm::roundf(f.recovery_instructions) as u32,
-            f.worst_error,
             f.step.count
         );
-        // NaN (no estimate) fails too.
-        if f.worst_error.is_nan() || f.worst_error > TOLERANCE {
-            pass = false;
+        match f.estimate {
+            Some([w1, w2, z1, z2]) => hprintln!(
+                "fp_bench: {} omega={:.9e},{:.9e} zeta={:.9e},{:.9e}",
+                name,
+                w1,
+                w2,
+                z1,
+                z2
+            ),
+            None => hprintln!("fp_bench: {} omega=none", name),
         }
     }
-    board::exit(pass)
+    board::exit(true)
 }
 
 /// The start-up window, then [`RUN_SAMPLES`] timed steps in precision `T`.
@@ -151,27 +157,21 @@ fn run<T: Real>() -> Result<(&'static str, Figures), ()> {
     let modes = modal_from_tf(&est.transfer_function(), &weight);
     let recovery_ticks = cycles::ticks_between(t0, cycles::now());
 
-    // The only read of the simulated truth: the final errors.
-    let mut worst = f64::NAN;
-    if let Ok(m) = modes {
-        worst = 0.0;
-        let pairs = m
-            .omega_rad_s
-            .iter()
-            .zip(PAPER_OMEGA.iter())
-            .chain(m.zeta.iter().zip(PAPER_ZETA.iter()));
-        for (est_v, truth) in pairs {
-            let e = libm::fabs(est_v.to_f64() / truth - 1.0);
-            worst = if e > worst || e.is_nan() { e } else { worst };
-        }
-    }
+    let estimate = modes.ok().filter(|m| m.modes == 2).map(|m| {
+        [
+            m.omega_rad_s[0].to_f64(),
+            m.omega_rad_s[1].to_f64(),
+            m.zeta[0].to_f64(),
+            m.zeta[1].to_f64(),
+        ]
+    });
     Ok((
         T::NAME,
         Figures {
             step,
             recovery_instructions: recovery_ticks as f32
                 * cycles::EXPECTED_INSTRUCTIONS_PER_TICK as f32,
-            worst_error: worst,
+            estimate,
         },
     ))
 }

@@ -26,8 +26,10 @@
 //! first sample of a second pass from rest, as it requires. The simulated
 //! truth is read only to report the final errors.
 //!
-//! Output (semihosting): `robust_bench:` lines, exit 0 if ω, ζ end within
-//! 1e-3 of the truth.
+//! Output (semihosting): `robust_bench:` lines (costs, the phase reached and
+//! the final estimate `omega=ω1,ω2 zeta=ζ1,ζ2`, or `omega=none`), then exit
+//! 0. The image does not read the simulated truth: `cargo xtask
+//! robust-bench` judges the estimate (ω, ζ within 1e-3 of the paper's).
 
 #![no_std]
 #![no_main]
@@ -63,8 +65,6 @@ const UPDATE_EVERY: u32 = 1_000;
 const THREAD_SHARE: u32 = 80_000;
 /// Output weights c_i of the paper's two-mode beam (eq. 24), for b̄.
 const OUTPUT_WEIGHT: [f32; 2] = [-2.0, 2.0];
-/// Convergence check after the run (relative error of each ω and ζ).
-const TOLERANCE: f64 = 1e-3;
 
 #[entry]
 fn main() -> ! {
@@ -187,31 +187,26 @@ fn main() -> ! {
         refused
     );
 
-    // The only read of the simulated truth: the final errors.
-    let mut worst = f64::NAN;
-    if let Ok(m) = modal_from_tf(&est.transfer_function(), &OUTPUT_WEIGHT) {
-        worst = 0.0;
-        let pairs = m
-            .omega_rad_s
-            .iter()
-            .zip(PAPER_OMEGA.iter())
-            .chain(m.zeta.iter().zip(PAPER_ZETA.iter()));
-        for (e, truth) in pairs {
-            let r = libm::fabs(f64::from(*e) / truth - 1.0);
-            worst = if r > worst || r.is_nan() { r } else { worst };
-        }
-    }
     hprintln!(
-        "robust_bench: phase {} after {} s; worst relative error of omega, zeta {:.1e}",
+        "robust_bench: phase {} after {} s",
         match est.phase() {
             Phase::Startup => "startup",
             Phase::Refining => "refining",
             Phase::Steady => "steady",
         },
-        f64::from(RUN_SAMPLES) * TS_S,
-        worst
+        f64::from(RUN_SAMPLES) * TS_S
     );
-    board::exit(!(worst.is_nan() || worst > TOLERANCE))
+    match modal_from_tf(&est.transfer_function(), &OUTPUT_WEIGHT) {
+        Ok(m) if m.modes == 2 => hprintln!(
+            "robust_bench: omega={:.9e},{:.9e} zeta={:.9e},{:.9e}",
+            f64::from(m.omega_rad_s[0]),
+            f64::from(m.omega_rad_s[1]),
+            f64::from(m.zeta[0]),
+            f64::from(m.zeta[1])
+        ),
+        _ => hprintln!("robust_bench: omega=none"),
+    }
+    board::exit(true)
 }
 
 /// The estimator step, out of line (to find it in the disassembly).
