@@ -54,7 +54,7 @@ mod timing;
 
 pub(crate) use timing::{InputTaps, U_HIST, U_TAPS};
 
-pub use timing::{OutputAverage, OutputTiming, MAX_OUTPUT_DELAY_SAMPLES};
+pub use timing::{OutputAverage, OutputTiming};
 
 /// How the sampled output y is interpolated between samples for the filter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -266,7 +266,7 @@ impl<const NP: usize> Scaling<NP> {
     }
 
     /// θ_s → Θ (physical units, eq. 29).
-    pub fn to_physical<T: Real>(&self, theta_s: &[T; NP]) -> [T; NP] {
+    pub(crate) fn to_physical<T: Real>(self, theta_s: &[T; NP]) -> [T; NP] {
         let mut out = [T::ZERO; NP];
         for j in 0..NP {
             out[j] = theta_s[j] * T::from_f64(self.y_scale * self.e[j]);

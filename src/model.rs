@@ -70,7 +70,8 @@ impl<T: Real> TransferFunction<T> {
     }
 
     /// Number of numerator coefficients, 2n − 1 (0 for an empty model).
-    pub fn numerator_len(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn numerator_len(&self) -> usize {
         (2 * self.modes).saturating_sub(1)
     }
 

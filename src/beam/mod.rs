@@ -11,7 +11,7 @@
 //!    ([`BeamOutput`]). The PDE (eq. 12) has Kelvin–Voigt damping (eq. 2–3)
 //!    and the clamped-free boundary conditions (eq. 7).
 //! 2. `shape`: the roots β_iL of the frequency equation
-//!    cos βL·cosh βL + 1 = 0 (eq. 20, [`frequency_root`]) and the mode shapes
+//!    cos βL·cosh βL + 1 = 0 (eq. 20, `frequency_root`) and the mode shapes
 //!    W_i(x) of eq. 19 ([`ModeShape`]).
 //! 3. `galerkin`: the Galerkin projection (eq. 49–57): mass m_ij (54),
 //!    damping c_ij (55), stiffness k_ij (56) and piezo input z_i (57),
@@ -19,9 +19,9 @@
 //!    ([`GalerkinMatrices`]).
 //! 4. `modal`: the diagonal modal model M η̈ + C η̇ + K η = z u (eq. 21), its
 //!    state-space form (eq. 22) and transfer function (eq. 25–26)
-//!    ([`BeamModal`], [`BeamStateSpace`]).
+//!    ([`BeamModal`], `BeamStateSpace`).
 //! 5. `strain`: eq. 17, the static map between the gauge strain and the tip
-//!    deflection ([`deflection_from_strain`], [`strain_from_deflection`]).
+//!    deflection (`deflection_from_strain`, `strain_from_deflection`).
 //!
 //! Errors are one enum for the family ([`BeamError`], naming the bad
 //! parameter through [`BeamParam`]), in `error`.
@@ -37,14 +37,18 @@ pub(crate) mod galerkin;
 pub(crate) mod modal;
 pub(crate) mod params;
 pub(crate) mod shape;
+// Eq. 17 as a pair of checked maps; the tests (and the conversion's
+// tests) use it, the pipeline has its own (`pipeline::Eq17`).
+#[cfg(test)]
 pub(crate) mod strain;
+#[cfg(test)]
+pub(crate) use strain::deflection_from_strain;
 
 pub use error::{BeamError, BeamParam};
 pub use galerkin::GalerkinMatrices;
-pub use modal::{BeamModal, BeamStateSpace, ModeModel};
+pub use modal::{BeamModal, ModeModel};
 pub use params::{rectangular_thickness_m, BeamOutput, BeamParams};
-pub use shape::{frequency_root, ModeShape};
-pub use strain::{deflection_from_strain, strain_from_deflection};
+pub use shape::ModeShape;
 
 /// True for a finite, strictly positive number (NaN fails).
 fn is_positive_finite(x: f64) -> bool {

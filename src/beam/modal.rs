@@ -8,7 +8,9 @@ use super::galerkin::GalerkinMatrices;
 use super::is_positive_finite;
 use super::params::BeamParams;
 use super::shape::ModeShape;
-use crate::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
+#[cfg(test)]
+use crate::model::MAX_ORDER;
+use crate::model::{ModalParams, TransferFunction, MAX_MODES};
 
 /// The diagonal modal model of the beam (eq. 21–24) for n modes: every
 /// per-mode number from β_iL to the output weight.
@@ -46,7 +48,8 @@ pub struct BeamModal {
 /// A = [0 I; −Ω² −2ζΩ], B = [0; B_w], C = [C_w 0]. Only the leading
 /// 2n × 2n block (2n entries of B, C) is used; the rest is zero.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BeamStateSpace {
+#[cfg(test)]
+pub(crate) struct BeamStateSpace {
     /// Number of modes n; the state dimension is 2n.
     pub modes: usize,
     /// System matrix A (row-major).
@@ -57,8 +60,10 @@ pub struct BeamStateSpace {
     pub c: [f64; MAX_ORDER],
 }
 
+#[cfg(test)]
 impl BeamStateSpace {
     /// State dimension 2n.
+    #[cfg(test)]
     pub fn order(&self) -> usize {
         2 * self.modes
     }
@@ -128,7 +133,8 @@ impl BeamModal {
     }
 
     /// The state-space model of eq. 22.
-    pub fn state_space(&self) -> BeamStateSpace {
+    #[cfg(test)]
+    pub(crate) fn state_space(&self) -> BeamStateSpace {
         let n = self.modes;
         let mut ss = BeamStateSpace {
             modes: n,

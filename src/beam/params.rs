@@ -163,7 +163,8 @@ impl BeamParams {
     }
 
     /// Mode shape `mode_number` (1-based) of this beam.
-    pub fn mode_shape(&self, mode_number: usize) -> Result<ModeShape, BeamError> {
+    #[cfg(test)]
+    pub(crate) fn mode_shape(&self, mode_number: usize) -> Result<ModeShape, BeamError> {
         self.validate()?;
         ModeShape::new(mode_number, self.length_m)
     }

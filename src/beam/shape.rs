@@ -57,7 +57,7 @@ fn frequency_function_slope(x: f64) -> f64 {
 /// 2e^{−βL} of it), where g(x) = cos x + 1/cosh x changes sign; it is found by Newton's
 /// method safeguarded by bisection on that bracket, to f64 resolution.
 /// Reference values: 1.875 104 068 7, 4.694 091 133 0, 7.854 757 438 2.
-pub fn frequency_root(mode_number: usize) -> Result<f64, BeamError> {
+pub(crate) fn frequency_root(mode_number: usize) -> Result<f64, BeamError> {
     if mode_number == 0 {
         return Err(BeamError::ModeNumber);
     }
@@ -211,7 +211,8 @@ impl ModeShape {
     }
 
     /// [W, W', W'', W''', W''''] at x.
-    pub fn derivatives(&self, x_m: f64) -> [f64; 5] {
+    #[cfg(test)]
+    pub(crate) fn derivatives(&self, x_m: f64) -> [f64; 5] {
         let mut d = [0.0; 5];
         for (k, dk) in d.iter_mut().enumerate() {
             *dk = self.derivative(k, x_m);

@@ -5,12 +5,12 @@
 
 use super::error::{BeamError, BeamParam};
 use super::is_positive_finite;
-
 /// Eq. 17: the deflection w = 2L³ε/(3 L₁ h) that a static tip force produces
 /// together with the surface strain ε at a gauge L₁ before the force point
 /// (L₁ = L − x_s for a tip force). Sign as in
 /// [`BeamOutput::Strain`](super::BeamOutput::Strain).
-pub fn deflection_from_strain(
+#[cfg(test)]
+pub(crate) fn deflection_from_strain(
     strain: f64,
     length_m: f64,
     gauge_lever_arm_m: f64,
@@ -22,7 +22,8 @@ pub fn deflection_from_strain(
 
 /// Inverse of eq. 17: ε = 3 L₁ h w/(2L³), the gauge strain of a static tip
 /// deflection w (eq. 15–16 with ε = σ/E, eq. 14).
-pub fn strain_from_deflection(
+#[cfg(test)]
+pub(crate) fn strain_from_deflection(
     deflection_m: f64,
     length_m: f64,
     gauge_lever_arm_m: f64,
@@ -33,6 +34,7 @@ pub fn strain_from_deflection(
         / (2.0 * length_m * length_m * length_m))
 }
 
+#[cfg(test)]
 fn check_eq17(value: f64, length_m: f64, lever_m: f64, thickness_m: f64) -> Result<(), BeamError> {
     if !value.is_finite() {
         return Err(BeamError::InvalidParameter(BeamParam::Measurement));

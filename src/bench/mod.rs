@@ -77,7 +77,7 @@ pub const EXCITATION_V: f64 = 0.1;
 /// Excitation frequency (Hz): the paper's 7.
 pub const EXCITATION_HZ: f64 = 7.0;
 /// Safe window of the piezo voltage (V).
-pub const WINDOW_V: f64 = 10.0;
+pub(crate) const WINDOW_V: f64 = 10.0;
 /// Filter pole λ (rad/s): the paper's choice for its beam.
 pub const LAMBDA_RAD_S: f64 = 100.0;
 /// Start-up window for Y0 (valid samples: 0.1 s).
@@ -178,7 +178,7 @@ pub fn pipeline_config() -> PipelineConfig {
     }
 }
 
-/// The paper's excitation, 0.1 V·square(7 Hz), inside ±[`WINDOW_V`].
+/// The paper's excitation, 0.1 V·square(7 Hz), inside ±`WINDOW_V`.
 pub fn excitation<T: Real>() -> Result<Excitation<T>, ExcitationError> {
     Excitation::new(
         &protocol::Waveform::Square {
@@ -211,7 +211,7 @@ pub fn filter_config(y0: f64) -> FilterConfig {
 }
 
 /// What the bench's firmware accepts over the serial link at `baud`
-/// (8N1): its sample rate, the piezo window ±[`WINDOW_V`], every
+/// (8N1): its sample rate, the piezo window ±`WINDOW_V`, every
 /// generator's range (multisine ≤ 16 tones, PRBS orders 2–24), the
 /// adaptive law only, two modes, and the whole line rate as the link
 /// budget (`docs/PROTOCOL.md` §7).

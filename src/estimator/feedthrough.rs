@@ -237,7 +237,7 @@ where
 
     /// The fitted coefficients in physical units: `a` = [a_3..a_0] of A
     /// (monic, degree 4) and `n` = [n_4..n_0] of N = D·A + B.
-    pub fn coefficients(&self) -> ([T; 4], [T; 5]) {
+    pub(crate) fn coefficients(&self) -> ([T; 4], [T; 5]) {
         self.regression.coefficients(&self.law.theta_scaled())
     }
 

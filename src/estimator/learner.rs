@@ -16,7 +16,7 @@ use crate::supervise::{Supervision, Supervisor, SupervisorConfig};
 /// The supervisor's change test and Lemma 1 bookkeeping run every this
 /// many learning samples ([`crate::supervise`]; its time constants are in
 /// seconds, so only the cost changes: ~1/10 of the per-sample work).
-pub const SUPERVISE_EVERY: u32 = 10;
+pub(crate) const SUPERVISE_EVERY: u32 = 10;
 const _: () = assert!(SUPERVISE_EVERY <= u8::MAX as u32);
 
 /// Screen, supervisor and counters of one estimator (module docs).

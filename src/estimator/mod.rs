@@ -24,10 +24,10 @@
 //! [`Scaling`]); [`Estimator::theta`] returns the paper's Θ in physical units.
 //!
 //! # Bad input
-//! A non-finite sample, or one more than [`INPUT_LIMIT`] times its signal
+//! A non-finite sample, or one more than `INPUT_LIMIT` times its signal
 //! scale, is never fed to the filters: the last good value is substituted to
 //! keep the filter states continuous, and the law is frozen until the
-//! filters have forgotten the substitute: [`QUARANTINE_TIME_CONSTANTS`]
+//! filters have forgotten the substitute: `QUARANTINE_TIME_CONSTANTS`
 //! filter time constants 1/λ (0.4 s at λ = 100 rad/s). The (s+λ)^D impulse
 //! response's tail (λt)^{D−1}e^{−λt}/(D−1)! is below 1e-10 by then; a
 //! four-sample freeze (the interpolation window alone) measurably left a
@@ -64,14 +64,13 @@ pub use either::Either;
 pub use feedthrough::{Feedthrough, Feedthrough2};
 pub use gradient::{GradientConfig, GradientLaw};
 use learner::Learner;
-pub use learner::SUPERVISE_EVERY;
 pub use least_squares::{LeastSquaresConfig, LeastSquaresLaw};
 
 /// A sample more than this many signal scales away from zero is rejected.
-pub const INPUT_LIMIT: f64 = 1e6;
+pub(crate) const INPUT_LIMIT: f64 = 1e6;
 /// How long (in filter time constants 1/λ) the law stays frozen after a
 /// rejected sample.
-pub const QUARANTINE_TIME_CONSTANTS: f64 = 40.0;
+pub(crate) const QUARANTINE_TIME_CONSTANTS: f64 = 40.0;
 
 /// What one call to [`Estimator::step`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -251,7 +250,7 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn hold(&mut self, samples: u32);
     /// Samples the filters need to forget a discontinuity in their input:
     /// the quarantine after a rejected sample
-    /// ([`QUARANTINE_TIME_CONSTANTS`] filter time constants). The length to
+    /// (`QUARANTINE_TIME_CONSTANTS` filter time constants). The length to
     /// [`Estimator::hold`] for after a start, a resume or an overrun.
     fn settling_samples(&self) -> u32;
     /// The supervisor's state ([`crate::supervise`]: excitation and its
@@ -487,7 +486,7 @@ impl<T: Real, L: UpdateLaw<T, NL>, R: Regression<T, NL, NP>, const NL: usize, co
     }
 
     /// Also restarts the change test's learning
-    /// ([`Supervisor::restart_change`](crate::supervise::Supervisor::restart_change)).
+    /// (`Supervisor::restart_change`).
     fn hold(&mut self, samples: u32) {
         self.learner.hold(samples);
     }

@@ -136,7 +136,8 @@ impl Chirp {
     }
 
     /// Sweep length in samples.
-    pub fn period_samples(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn period_samples(&self) -> u32 {
         self.len
     }
 

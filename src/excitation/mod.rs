@@ -15,7 +15,7 @@
 //! # Lemma 1 (persistent excitation)
 //! Θ of eq. 29 has 4n − 1 entries for n modes. Each sinusoid in u gives two
 //! spectral lines, so u must contain at least 2n distinct frequencies in
-//! the plant's band (DC adds one line). Per kind ([`Generator::spectral_lines`]
+//! the plant's band (DC adds one line). Per kind (`Generator::spectral_lines`
 //! counts them for the current settings):
 //!
 //! | kind | sinusoids in one period | n modes need |
@@ -34,7 +34,7 @@
 //! Each waveform's samples are bounded by its full scale by construction,
 //! so accepted settings can never leave the window; the per-sample clamp
 //! is a second line of defence whose activations are counted
-//! ([`Excitation::clamped_samples`], expected to stay 0).
+//! (`Excitation::clamped_samples`, expected to stay 0).
 //!
 //! # Design
 //! Every waveform is integer: a 32-bit phase accumulator (direct digital
@@ -302,7 +302,8 @@ impl Generator {
 
     /// Distinct sinusoids below fs/2 in one period (the module table),
     /// saturating; compare with 2n for n modes (Lemma 1).
-    pub fn spectral_lines(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn spectral_lines(&self) -> u32 {
         let fs = self.sample_rate_hz;
         let lines = match &self.state {
             State::Off => 0.0,
@@ -330,7 +331,8 @@ impl Generator {
     }
 
     /// Whether the waveform has the 2n sinusoids that n modes need (Lemma 1).
-    pub fn excites(&self, modes: usize) -> bool {
+    #[cfg(test)]
+    pub(crate) fn excites(&self, modes: usize) -> bool {
         (self.spectral_lines() as usize) >= 2 * modes
     }
 
@@ -440,7 +442,8 @@ impl<T: Real> Excitation<T> {
     }
 
     /// New offset (V); rejected if offset ± amplitude leaves the window.
-    pub fn set_offset(&mut self, offset_v: T) -> Result<(), ExcitationError> {
+    #[cfg(test)]
+    pub(crate) fn set_offset(&mut self, offset_v: T) -> Result<(), ExcitationError> {
         self.set_level(self.amplitude_v, offset_v)
     }
 
@@ -455,7 +458,8 @@ impl<T: Real> Excitation<T> {
     }
 
     /// New safe window; rejected if the current level does not fit in it.
-    pub fn set_window(&mut self, window: SafeWindow<T>) -> Result<(), ExcitationError> {
+    #[cfg(test)]
+    pub(crate) fn set_window(&mut self, window: SafeWindow<T>) -> Result<(), ExcitationError> {
         window.validate()?;
         check_level(self.amplitude_v, self.offset_v, &window)?;
         self.window = window;
@@ -480,7 +484,8 @@ impl<T: Real> Excitation<T> {
     /// phase and the relative position in the sweep. Other kinds:
     /// [`ExcitationError::Unsupported`] (a multisine's band is rebuilt with
     /// [`Generator::new`] outside the interrupt, then [`Excitation::set_generator`]).
-    pub fn set_band(&mut self, f0_hz: f64, f1_hz: f64) -> Result<(), ExcitationError> {
+    #[cfg(test)]
+    pub(crate) fn set_band(&mut self, f0_hz: f64, f1_hz: f64) -> Result<(), ExcitationError> {
         let fs = self.wave.sample_rate_hz;
         match &mut self.wave.state {
             State::Chirp(c) => {
@@ -498,7 +503,7 @@ impl<T: Real> Excitation<T> {
     /// Replace the generator (built beforehand, e.g. with
     /// [`Generator::new`], at the same sample rate); the level and window
     /// stay. It starts at its own phase 0.
-    pub fn set_generator(&mut self, wave: Generator) -> Result<(), ExcitationError> {
+    pub(crate) fn set_generator(&mut self, wave: Generator) -> Result<(), ExcitationError> {
         if wave.sample_rate_hz != self.wave.sample_rate_hz {
             return Err(ExcitationError::SampleRate);
         }
@@ -533,7 +538,7 @@ impl<T: Real> Excitation<T> {
     }
 
     /// Samples the final clamp had to limit (saturating; 0 unless a bug).
-    pub fn clamped_samples(&self) -> u32 {
+    pub(crate) fn clamped_samples(&self) -> u32 {
         self.clamped
     }
 

@@ -201,12 +201,14 @@ impl Multisine {
     }
 
     /// Period in samples, 2^k.
-    pub fn period_samples(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn period_samples(&self) -> u32 {
         1 << self.period_log2
     }
 
     /// Tone `i`'s frequency as a multiple of the grid fs/2^k.
-    pub fn harmonic(&self, i: usize) -> Option<u32> {
+    #[cfg(test)]
+    pub(crate) fn harmonic(&self, i: usize) -> Option<u32> {
         self.harmonic.get(i).copied().filter(|_| i < self.tones())
     }
 

@@ -126,7 +126,8 @@ impl Prbs {
     }
 
     /// Period of the sequence in bits, 2^k − 1.
-    pub fn period_bits(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn period_bits(&self) -> u32 {
         (1u32 << self.order) - 1
     }
 

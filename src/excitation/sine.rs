@@ -2,7 +2,7 @@
 //! phase (2³² = one cycle) → sin(2π·phase/2³²) in Q30 (±2³⁰ = ±1).
 //!
 //! # Design
-//! A quarter-wave table of [`QUARTER`] + 1 entries (1 KiB of flash) with
+//! A quarter-wave table of `QUARTER` + 1 entries (1 KiB of flash) with
 //! linear interpolation on the next 16 phase bits: 1,024 segments per
 //! cycle, so the interpolation error is at most (2π/1024)²/8 = 4.7e-6 of
 //! full scale (−107 dB; the unit test's worst case lies between 3e-6 and
@@ -16,7 +16,7 @@
 //! `f64` (error < 1e-16 on [0, π/2]), so no literal table is checked in.
 
 /// Table entries per quarter cycle.
-pub const QUARTER: usize = 256;
+pub(crate) const QUARTER: usize = 256;
 /// Q30 unity: sin = 1 is `ONE_Q30`.
 pub(crate) const ONE_Q30: i32 = 1 << 30;
 /// log2 of [`QUARTER`].
@@ -61,7 +61,7 @@ static TABLE: [i32; QUARTER + 1] = build_table();
 
 /// sin(2π·phase/2³²) in Q30, |result| ≤ 2³⁰. Never panics.
 #[inline]
-pub fn sin_q30(phase: u32) -> i32 {
+pub(crate) fn sin_q30(phase: u32) -> i32 {
     let quadrant = phase >> 30;
     let within = phase & (ONE_Q30 as u32 - 1);
     // Quadrants 1 and 3 run the table backwards: sin(π/2 + x) = sin(π/2 − x).
@@ -84,7 +84,8 @@ pub fn sin_q30(phase: u32) -> i32 {
 
 /// cos(2π·phase/2³²) in Q30.
 #[inline]
-pub fn cos_q30(phase: u32) -> i32 {
+#[cfg(test)]
+pub(crate) fn cos_q30(phase: u32) -> i32 {
     sin_q30(phase.wrapping_add(1 << 30))
 }
 

@@ -39,7 +39,7 @@ use crate::linalg::{expm, Block, EXPM_MAX};
 
 /// Largest total delay [`OutputTiming::delay_samples`] accepted (samples):
 /// the u history the bank keeps covers it.
-pub const MAX_OUTPUT_DELAY_SAMPLES: f64 = 3.0;
+pub(crate) const MAX_OUTPUT_DELAY_SAMPLES: f64 = 3.0;
 /// Gain vectors on u at most (the sinc³ kernel at a fractional shift).
 pub(crate) const U_TAPS: usize = 5;
 /// Length of the u history u_n … u_{n−U_HIST+1} the bank keeps: the
@@ -102,7 +102,7 @@ impl OutputTiming {
         }
     }
 
-    /// Whether the numbers are usable: 0 ≤ d ≤ [`MAX_OUTPUT_DELAY_SAMPLES`],
+    /// Whether the numbers are usable: 0 ≤ d ≤ `MAX_OUTPUT_DELAY_SAMPLES`,
     /// and d ≥ 1 for [`OutputAverage::Sinc3`] (its window's group delay is
     /// 1.5 samples; a chip's decimator may come out a few modulator periods
     /// shorter, e.g. 1.494 for 3·256 − 2 taps over point samples, but not

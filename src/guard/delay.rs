@@ -8,7 +8,7 @@
 use super::SampleFault;
 
 /// Longest delay (samples); the ring holds one more.
-pub const MAX_DELAY: usize = 31;
+pub(crate) const MAX_DELAY: usize = 31;
 const RING: usize = MAX_DELAY + 1;
 
 /// One screened pair: (u, y, fault if any, sample index).

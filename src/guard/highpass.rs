@@ -56,7 +56,7 @@ impl<T: Real> Channel<T> {
 
 /// The filter on both channels (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HighPass<T> {
+pub(crate) struct HighPass<T> {
     alpha: T,
     u: Channel<T>,
     y: Channel<T>,
@@ -100,13 +100,6 @@ impl<T: Real> HighPass<T> {
     /// units of y): the offset the filter is taking away.
     pub(crate) fn y_level(&self) -> T {
         self.y.m1.hi + self.y.m1.lo
-    }
-
-    /// Back to the start (the next sample initializes it again).
-    pub fn reset(&mut self) {
-        self.u = Channel::default();
-        self.y = Channel::default();
-        self.started = false;
     }
 }
 

@@ -12,8 +12,8 @@
 //! | [`SampleFault::Open`] | y *jumps* to a rail from more than half of full scale away and stays there | at once |
 //! | [`SampleFault::Stuck`] | y repeats exactly `stuck_after` more times (2.5 ms at the default 25) | after the run; the run's earlier samples are caught in the delay line |
 //! | [`SampleFault::Upstream`] | the caller says the sample is bad (a converter error) | at once |
-//! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to [`STEP_BEFORE`] + [`STEP_AFTER`] samples) beyond [`STEP_FACTOR`] × d̂'s running RMS | 1.4–2.2 ms (≤ [`STEP_LATENCY`] samples); the step is subtracted from its first sample on (inside the delay line) |
-//! | [`LevelEvent::Drift`] | y's slow level moves by more than [`DRIFT_FRACTION`] of y's RMS | when it has (latency ∝ 1/rate) |
+//! | [`LevelEvent::Offset`] | a step of y: its matched estimate d̂ (a quadratic plus a step fitted to `STEP_BEFORE` + `STEP_AFTER` samples) beyond `STEP_FACTOR` × d̂'s running RMS | 1.4–2.2 ms (≤ `STEP_LATENCY` samples); the step is subtracted from its first sample on (inside the delay line) |
+//! | [`LevelEvent::Drift`] | y's slow level moves by more than `DRIFT_FRACTION` of y's RMS | when it has (latency ∝ 1/rate) |
 //! | [`LevelEvent::Offset`], [`LevelEvent::Drift`] (opt-in: [`SensorGuard::push_monitored`]) | a step, or a ramp's onset, in the model's equation error ε ([`ResidualMonitor`], fed the estimator's Θ̂) | a step as above, down to 0.1·Y0 at 40 dB; a drift's onset after 5 ms noise-free |
 //!
 //! A faulty sample is handed on with y = NaN ([`Guarded::for_estimator`];
@@ -37,10 +37,10 @@
 //!
 //! # Offsets and drift do not bias
 //! * **Offset steps** are removed where they happen: for each sample
-//!   [`STEP_AFTER`] − 1 back, the least-squares size d̂ of a step there is
+//!   `STEP_AFTER` − 1 back, the least-squares size d̂ of a step there is
 //!   fitted with a quadratic to the window around it (module `step`: the
 //!   step averaged over both sides, white noise σ entering as 0.82σ); a
-//!   d̂ beyond [`STEP_FACTOR`] × its running RMS is followed to its peak
+//!   d̂ beyond `STEP_FACTOR` × its running RMS is followed to its peak
 //!   (the step's sample) and subtracted from that sample on — the samples
 //!   since are still in the delay line and are corrected there. With the
 //!   high-pass on, the estimate's error (the residual offset, ~σ) would
@@ -48,7 +48,7 @@
 //!   after a gap ([`SensorGuard::take_hold`]). Noise-free the residual is
 //!   ~1e-4 of the step.
 //! * **Slow offsets and drift** are removed by a second-order high-pass
-//!   applied identically to u and y ([`HighPass`], on by default at
+//!   applied identically to u and y (`HighPass`, on by default at
 //!   [`DEFAULT_HIGHPASS_RAD_S`]): identical filtering commutes with the
 //!   plant, so the estimate is unchanged (see its module docs), and its
 //!   double zero at DC removes a constant and a ramp exactly.
@@ -61,13 +61,13 @@
 //! of the gap, and the filtered pair is not a plant input/output pair
 //! until that memory has passed: the guard then asks the caller to hold
 //! the estimator ([`SensorGuard::take_hold`], for
-//! [`GAP_SETTLE_TIME_CONSTANTS`]/ω_c), which keeps the estimate it had
+//! `GAP_SETTLE_TIME_CONSTANTS`/ω_c), which keeps the estimate it had
 //! before the fault. Without the high-pass no hold is needed (the
 //! estimator's own quarantine covers its filter bank).
 //!
 //! # Order
 //! Classification at entry; a delay line of `stuck_after + 1` samples,
-//! and at least [`STEP_LATENCY`] + 1 with offset-step removal on (the
+//! and at least `STEP_LATENCY` + 1 with offset-step removal on (the
 //! estimate lags by 2.6 ms at the default); then the high-pass, fed
 //! only good samples (a faulty sample leaves its states as they were: they
 //! hold the slow level, which a millisecond's gap does not move).
@@ -85,11 +85,12 @@ pub(crate) mod monitor;
 pub(crate) mod residual;
 mod step;
 
-pub use delay::MAX_DELAY;
-pub use highpass::HighPass;
-pub use monitor::{model_for_monitor, MonitorEvent, ResidualMonitor, MONITOR_STEP_LATENCY};
+pub(crate) use delay::MAX_DELAY;
+pub(crate) use highpass::HighPass;
+pub(crate) use monitor::MonitorEvent;
+pub use monitor::{model_for_monitor, ResidualMonitor};
 pub use residual::{ResidualFilter, RESIDUAL_LAG};
-pub use step::{STEP_AFTER, STEP_BEFORE, STEP_LATENCY, STEP_PEAK_WAIT};
+pub(crate) use step::{STEP_LATENCY, STEP_PEAK_WAIT};
 
 use crate::scalar::Real;
 use delay::DelayLine;
@@ -114,7 +115,7 @@ fn line_delay(stuck_after: u16, offset_steps: bool) -> usize {
 /// Default stuck run: 25 repeats (2.5 ms at 10 kHz; a live sensor's
 /// readings never repeat that often, a noise-free simulated beam's a few
 /// times at most).
-pub const DEFAULT_STUCK_AFTER: u16 = 25;
+pub(crate) const DEFAULT_STUCK_AFTER: u16 = 25;
 /// Default corner of the DC-removing high-pass (rad/s): 4× below the
 /// lowest mode the rig is built for (the paper's beam: 39 rad/s) and the
 /// paper's 7 Hz drive (44 rad/s, whose power it passes at 95%). Identical
@@ -134,7 +135,7 @@ pub const DEFAULT_HIGHPASS_RAD_S: f64 = 10.0;
 /// [`STEP_AFTER`] samples) beyond this many times d̂'s running RMS. With
 /// white noise alone d̂ is Gaussian: 8σ is exceeded with probability
 /// 1.2e-15 per sample.
-pub const STEP_FACTOR: f64 = 8.0;
+pub(crate) const STEP_FACTOR: f64 = 8.0;
 /// Time constant of d̂'s running mean square (s); also its learning time
 /// at the start.
 pub(crate) const STEP_REFERENCE_S: f64 = 0.1;
@@ -145,7 +146,7 @@ pub(crate) const STEP_REFERENCE_S: f64 = 0.1;
 pub(crate) const OPEN_JUMP_FRACTION: f64 = 0.5;
 /// A drift is flagged when y's slow level has moved by this fraction of
 /// y's RMS since the last flag.
-pub const DRIFT_FRACTION: f64 = 0.05;
+pub(crate) const DRIFT_FRACTION: f64 = 0.05;
 /// Time constant of the slow level (two stages) and of y's RMS (s).
 pub(crate) const LEVEL_S: f64 = 0.25;
 /// After a gap (faulty samples that never reached the high-pass) the
@@ -158,7 +159,7 @@ pub(crate) const LEVEL_S: f64 = 0.25;
 /// 10 rad/s). Measured (at 3 rad/s): resuming after 7/ω_c left a 0.2%
 /// error on the paper's plant for a second; after 12/ω_c 2.6e-5
 /// (docs/ROBUSTNESS.md).
-pub const GAP_SETTLE_TIME_CONSTANTS: f64 = 12.0;
+pub(crate) const GAP_SETTLE_TIME_CONSTANTS: f64 = 12.0;
 
 /// Why a sample was not passed on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -194,7 +195,7 @@ pub enum GuardError {
     SamplePeriod,
     /// Range not finite with min < max.
     Range,
-    /// `stuck_after` ≥ [`MAX_DELAY`].
+    /// `stuck_after` ≥ `MAX_DELAY`.
     StuckAfter,
     /// High-pass corner not in (0, π/Ts).
     Highpass,
@@ -222,7 +223,7 @@ pub struct GuardConfig {
     /// The converter's rails in units of y, [min, max] (`None`: unknown,
     /// saturation and open bridges are then seen as stuck readings).
     pub range: Option<[f64; 2]>,
-    /// Repeats that make a stuck reading (0: off; < [`MAX_DELAY`]).
+    /// Repeats that make a stuck reading (0: off; < `MAX_DELAY`).
     pub stuck_after: u16,
     /// Corner of the DC-removing high-pass on u and y (rad/s; `None`:
     /// off).
@@ -233,7 +234,7 @@ pub struct GuardConfig {
 
 impl GuardConfig {
     /// The defaults at sample period `ts_s`: no range, stuck after
-    /// [`DEFAULT_STUCK_AFTER`], high-pass at [`DEFAULT_HIGHPASS_RAD_S`],
+    /// `DEFAULT_STUCK_AFTER`, high-pass at [`DEFAULT_HIGHPASS_RAD_S`],
     /// offset steps removed.
     pub fn new(ts_s: f64) -> Self {
         Self {
@@ -461,7 +462,7 @@ impl<T: Real> SensorGuard<T> {
     /// sample (`valid` false: a converter error, counted as
     /// [`SampleFault::Upstream`] and otherwise ignored).
     #[inline]
-    pub fn push_checked(&mut self, u: T, y: T, valid: bool) -> Option<Guarded<T>> {
+    pub(crate) fn push_checked(&mut self, u: T, y: T, valid: bool) -> Option<Guarded<T>> {
         let index = self.index;
         self.push_at(u, y, valid, index)
     }
@@ -470,15 +471,15 @@ impl<T: Real> SensorGuard<T> {
     /// pipeline whose index skips ticks lost to an overrun); the next
     /// default index follows it.
     #[inline]
-    pub fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
+    pub(crate) fn push_at(&mut self, u: T, y: T, valid: bool, index: u64) -> Option<Guarded<T>> {
         self.push_inner(u, y, valid, index, None)
     }
 
-    /// [`SensorGuard::push_at`] with the tests on the model's residual
+    /// `SensorGuard::push_at` with the tests on the model's residual
     /// ([`ResidualMonitor`], given the estimator's Θ̂ by the caller): an
     /// offset step it finds is removed as the raw test's are, a drift's
     /// onset is flagged ([`LevelEvent::Drift`]). `None`: as
-    /// [`SensorGuard::push_at`]. The monitor costs a second filter bank and
+    /// `SensorGuard::push_at`. The monitor costs a second filter bank and
     /// two matched tests per sample (docs/ROBUSTNESS.md §1): the firmware's
     /// pipeline runs without it.
     #[inline]
@@ -653,7 +654,7 @@ impl<T: Real> SensorGuard<T> {
     /// ([`crate::estimator::Estimator::hold`]), once: nonzero at the first
     /// good sample after a gap, and at the push that finds an offset step
     /// (whose first sample is then still in the delay line), when the
-    /// high-pass is on (see [`GAP_SETTLE_TIME_CONSTANTS`]); 0 otherwise.
+    /// high-pass is on (see `GAP_SETTLE_TIME_CONSTANTS`); 0 otherwise.
     /// Call after each push.
     #[inline]
     pub fn take_hold(&mut self) -> u32 {
@@ -663,7 +664,7 @@ impl<T: Real> SensorGuard<T> {
     /// Samples to hold an estimator that has just detected a plant change
     /// ([`crate::supervise`]: its change count went up), 0 without the
     /// high-pass. The high-pass's memory still holds the old plant's
-    /// response, so for ~[`GAP_SETTLE_TIME_CONSTANTS`]/ω_c after the change
+    /// response, so for ~`GAP_SETTLE_TIME_CONSTANTS`/ω_c after the change
     /// the filtered pair is no input/output pair of either plant (the
     /// argument of the gap hold); data the law learnt from then would stay
     /// in P and Q for its whole memory. Measured on the paper's plant with

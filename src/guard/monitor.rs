@@ -43,7 +43,7 @@ const NS: usize = EPS_STEP_BEFORE + EPS_STEP_AFTER;
 /// Samples from an offset step to its detection on ε, at most: the peak
 /// is followed over the look-ahead as in the raw test, and ε lags y by
 /// [`RESIDUAL_LAG`]. The guard's delay line is lengthened to hold them.
-pub const MONITOR_STEP_LATENCY: usize = 2 * (EPS_STEP_AFTER - 1) + RESIDUAL_LAG;
+pub(crate) const MONITOR_STEP_LATENCY: usize = 2 * (EPS_STEP_AFTER - 1) + RESIDUAL_LAG;
 /// Offset-step threshold on ε, in d̂'s running RMS: measured on the
 /// paper's plant, 5 seeds × 60 s of clean data at 40 and 20 dB never came
 /// above 0.89 of it (d̂ is Gaussian there: 6σ is exceeded with probability
@@ -87,7 +87,7 @@ pub const MODEL_AFTER_S: f64 = 3.0;
 
 /// What the monitor found.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MonitorEvent<T> {
+pub(crate) enum MonitorEvent<T> {
     /// An offset step of y from sample `index` on, of `size` (units of y).
     Step {
         /// First sample of the step.
@@ -328,7 +328,8 @@ impl<T: Real> ResidualMonitor<T> {
     }
 
     /// Whether a model is set.
-    pub fn armed(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn armed(&self) -> bool {
         self.armed
     }
 

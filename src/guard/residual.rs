@@ -67,11 +67,6 @@ impl<T: Real, const D: usize, const NP: usize> ResidualFilter<T, D, NP> {
         self.has_model = false;
     }
 
-    /// Whether a model is set.
-    pub fn has_model(&self) -> bool {
-        self.has_model
-    }
-
     /// Push one finite raw pair (u held over the coming period, y sampled
     /// now); returns ε of the sample [`RESIDUAL_LAG`] pushes back (the
     /// bank's interpolating hold looks ahead), NaN without a model.

@@ -22,18 +22,18 @@
 use crate::scalar::Real;
 
 /// Window samples before the step's sample.
-pub const STEP_BEFORE: usize = 12;
+pub(crate) const STEP_BEFORE: usize = 12;
 /// Window samples from the step's sample on (the look-ahead).
-pub const STEP_AFTER: usize = 12;
+pub(crate) const STEP_AFTER: usize = 12;
 const N: usize = STEP_BEFORE + STEP_AFTER;
 /// Positions the peak of |d̂| must stay the largest before the step is
 /// declared (≤ [`STEP_AFTER`] − 1).
-pub const STEP_PEAK_WAIT: u64 = 3;
+pub(crate) const STEP_PEAK_WAIT: u64 = 3;
 /// Samples from a step to its removal, at most (the delay line must be
 /// longer): a step enters the window [`STEP_AFTER`] − 1 positions before
 /// its own, where d̂ may cross the threshold on a side lobe; the peak is
 /// followed over all positions the step can be at.
-pub const STEP_LATENCY: usize = 2 * (STEP_AFTER - 1);
+pub(crate) const STEP_LATENCY: usize = 2 * (STEP_AFTER - 1);
 
 /// The weights w (see the module docs), in f64.
 fn weights() -> [f64; N] {

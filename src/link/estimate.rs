@@ -37,7 +37,7 @@ pub struct FlagRules {
     /// (scaled coordinates, Lemma 1) reaches this fraction of tr(P) (the
     /// threshold moves with P's size, which grows with time and with 1/l,
     /// and so does the rounding noise on λmin). Default: the core's
-    /// [`crate::supervise::EXCITATION_REL_THRESHOLD`], the supervisor's.
+    /// `crate::supervise::EXCITATION_REL_THRESHOLD`, the supervisor's.
     pub excitation_rel_threshold: f32,
     /// CONVERGED tolerance: relative change of every ω̂ and ζ̂.
     pub converged_rel_tol: f32,

@@ -76,7 +76,7 @@ pub use control::{
     estimator_configs, reject_config, robust_configs, with_theta0, Control, Device, ExcitationPlan,
 };
 pub use estimate::{estimate, Convergence, EstimateContext, FlagRules};
-pub use raw::RawAssembler;
+pub(crate) use raw::RawAssembler;
 pub use tune::{BuildKind, Pending, StartupCollector, Tuner};
 pub use tx::{Sent, Transmitter, TxSink, TxStats};
 
@@ -163,7 +163,7 @@ pub(crate) fn interval_samples(rate_hz: f32, sample_rate_hz: f32) -> Option<u32>
 /// The pipeline's record interval for `rates`: the shorter of the estimate
 /// and status intervals (records are the link's clock); f_s/100 (the
 /// default estimate rate, 100 Hz) when both are off.
-pub fn record_interval(rates: &TelemetryRates, sample_rate_hz: f32) -> u32 {
+pub(crate) fn record_interval(rates: &TelemetryRates, sample_rate_hz: f32) -> u32 {
     let e = interval_samples(rates.estimate_rate_hz, sample_rate_hz);
     let s = interval_samples(rates.status_rate_hz, sample_rate_hz);
     match (e, s) {
@@ -224,7 +224,7 @@ pub struct DeviceLink {
 
 impl DeviceLink {
     /// The link for a pipeline built with `settings` (its record interval
-    /// must be [`record_interval`] of the rates, its raw decimation
+    /// must be `record_interval` of the rates, its raw decimation
     /// theirs), frozen until the first estimator is built. `tuning` is the
     /// board's rule: its sample period, output hold and converter timing
     /// go into every estimator; its λ source (`Data`, or a `Band` the board
@@ -306,11 +306,6 @@ impl DeviceLink {
     /// The record interval the pipeline must run at for the current rates.
     pub fn record_every(&self) -> u32 {
         record_interval(&self.settings.telemetry, self.config.limits.sample_rate_hz)
-    }
-
-    /// Adaptation frozen by a `Freeze` command.
-    pub fn is_frozen_by_command(&self) -> bool {
-        self.frozen_by_command
     }
 
     /// Sample index at which the estimator was started, if it was.
@@ -495,7 +490,7 @@ impl DeviceLink {
     }
 
     /// Feed received bytes: every complete command frame is validated,
-    /// applied and answered (see [`DeviceLink::execute`]). Frames that fail
+    /// applied and answered (see `DeviceLink::execute`). Frames that fail
     /// to decode are counted (Status `rx_frame_errors`) and not answered.
     pub fn receive<D: Device>(
         &mut self,
@@ -618,7 +613,11 @@ impl DeviceLink {
     /// Validate `c` against the limits and apply it; on `Err` nothing has
     /// changed. Expensive preparation (a multisine, a new estimator) runs
     /// here, outside the lock; the lock is held for the setters only.
-    pub fn execute<D: Device>(&mut self, c: &Command, dev: &mut D) -> Result<(), RejectReason> {
+    pub(crate) fn execute<D: Device>(
+        &mut self,
+        c: &Command,
+        dev: &mut D,
+    ) -> Result<(), RejectReason> {
         c.validate(&self.config.limits)?;
         let fs = self.config.limits.sample_rate_hz;
         match c {

@@ -15,7 +15,7 @@ use beam_protocol::{RawSamples, UySample, MAX_RAW_SAMPLES};
 
 /// The frame being filled.
 #[derive(Debug, Clone, Default)]
-pub struct RawAssembler {
+pub(crate) struct RawAssembler {
     frame: Option<RawSamples>,
 }
 

@@ -91,7 +91,7 @@ impl Tuner {
     }
 
     /// The sample interrupt should still collect start-up pairs.
-    pub fn collecting(&self) -> bool {
+    pub(crate) fn collecting(&self) -> bool {
         self.rule.phase() == Phase::Startup
     }
 
@@ -240,11 +240,6 @@ impl Tuner {
     /// The rule (its start-up statistics, settings).
     pub fn rule(&self) -> &AutoTune {
         &self.rule
-    }
-
-    /// Whether a failed rebuild stopped the rule.
-    pub fn is_stopped(&self) -> bool {
-        self.stopped
     }
 
     /// Start-up pairs lost in dropped blocks.

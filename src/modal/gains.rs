@@ -75,7 +75,7 @@ pub enum GainWeighting {
 /// # Errors
 /// [`ModalError::InvalidModeCount`], [`ModalError::LengthMismatch`],
 /// [`ModalError::NonFinite`], [`ModalError::GainsRankDeficient`].
-pub fn gains_from_numerator<T: Real>(
+pub(crate) fn gains_from_numerator<T: Real>(
     modes: &Modes<T>,
     b: &[T],
     output_weight: &[T],

@@ -9,7 +9,7 @@
 //!   points that chain the steps ([`modal_from_tf`], [`modal_from_tf_weighted`],
 //!   [`modal_from_theta`]);
 //! * `gains`: the numerator → b̄ least-squares solver of eq. 31–32
-//!   ([`gains_from_numerator`], [`GainWeighting`]);
+//!   (`gains_from_numerator`, [`GainWeighting`]);
 //! * `validity`: physical bounds of an estimate ([`Validity`]) and what
 //!   to report when it is not physical ([`ModalHold`]).
 //!
@@ -38,7 +38,8 @@
 pub(crate) mod gains;
 pub(crate) mod validity;
 
-pub use gains::{gains_from_numerator, GainWeighting};
+pub(crate) use gains::gains_from_numerator;
+pub use gains::GainWeighting;
 pub use validity::{ModalHold, Reported, Validity};
 
 use crate::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
@@ -249,7 +250,7 @@ pub fn modes_from_denominator<T: Real>(a: &[T]) -> Result<Modes<T>, ModalError> 
 
 /// Modal parameters from a transfer function (eq. 25–32, n modes):
 /// poles → ω, ζ ([`modes_from_denominator`]), then b̄ by the Moore–Penrose
-/// least-squares solution of eq. 31–32 ([`gains_from_numerator`]).
+/// least-squares solution of eq. 31–32 (`gains_from_numerator`).
 /// `output_weight` holds c_i for the modes in ascending-ω order (length n;
 /// the paper's two-mode beam uses [−2, 2]); it is copied into the result.
 ///

@@ -172,7 +172,7 @@ piezo_dac!(f64, |v: f64| v as f32, f64::from);
 /// the configured PGA gains. Build the pipeline's
 /// [`super::ConversionConfig`] with these so codes are converted at the
 /// gain they were taken at.
-pub fn adc_scales(config: &ads131m02::Config) -> [AdcScale; 2] {
+pub(crate) fn adc_scales(config: &ads131m02::Config) -> [AdcScale; 2] {
     config.gains.map(|g| AdcScale {
         vref_v: ADS131M02_VREF_V,
         pga_gain: u8::try_from(g.factor()).unwrap_or(u8::MAX),

@@ -38,7 +38,7 @@ pub enum PipelineError {
     TelemetryRate,
     /// λ not positive and finite.
     Lambda,
-    /// `stuck_after` ≥ [`crate::guard::MAX_DELAY`].
+    /// `stuck_after` ≥ `crate::guard::MAX_DELAY`.
     StuckAfter,
 }
 
@@ -89,7 +89,7 @@ pub struct PipelineConfig {
     /// A raw (u, y) pair every this many samples; 0 = no raw blocks.
     pub raw_decimation: u16,
     /// A bridge code repeated this many more times is stuck, and so is the
-    /// whole run of identical codes: 0 = no check, at most [`crate::guard::MAX_DELAY`] − 1.
+    /// whole run of identical codes: 0 = no check, at most `crate::guard::MAX_DELAY` − 1.
     /// The estimator then lags by `stuck_after + 1` samples (a delay line,
     /// so the run's first samples are rejected too). A live 24-bit bridge
     /// never repeats for long; a noise-free simulation at rest does.

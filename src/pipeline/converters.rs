@@ -13,7 +13,7 @@ use crate::scalar::Real;
 /// 800000h — the output clips at these codes).
 pub const ADC_CODE_MAX: i32 = 0x7F_FFFF;
 /// Negative full-scale code of a 24-bit word (−2²³).
-pub const ADC_CODE_MIN: i32 = -0x80_0000;
+pub(crate) const ADC_CODE_MIN: i32 = -0x80_0000;
 
 /// One conversion of both channels, as the converter delivered it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

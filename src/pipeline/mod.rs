@@ -111,15 +111,16 @@ pub(crate) mod converters;
 pub(crate) mod prefilter;
 pub(crate) mod telemetry;
 
-pub use adapters::{adc_scales, bring_up, lost_configuration, BringUp, BringUpError};
+pub(crate) use adapters::adc_scales;
+pub use adapters::{bring_up, lost_configuration, BringUp, BringUpError};
 pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
 pub use convert::{
     AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,
     Linearisation, OutputQuantity, ADS131M02_VREF_V,
 };
+pub(crate) use converters::ADC_CODE_MIN;
 pub use converters::{
     AdcFlags, AdcReading, DacOutcome, Fault, FaultKind, PiezoDac, StrainAdc, ADC_CODE_MAX,
-    ADC_CODE_MIN,
 };
 pub use prefilter::{Prefilter, PrefilterConfig, PrefilterError, PrefilterState};
 pub use telemetry::{
@@ -704,11 +705,6 @@ where
     ) -> Result<(), GuardError> {
         self.guard
             .set_level_correction(highpass_rad_s, offset_steps, self.ts_s)
-    }
-
-    /// Offset removed from y by the step detector (units of y).
-    pub fn removed_offset(&self) -> T {
-        self.guard.offset()
     }
 
     /// Index the next tick will carry.

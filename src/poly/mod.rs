@@ -39,7 +39,7 @@ use crate::model::MAX_ORDER;
 use crate::scalar::{pow2_nearest, Real};
 
 /// Largest number of Aberth–Ehrlich sweeps before giving up.
-pub const MAX_ITERATIONS: usize = 100;
+pub(crate) const MAX_ITERATIONS: usize = 100;
 /// Largest number of Newton polishing steps per root.
 pub(crate) const POLISH_STEPS: usize = 3;
 
@@ -52,7 +52,7 @@ pub enum PolyError {
     /// A coefficient is NaN or infinite.
     NonFinite,
     /// The iteration did not reach a backward-stable set of roots within
-    /// [`MAX_ITERATIONS`], or a root overflowed when unscaled.
+    /// `MAX_ITERATIONS`, or a root overflowed when unscaled.
     NoConvergence,
 }
 

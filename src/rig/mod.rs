@@ -41,7 +41,7 @@ pub(crate) mod scenario;
 pub(crate) mod sim;
 pub(crate) mod timing;
 
-pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError, Xoshiro256PlusPlus};
+pub use noise::{noise_sd_for_snr, GaussianNoise, NoiseError};
 pub use plant::{ModalPlant, PlantError};
 pub use scenario::{
     beam_modes, ExcitationOff, FaultKind, PlantStep, Scenario, ScenarioError, ScenarioRig,

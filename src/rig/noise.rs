@@ -49,7 +49,7 @@ impl core::error::Error for NoiseError {}
 /// The xoshiro256++ generator of uniform 64-bit words (see the module
 /// documentation).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Xoshiro256PlusPlus {
+pub(crate) struct Xoshiro256PlusPlus {
     s: [u64; 4],
 }
 
@@ -67,7 +67,8 @@ impl Xoshiro256PlusPlus {
     /// point of the recurrence (it would only ever output 0), so it is
     /// replaced by the state [`seed_from_u64`](Self::seed_from_u64)`(0)`
     /// gives.
-    pub fn from_state(s: [u64; 4]) -> Self {
+    #[cfg(test)]
+    pub(crate) fn from_state(s: [u64; 4]) -> Self {
         if s == [0; 4] {
             Self::seed_from_u64(0)
         } else {

@@ -55,7 +55,7 @@ use crate::scalar::Real;
 /// Drift of the CUSUM (in units of the residual's mean square).
 pub const DRIFT: f64 = 1.5;
 /// Default alarm threshold h.
-pub const DEFAULT_CHANGE_THRESHOLD: f64 = 200.0;
+pub(crate) const DEFAULT_CHANGE_THRESHOLD: f64 = 200.0;
 /// σ̂ is at least this (scaled units: a fraction of Y0).
 pub const RESIDUAL_FLOOR: f64 = 1e-3;
 /// The reference is updated with e² clipped at this multiple of σ̂².
@@ -75,7 +75,7 @@ pub const ARM_S: f64 = 0.5;
 /// the memory of 1/l = 20 s then weighs as 1.8e-11 s of new data, and
 /// scaled P entries of order 1–1e4 stay far above `f32`'s smallest normal
 /// number, 1.2e-38).
-pub const DISCOUNT: f64 = 1.0 / 1_099_511_627_776.0;
+pub(crate) const DISCOUNT: f64 = 1.0 / 1_099_511_627_776.0;
 
 /// Tracking settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -108,7 +108,7 @@ impl TrackingConfig {
 
 /// The CUSUM state (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ChangeDetector<T> {
+pub(crate) struct ChangeDetector<T> {
     enabled: bool,
     threshold: T,
     drift: T,
@@ -214,7 +214,8 @@ impl<T: Real> ChangeDetector<T> {
     }
 
     /// Whether the test is armed (learning finished).
-    pub fn armed(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn armed(&self) -> bool {
         self.enabled && self.warmup == 0
     }
 
@@ -230,7 +231,8 @@ impl<T: Real> ChangeDetector<T> {
     }
 
     /// RMS of the residual the test compares against (σ̂, scaled units).
-    pub fn reference_rms(&self) -> T {
+    #[cfg(test)]
+    pub(crate) fn reference_rms(&self) -> T {
         self.mean_square.max(self.floor2).sqrt()
     }
 }

@@ -25,18 +25,18 @@
 use crate::scalar::Real;
 
 /// Window of the input's short-term mean square (s).
-pub const INPUT_WINDOW_S: f64 = 0.01;
+pub(crate) const INPUT_WINDOW_S: f64 = 0.01;
 /// Time constant of the input's reference level while present (s).
-pub const INPUT_REFERENCE_S: f64 = 2.0;
+pub(crate) const INPUT_REFERENCE_S: f64 = 2.0;
 /// The input is gone when its short-term mean square falls below this
 /// fraction of the reference (−20 dB).
-pub const INPUT_GONE_RATIO: f64 = 1e-2;
+pub(crate) const INPUT_GONE_RATIO: f64 = 1e-2;
 /// ... and back when it rises above this fraction (−15 dB).
-pub const INPUT_BACK_RATIO: f64 = 3e-2;
+pub(crate) const INPUT_BACK_RATIO: f64 = 3e-2;
 
 /// The per-sample "input gone" detector (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InputMonitor<T> {
+pub(crate) struct InputMonitor<T> {
     alpha_short: T,
     alpha_ref: T,
     gone_ratio: T,

@@ -29,17 +29,18 @@ use crate::linalg::{ldlt_substitute_packed, symmetric_eigenvalues};
 use crate::scalar::Real;
 
 /// Lemma 1's threshold: excited iff λmin(P) ≥ this × tr(P) (scaled P).
-pub const EXCITATION_REL_THRESHOLD: f64 = 1e-7;
+pub(crate) const EXCITATION_REL_THRESHOLD: f64 = 1e-7;
 
 /// The in-loop Lemma 1 estimate takes one inverse-iteration step every
 /// this many θ steps, i.e. every 100 samples at K = 10 (the supervisor's
 /// cost, this included: BENCHMARKS.md, "Cost of the supervisor").
-pub const LEMMA1_EVERY: u32 = 10;
+pub(crate) const LEMMA1_EVERY: u32 = 10;
 
 /// Lemma 1 as this project decides it: λmin(P) ≥
 /// [`EXCITATION_REL_THRESHOLD`]·tr(P), P the scaled information matrix.
 /// False for a non-finite or non-positive trace (fails safe).
-pub fn lemma1_excited<T: Real>(lambda_min: T, trace: T) -> bool {
+#[cfg(test)]
+pub(crate) fn lemma1_excited<T: Real>(lambda_min: T, trace: T) -> bool {
     trace > T::ZERO
         && trace.is_finite()
         && lambda_min >= T::from_f64(EXCITATION_REL_THRESHOLD) * trace

@@ -2,11 +2,11 @@
 //! rig, where the excitation stops, the beam changes and sensors fail.
 //!
 //! * **excitation** — is the estimator excited? Lemma 1 (`lemma1.rs`, its
-//!   one home): λmin(P)/tr(P) against [`EXCITATION_REL_THRESHOLD`]
-//!   ([`lemma1_excited`]), computed in the loop as a by-product of the
+//!   one home): λmin(P)/tr(P) against `EXCITATION_REL_THRESHOLD`
+//!   (`lemma1_excited`), computed in the loop as a by-product of the
 //!   law's θ step (`InLoopLemma1`) and at the telemetry rate
 //!   ([`excitation_min_eig`]); and `input.rs`: a per-sample "input gone"
-//!   detector ([`InputMonitor`]); the **anti-windup**: adaptation is frozen while the
+//!   detector (`InputMonitor`); the **anti-windup**: adaptation is frozen while the
 //!   input is gone (P, Q, R, θ̂ neither accumulate nor decay, the filters
 //!   keep running on the real samples so nothing needs to settle when it
 //!   returns), and forgetting is suspended while Lemma 1 fails after having
@@ -21,13 +21,13 @@
 //! and, outside the estimator, [`crate::guard`] screens the sensor's
 //! samples and `crate::modal::validity` flags unphysical estimates.
 //!
-//! [`Supervisor`] joins the first two for an estimator
+//! `Supervisor` joins the first two for an estimator
 //! ([`crate::estimator::Identifier`], [`crate::estimator::robust::RobustEstimator`]):
 //! per sample it costs a few flops (the input's mean square); the
-//! residual's CUSUM runs every [`crate::estimator::SUPERVISE_EVERY`]-th
+//! residual's CUSUM runs every `crate::estimator::SUPERVISE_EVERY`-th
 //! sample in [`crate::estimator::Identifier`]
-//! ([`Supervisor::with_residual_every`]), and the in-loop λmin is one
-//! inverse-iteration step every [`LEMMA1_EVERY`] θ steps. Its state is
+//! (`Supervisor::with_residual_every`), and the in-loop λmin is one
+//! inverse-iteration step every `LEMMA1_EVERY` θ steps. Its state is
 //! read at the telemetry rate through
 //! [`crate::estimator::Estimator::supervision`] ([`Supervision`]).
 //! docs/ROBUSTNESS.md has the measurements behind every threshold.
@@ -36,14 +36,12 @@ pub(crate) mod change;
 mod input;
 mod lemma1;
 
-pub use change::{ChangeDetector, TrackingConfig, DEFAULT_CHANGE_THRESHOLD, DISCOUNT};
-pub use input::{
-    InputMonitor, INPUT_BACK_RATIO, INPUT_GONE_RATIO, INPUT_REFERENCE_S, INPUT_WINDOW_S,
-};
+pub use change::TrackingConfig;
+pub(crate) use change::{ChangeDetector, DISCOUNT};
+pub(crate) use input::InputMonitor;
 pub(crate) use lemma1::InLoopLemma1;
-pub use lemma1::{
-    excitation_min_eig, excitation_ratio, lemma1_excited, EXCITATION_REL_THRESHOLD, LEMMA1_EVERY,
-};
+pub(crate) use lemma1::EXCITATION_REL_THRESHOLD;
+pub use lemma1::{excitation_min_eig, excitation_ratio};
 
 use crate::scalar::Real;
 
@@ -94,7 +92,7 @@ impl core::fmt::Display for ExcitationReason {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SupervisorConfig {
-    /// Freeze adaptation while the input is gone ([`InputMonitor`]).
+    /// Freeze adaptation while the input is gone (`InputMonitor`).
     pub freeze_without_input: bool,
     /// Suspend forgetting while Lemma 1 fails (after it has passed once).
     pub hold_forgetting_unexcited: bool,
@@ -157,7 +155,7 @@ impl<T: Real> Supervision<T> {
 
 /// The per-estimator supervisor state (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Supervisor<T> {
+pub(crate) struct Supervisor<T> {
     cfg: SupervisorConfig,
     input: InputMonitor<T>,
     change: ChangeDetector<T>,
@@ -193,7 +191,7 @@ impl<T: Real> Supervisor<T> {
     /// The law measures Lemma 1 in the loop ([`Supervisor::lemma1`]):
     /// until its first measurement the status is
     /// [`ExcitationReason::Starting`].
-    pub fn with_lemma1(mut self) -> Self {
+    pub(crate) fn with_lemma1(mut self) -> Self {
         self.lemma1_measured = true;
         self
     }
@@ -202,7 +200,7 @@ impl<T: Real> Supervisor<T> {
     /// (its time constants are kept in seconds): for an estimator that
     /// calls [`Supervisor::residual`] at that cadence to save per-sample
     /// work. `every` = 0 is taken as 1.
-    pub fn with_residual_every(mut self, every: u32, ts_s: f64) -> Self {
+    pub(crate) fn with_residual_every(mut self, every: u32, ts_s: f64) -> Self {
         self.change = ChangeDetector::new(&self.cfg.tracking, ts_s * f64::from(every.max(1)));
         self
     }
@@ -280,7 +278,7 @@ impl<T: Real> Supervisor<T> {
     /// again (after a hold: the samples around it were disturbed — a sensor
     /// gap, a resume — and the residual may take a while to return to its
     /// level; that is not a change of the plant).
-    pub fn restart_change(&mut self) {
+    pub(crate) fn restart_change(&mut self) {
         self.change.restart();
     }
 

@@ -13,7 +13,7 @@
 //!    a beam model), or [`TuningConfig::data_lambda_factor`]·ω_c (`Data`).
 //!    The estimator is built with them and, because the beam is already
 //!    moving while its filters start from rest, its law is held for the
-//!    filters' settling time ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]).
+//!    filters' settling time (`crate::estimator::QUARANTINE_TIME_CONSTANTS`).
 //! 3. **Re-centring.** Every [`TuningConfig::review_period_s`] the current
 //!    estimate is reviewed ([`AutoTune::review`]). Once it is valid (every
 //!    mode an underdamped, stable pole pair) and stable (ω̂ of every mode
@@ -89,7 +89,7 @@ pub(crate) const DEFAULT_STARTUP_S: f64 = 0.2;
 /// Default review period (s).
 pub(crate) const DEFAULT_REVIEW_PERIOD_S: f64 = 0.01;
 /// Most reviews a stability window can span.
-pub const MAX_STABLE_REVIEWS: usize = 32;
+pub(crate) const MAX_STABLE_REVIEWS: usize = 32;
 /// Largest λ·Ts the rule picks: the filters' time constant stays above
 /// ~3 samples.
 pub const MAX_LAMBDA_TS: f64 = 0.3;
@@ -135,7 +135,7 @@ pub struct TuningConfig {
     pub data_lambda_factor: f64,
     /// Review period (s).
     pub review_period_s: f64,
-    /// Reviews over which ω̂ must be stable (≤ [`MAX_STABLE_REVIEWS`]).
+    /// Reviews over which ω̂ must be stable (≤ `MAX_STABLE_REVIEWS`).
     pub stable_reviews: u8,
     /// Largest relative spread of each ω̂ over those reviews.
     pub stable_tolerance: f64,
@@ -220,7 +220,7 @@ pub enum TuningError {
     /// The start-up window and the data factor must be positive and finite.
     Window,
     /// Review period, tolerances and timeout must be positive and finite,
-    /// and the stability window 1..=[`MAX_STABLE_REVIEWS`] reviews.
+    /// and the stability window 1..=`MAX_STABLE_REVIEWS` reviews.
     Review,
 }
 

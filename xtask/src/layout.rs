@@ -37,7 +37,7 @@
 //!    `pub` functions, constants and types of inherent `impl` blocks. One is
 //!    *used* if its identifier occurs as a token in any file of another
 //!    crate (beamctl, host-tests, xtask, the binaries `src/bin/*`, every
-//!    test, example and bench), under a name a `pub use … as` gives it, or
+//!    test, example and bench) or in `board`, under a name a `pub use … as` gives it, or
 //!    in the public face of a used item (its signature, `pub` fields,
 //!    variant fields, type; to a fixed point): a textual heuristic on
 //!    identifiers, so a name shared with something else (`new`, `len`)
@@ -50,8 +50,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use proc_macro2::{TokenStream, TokenTree};
-use syn::visit::{self, Visit};
 use quote::ToTokens;
+use syn::visit::{self, Visit};
 use syn::{Attribute, ImplItem, Item, UseTree, Visibility};
 
 use crate::workspace_root;
@@ -920,8 +920,8 @@ pub struct PubItem {
     kind: &'static str,
     name: String,
     /// The identifiers its public face shows: a function's signature, the
-    /// types of a struct's `pub` fields, an enum's variant fields, a
-    /// constant's or alias's type, a trait's items. Whoever uses the item
+    /// types of a struct's generics and `pub` fields, an enum's generics and variant fields, a
+    /// constant's or alias's type, a trait's items; a method's with its impl's bounds. Whoever uses the item
     /// uses these too.
     shows: BTreeSet<String>,
 }
@@ -958,16 +958,15 @@ fn pub_items(file: &Path, items: &[Item], out: &mut Vec<PubItem>) {
         match i {
             Item::Fn(x) if is_pub(&x.vis) => push("fn", &x.sig.ident, x.sig.to_token_stream()),
             Item::Struct(x) if is_pub(&x.vis) => {
-                push("struct", &x.ident, pub_fields(&x.fields, false))
+                let mut face = x.generics.to_token_stream();
+                face.extend(pub_fields(&x.fields, false));
+                push("struct", &x.ident, face)
             }
-            Item::Enum(x) if is_pub(&x.vis) => push(
-                "enum",
-                &x.ident,
-                x.variants
-                    .iter()
-                    .flat_map(|v| pub_fields(&v.fields, true))
-                    .collect(),
-            ),
+            Item::Enum(x) if is_pub(&x.vis) => {
+                let mut face = x.generics.to_token_stream();
+                face.extend(x.variants.iter().flat_map(|v| pub_fields(&v.fields, true)));
+                push("enum", &x.ident, face)
+            }
             Item::Union(x) if is_pub(&x.vis) => push(
                 "union",
                 &x.ident,
@@ -991,7 +990,11 @@ fn pub_items(file: &Path, items: &[Item], out: &mut Vec<PubItem>) {
                 for ii in &imp.items {
                     match ii {
                         ImplItem::Fn(f) if is_pub(&f.vis) && !is_cfg_test(&f.attrs) => {
-                            push("method", &f.sig.ident, f.sig.to_token_stream())
+                            // The impl's bounds are part of every method's face.
+                            let mut face = imp.generics.to_token_stream();
+                            face.extend(imp.generics.where_clause.to_token_stream());
+                            face.extend(f.sig.to_token_stream());
+                            push("method", &f.sig.ident, face)
                         }
                         ImplItem::Const(c) if is_pub(&c.vis) && !is_cfg_test(&c.attrs) => {
                             push("assoc const", &c.ident, c.ty.to_token_stream())
@@ -1079,6 +1082,12 @@ fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), Strin
     let mut files = BTreeSet::new();
     for (_, c) in crates.iter().filter(|(_, c)| !std::ptr::eq(c, core)) {
         for m in &c.modules {
+            files.insert(m.file.clone());
+        }
+    }
+    // The board support is outside the core too: what it names is used.
+    for (i, m) in core.modules.iter().enumerate() {
+        if board.is_some_and(|b| core.within(i, b)) {
             files.insert(m.file.clone());
         }
     }

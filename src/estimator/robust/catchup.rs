@@ -102,7 +102,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
 /// Cortex-M4F"); the sample interrupt is then delayed, not lost. The QEMU
 /// image uses 16 (`src/bin/qemu-rig/robust.rs`; its longest lock:
 /// BENCHMARKS.md, "On the QEMU image, selected over the link").
-pub const APPLY_REPLAY_MAX: usize = 32;
+#[cfg(test)]
+pub(crate) const APPLY_REPLAY_MAX: usize = 32;
 
 impl<T, const D: usize, const NP: usize, const NS: usize> Pending<T, D, NP, NS> {
     /// Samples of the record this update has replayed so far.

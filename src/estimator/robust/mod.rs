@@ -12,11 +12,11 @@
 //!    milliseconds, while u and y are recorded (the first `B` samples,
 //!    2 s by default). The first 3.2 ms decide whether the beam was at rest
 //!    ([`InitialState`]); if it was moving, the start-up law is restarted
-//!    and held for the input quarantine ([`crate::estimator::QUARANTINE_TIME_CONSTANTS`]), because its filters started
+//!    and held for the input quarantine (`crate::estimator::QUARANTINE_TIME_CONSTANTS`), because its filters started
 //!    at rest and the beam did not.
 //! 2. **Refining** ([`Phase::Refining`]): once that estimate has settled
 //!    (two candidates `update_every` apart, with at least
-//!    [`START_MIN_ADAPT_S`] of adaptation of the start-up law between
+//!    `START_MIN_ADAPT_S` of adaptation of the start-up law between
 //!    them, agree within `start_tolerance`, or ¾ of the record is used), and then every `update_every` samples
 //!    while the record lasts, the model B̂/Â is re-simulated over the record
 //!    — from rest, or from the initial state fitted to the record — with the
@@ -141,7 +141,7 @@
 //!   (the start quarantine after a moving start, a pipeline's hold at the
 //!   swap, the input gone) were identical, passed the agreement test, and
 //!   the unadapted guess (Λ's poles) became the first linearization point.
-//!   A candidate now counts only after [`START_MIN_ADAPT_S`] of adaptation
+//!   A candidate now counts only after `START_MIN_ADAPT_S` of adaptation
 //!   since the previous one (test
 //!   `started_on_a_moving_beam_with_external_updates_converges`; the QEMU
 //!   sequence on the host: `host-tests/tests/robust_firmware_path.rs`).
@@ -172,11 +172,12 @@ use crate::model::{binomial, TransferFunction, MAX_ORDER};
 use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
 use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
-pub use catchup::{UpdateSeed, APPLY_REPLAY_MAX};
+pub use catchup::UpdateSeed;
 use law::OeLaw;
 use oe::{Filters, InitialFit, OeModel};
 use start::start_test;
-pub use start::{InitialState, START_TEST_CHI2, START_TEST_NOISE_FLOOR, START_TEST_SAMPLES};
+pub use start::InitialState;
+pub(crate) use start::{START_TEST_CHI2, START_TEST_SAMPLES};
 
 /// Gains, rates and schedule of the robust estimator (scaled coordinates,
 /// like [`AdaptiveConfig`]).
@@ -197,7 +198,7 @@ pub struct RobustConfig<const NP: usize> {
     /// [`Pending`].
     pub update_every: u32,
     /// Start-up ends when two consecutive candidate denominators, with at
-    /// least [`START_MIN_ADAPT_S`] of adaptation between them, differ by
+    /// least `START_MIN_ADAPT_S` of adaptation between them, differ by
     /// less than this (Σ|Δc_k|/Σ|c_k|, normalized coefficients), or when ¾ of
     /// the record is used (and the start-up law has adapted that long).
     pub start_tolerance: f64,
@@ -310,7 +311,7 @@ const REFINE_STEPS: u32 = 200;
 /// guess (Λ's poles) became the first linearization point and the
 /// Gauss–Newton replays diverged from it (the QEMU bench, where updates
 /// are requested from outside, BENCHMARKS.md).
-pub const START_MIN_ADAPT_S: f64 = 0.05;
+pub(crate) const START_MIN_ADAPT_S: f64 = 0.05;
 
 /// The normalized denominator of `theta` (indexed by power) if it is a
 /// stable model.
@@ -468,7 +469,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
 
     /// The start test of [`InitialState::Auto`] (χ²(2), `T::MAX` for
     /// [`InitialState::Estimate`]) and whether the replays start from a
-    /// fitted initial state; `None` before [`START_TEST_SAMPLES`] samples
+    /// fitted initial state; `None` before `START_TEST_SAMPLES` samples
     /// or with [`InitialState::Rest`]. Telemetry: the beam was moving when
     /// the estimator started.
     pub fn initial_state_significance(&self) -> Option<(T, bool)> {
@@ -479,7 +480,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     /// and the model simulation run but P, Q, R and θ̂ do not change (no
     /// decay either), so nothing winds up or drifts (a hook for an
     /// excitation monitor).
-    pub fn set_frozen(&mut self, frozen: bool) {
+    #[cfg(test)]
+    pub(crate) fn set_frozen(&mut self, frozen: bool) {
         self.frozen = frozen;
     }
 
@@ -805,7 +807,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     }
 
     /// Also restarts the change test's learning
-    /// ([`Supervisor::restart_change`]).
+    /// (`Supervisor::restart_change`).
     fn hold(&mut self, samples: u32) {
         self.learner.hold(samples);
     }

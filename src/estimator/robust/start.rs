@@ -14,25 +14,25 @@ pub enum InitialState {
     /// efficiency on a beam that was at rest (the fitted state absorbs part
     /// of the start-up ring-down).
     Estimate,
-    /// Decide from the first [`START_TEST_SAMPLES`] samples of y: a beam at
+    /// Decide from the first `START_TEST_SAMPLES` samples of y: a beam at
     /// rest has y(0) = y'(0) = 0 (its forced response grows like t²), a
     /// moving one does not. A cubic is fitted and its value and slope at the
     /// first sample are tested against the fit's residual (floored at
-    /// [`START_TEST_NOISE_FLOOR`]): χ²(2) above [`START_TEST_CHI2`] means
+    /// `START_TEST_NOISE_FLOOR`): χ²(2) above `START_TEST_CHI2` means
     /// moving ([`InitialState::Estimate`]), otherwise at rest.
     Auto,
 }
 
 /// Samples of the start test of [`InitialState::Auto`] (3.2 ms at 10 kHz).
-pub const START_TEST_SAMPLES: usize = 32;
+pub(crate) const START_TEST_SAMPLES: usize = 32;
 /// χ²(2) threshold of that test (p ≈ 4e-6 for a beam at rest).
-pub const START_TEST_CHI2: f64 = 25.0;
+pub(crate) const START_TEST_CHI2: f64 = 25.0;
 /// Floor of the test's noise estimate, relative to the output scale Y0
 /// (−60 dB). The forced response from rest is not exactly a cubic (the
 /// paper's plant leaves ~1e-4·Y0 over the window); without the floor a
 /// clean record would read that misfit as noise and a quiet start as
 /// moving. A motion below this level is not worth an initial state.
-pub const START_TEST_NOISE_FLOOR: f64 = 1e-3;
+pub(crate) const START_TEST_NOISE_FLOOR: f64 = 1e-3;
 
 /// The start test of [`InitialState::Auto`] on the first samples of y:
 /// χ²(2) of the value and slope at the first sample in a cubic fit

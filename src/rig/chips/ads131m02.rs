@@ -155,7 +155,8 @@ impl Ads131m02Model {
     }
 
     /// Set the ID register's revision byte (low byte of 22xxh).
-    pub fn set_revision(&mut self, revision: u8) {
+    #[cfg(test)]
+    pub(crate) fn set_revision(&mut self, revision: u8) {
         self.id = (self.id & 0xFF00) | u16::from(revision);
     }
 
