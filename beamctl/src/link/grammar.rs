@@ -498,15 +498,17 @@ pub fn command_text(c: &Command) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::link::fake::FakeDevice;
 
-    fn status() -> Status {
+    /// The fake device's Status (what `build` fills unspecified fields from).
+    pub(crate) fn status() -> Status {
         FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
     }
 
-    fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {
+    /// A typed line as the command it becomes.
+    pub(crate) fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {
         parse_line(line)?.build(current)
     }
 

@@ -321,17 +321,7 @@ fn command_name(c: &CommandArgs) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::fake::FakeDevice;
-    use crate::link::grammar::parse_line;
-    use beam_protocol::Status;
-
-    fn status() -> Status {
-        FakeDevice::new(crate::link::fake::FakeConfig::default()).status()
-    }
-
-    fn build(line: &str, current: Option<&Status>) -> Result<Command, String> {
-        parse_line(line)?.build(current)
-    }
+    use crate::link::grammar::tests::{build, status};
 
     #[test]
     fn local_check_uses_the_status() {
