@@ -325,7 +325,8 @@ while the input is gone. physically valid: ω > 0, 0 < ζ < 1, distinct modes.\n
 /// Footnote of the fit and drift rows.
 pub const FOOTNOTE: &str = "\nmodel output fit: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), ŷ = the final \
 model driven by the recorded u (initial state fitted).\nmoved over last 10%: largest \
-(max − min)/|final| of ω̂, ζ̂ over the last 10% of the record.\nλ: the filter pole of each \
+|median(later half) − median(earlier half)|/|median(later half)| of ω̂, ζ̂ over the \
+evaluations of the last 10% of the record (one outlying evaluation does not count).\nλ: the filter pole of each \
 build of the tuning rule (start-up window, then re-centred on the estimate; docs/SETTINGS.md); \
 last built at = when the last estimator was built, and how the rule ended.\nλmin(P): smallest eigenvalue of the scaled information \
 matrix P (Lemma 1; the robust estimator's is that of its active law); the baselines keep no P.\n";
