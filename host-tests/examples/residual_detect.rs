@@ -41,12 +41,13 @@ fn record<T: Real>(sc: Scenario, snr: Option<f64>, seed: u64, samples: u64) -> R
     let mut res = ResidualFilter::<T, 4, 7>::new(&f).expect("valid");
     let mut eps = vec![f64::NAN; samples as usize];
     let mut theta = [0.0; 7];
-    run_with(
+    run_guarded_with(
         &mut est,
         &mut rig,
         samples,
         1000,
-        &mut |e: &mut Adaptive2<T>, k, s| {
+        &mut feed,
+        &mut |e: &mut Adaptive2<T>, k, s, _| {
             if k >= ARM_AT && k % MODEL_EVERY == 0 {
                 let sup = e.supervision().expect("supervised");
                 let recent = sup
@@ -66,12 +67,6 @@ fn record<T: Real>(sc: Scenario, snr: Option<f64>, seed: u64, samples: u64) -> R
                     eps[i] = v;
                 }
             }
-            let out = feed.feed(k, s);
-            let hold = feed.guard.take_hold();
-            if hold > 0 {
-                e.hold(hold);
-            }
-            out
         },
     );
     Recorded { eps, theta }
@@ -564,20 +559,20 @@ fn guarded_with<T: Real, E: Estimator<T, 7> + ?Sized>(
         feed = feed.with_monitor(&f);
     }
     let mut flags = Vec::new();
-    let tr = run_with(est, &mut rig, samples, 100, &mut |e: &mut E, k, s| {
-        feed.follow(&*e, k);
-        let out = feed.feed(k, s);
-        if let Some(l) = feed.guard.last_screening().level {
-            flags.push((k, l));
-        }
-        let hold = feed.guard.take_hold();
-        if hold > 0 {
-            e.hold(hold);
-        }
-        out
-    });
-    let c = feed.guard.counts();
-    (tr, flags, c, feed.guard.offset() / y0)
+    let tr = run_guarded_with(
+        est,
+        &mut rig,
+        samples,
+        100,
+        &mut feed,
+        &mut |_, k, _, screened| {
+            if let Some(l) = screened.screening.level {
+                flags.push((k, l));
+            }
+        },
+    );
+    let c = feed.guard().counts();
+    (tr, flags, c, feed.guard().offset() / y0)
 }
 
 fn flags_after(flags: &[(u64, LevelEvent)], from: u64) -> String {

@@ -116,7 +116,7 @@ fn fault_row<T: Real>(name: &str, kind: FaultKind, y0: f64, level: Option<(Optio
     let mut est = Adaptive2::<T>::new(&f, &AdaptiveConfig::default()).expect("valid");
     let mut feed = fault_guard(y0);
     if let Some((hp, steps)) = level {
-        feed.guard
+        feed.guard_mut()
             .set_level_correction(hp, steps, TS_S)
             .expect("valid corner");
     }
@@ -131,7 +131,7 @@ fn fault_row<T: Real>(name: &str, kind: FaultKind, y0: f64, level: Option<(Optio
         };
         (((k - FAULT_AT) as f64 * TS_S * 1e3), what)
     });
-    let c = feed.guard.counts();
+    let c = feed.guard().counts();
     println!(
         "| {name} | {} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {} | {} | {:.1e} | {}/{}/{}/{}/{}/{} |",
         T::NAME,
@@ -381,21 +381,16 @@ fn run_40db(
     } else {
         Box::new(Adaptive2::<f64>::new(&f, &AdaptiveConfig::default()).expect("valid"))
     };
-    let tr = run_with(
+    let tr = run_guarded_with(
         &mut *est,
         &mut rig,
         samples,
         100,
-        &mut |e: &mut (dyn Estimator<f64, 7> + 'static), k, s| {
-            let out = feed.feed(k, s);
-            if feed.guard.last_screening().level == Some(LevelEvent::Offset) {
+        &mut feed,
+        &mut |_, k, _, screened| {
+            if screened.screening.level == Some(LevelEvent::Offset) {
                 flags.push(k);
             }
-            let hold = feed.guard.take_hold();
-            if hold > 0 {
-                e.hold(hold);
-            }
-            out
         },
     );
     (tr, feed, flags)
@@ -459,7 +454,7 @@ fn faults_at_40db() {
         for (robust, r) in [false, true].into_iter().zip(&refs) {
             let (tr, feed, flags) = run_40db(fault_scenario(kind), 1, robust, until + 100_000, y0);
             let (t_on, t_off) = (from as f64 * TS_S, until as f64 * TS_S);
-            let c = feed.guard.counts();
+            let c = feed.guard().counts();
             println!(
                 "| {name} | {} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:+.4} | {} | {}/{}/{}/{}/{}/{} |",
                 name_of(robust),
@@ -475,7 +470,7 @@ fn faults_at_40db() {
                 tr.max_dev_from(r, t_on, t_off),
                 tr.max_dev_from(r, t_off, t_off + 1.0),
                 tr.max_dev_from(r, t_off + 1.0, 1e9),
-                feed.guard.offset() / y0,
+                feed.guard().offset() / y0,
                 tr.changes(),
                 c.non_finite,
                 c.saturated,
@@ -507,7 +502,7 @@ fn faults_at_40db() {
                     "| {name} | {} | {seed} | {} | {:+.4} | {:.1e} ({:.1e}) | {:.1e} ({:.1e}) | {:.1e} | {:.1e} |",
                     name_of(robust),
                     flag_delays(&flags, &steps_of(kind)),
-                    (feed.guard.offset() - size) / y0,
+                    (feed.guard().offset() - size) / y0,
                     tr.max_err(t_off, t_off + 1.0),
                     r.max_err(t_off, t_off + 1.0),
                     tr.max_err(t_off + 1.0, t_off + 10.0),
@@ -532,7 +527,7 @@ fn faults_at_40db() {
                 "| {step} | {} | {} | {:+.4} | {:.1e} ({:.1e}) | {:.1e} ({:.1e}) | {:.1e} | {:.1e} | {} |",
                 name_of(robust),
                 flag_delays(&flags, &steps_of(kind)),
-                feed.guard.offset() / y0,
+                feed.guard().offset() / y0,
                 tr.max_err(t_off, t_off + 1.0),
                 r.max_err(t_off, t_off + 1.0),
                 tr.max_err(t_off + 1.0, t_off + 10.0),

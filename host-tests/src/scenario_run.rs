@@ -7,6 +7,7 @@
 //! the measured u, y over the first 0.2 s of the same run (noise and
 //! events included).
 
+use beamctl::run::feed::{Direct, Feed, Screened};
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::excitation::SquareWave;
 use beamest::filter_bank::{FilterConfig, SignalScales};
@@ -220,18 +221,41 @@ pub fn run_with<T: Real, E: Estimator<T, 7> + ?Sized>(
     eval_every: u64,
     hook: &mut SampleHook<'_, E>,
 ) -> RunTrace {
+    run_fed(est, rig, samples, eval_every, &mut |e: &mut E, k, raw| {
+        let s = hook(e, k, raw);
+        Some(e.step(T::from_f64(s.u), T::from_f64(s.y)))
+    })
+}
+
+/// How a run gives raw sample `k` to the estimator: its step status, or
+/// `None` if nothing was stepped.
+pub type FeedStep<'a, E> = dyn FnMut(&mut E, u64, Sample<f64>) -> Option<StepStatus> + 'a;
+
+/// The run loop: tick the rig, `feed` the sample, evaluate every
+/// `eval_every` samples against the truth in force, from the first sample
+/// the estimator was given on (while the guard's delay line fills it gets
+/// none, and has no estimate to evaluate).
+pub fn run_fed<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    rig: &mut PaperRig,
+    samples: u64,
+    eval_every: u64,
+    feed: &mut FeedStep<'_, E>,
+) -> RunTrace {
     let mut tr = RunTrace::default();
+    let mut fed = false;
     for k in 0..samples {
         let raw = rig.tick();
-        let s = hook(est, k, raw);
-        let st = est.step(T::from_f64(s.u), T::from_f64(s.y));
-        tr.steps[match st {
-            StepStatus::Updated => 0,
-            StepStatus::Frozen => 1,
-            StepStatus::Rejected => 2,
-            StepStatus::Skipped => 3,
-        }] += 1;
-        if (k + 1) % eval_every == 0 {
+        if let Some(st) = feed(est, k, raw) {
+            fed = true;
+            tr.steps[match st {
+                StepStatus::Updated => 0,
+                StepStatus::Frozen => 1,
+                StepStatus::Rejected => 2,
+                StepStatus::Skipped => 3,
+            }] += 1;
+        }
+        if fed && (k + 1) % eval_every == 0 {
             let truth = omega_zeta(&rig.plant().transfer_function()).expect("valid truth");
             let e = omega_zeta(&est.transfer_function());
             tr.t.push(k as f64 * TS_S);
@@ -260,11 +284,10 @@ pub fn run_with<T: Real, E: Estimator<T, 7> + ?Sized>(
     tr
 }
 
-/// [`run`] through a [`GuardedFeed`]: each raw sample is screened, and
-/// the guard's hold requests after a gap
-/// ([`beamest::guard::SensorGuard::take_hold`]) and after a plant change
-/// the estimator detected ([`beamest::guard::SensorGuard::change_hold`])
-/// are passed to the estimator before the sample they come with.
+/// [`run`] through a [`GuardedFeed`]: the estimator is held while its
+/// filters settle, then each raw sample is screened and delivered with the
+/// holds the guard asks for, by beamctl's policy ([`beamctl::run::feed`],
+/// the one `beamctl simulate|replay` and the firmware's sample task apply).
 pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
     est: &mut E,
     rig: &mut PaperRig,
@@ -272,26 +295,31 @@ pub fn run_guarded<T: Real, E: Estimator<T, 7> + ?Sized>(
     eval_every: u64,
     feed: &mut GuardedFeed,
 ) -> RunTrace {
-    let mut changes_held = 0;
-    run_with(est, rig, samples, eval_every, &mut |e: &mut E, k, s| {
+    run_guarded_with(est, rig, samples, eval_every, feed, &mut |_, _, _, _| {})
+}
+
+/// What sees each raw sample of a guarded run after the guard screened it
+/// and before it is delivered: the estimator, the sample's index, the raw
+/// sample and what the guard made of it.
+pub type GuardObserver<'a, E> = dyn FnMut(&mut E, u64, Sample<f64>, &Screened) + 'a;
+
+/// [`run_guarded`] with an observer of each screened sample.
+pub fn run_guarded_with<T: Real, E: Estimator<T, 7> + ?Sized>(
+    est: &mut E,
+    rig: &mut PaperRig,
+    samples: u64,
+    eval_every: u64,
+    feed: &mut GuardedFeed,
+    observe: &mut GuardObserver<'_, E>,
+) -> RunTrace {
+    // A new estimator is held while its filters settle, as the firmware's
+    // pipeline and beamctl's tuning rule hold every estimator they build.
+    est.hold_for_settling();
+    run_fed(est, rig, samples, eval_every, &mut |e: &mut E, k, raw| {
         feed.follow(&*e, k);
-        let out = feed.feed(k, s);
-        let mut hold = feed.guard.take_hold();
-        // A plant change the estimator detected (at its previous step):
-        // hold it while the high-pass settles, as the pipeline does.
-        let change_hold = feed.guard.change_hold();
-        if change_hold > 0 {
-            if let Some(sup) = e.supervision() {
-                if sup.changes > changes_held {
-                    hold = hold.max(change_hold);
-                }
-                changes_held = sup.changes;
-            }
-        }
-        if hold > 0 {
-            e.hold(hold);
-        }
-        out
+        let screened = feed.screen(k, raw);
+        observe(e, k, raw, &screened);
+        feed.deliver(e, &screened)
     })
 }
 
@@ -301,14 +329,17 @@ pub fn direct(_k: u64, s: Sample<f64>) -> Sample<f64> {
 }
 
 /// A [`SensorGuard`](beamest::guard::SensorGuard) between the rig and the
-/// estimator, as the pipeline has it: each raw sample is screened, and the
-/// pair leaving the guard's delay line (NaN for a faulty one, and while the
-/// line fills) is what the estimator gets. Records the first sample index
-/// at or after `watch_from` at which the guard raised anything.
+/// estimator with beamctl's hold policy ([`beamctl::run::feed`]): each raw
+/// sample is screened, and the pair leaving the guard's delay line (NaN for
+/// a faulty one; nothing while the line fills) is what the estimator gets,
+/// with the holds the guard asks for. Records the first sample index at or
+/// after `watch_from` at which the guard raised anything.
 #[derive(Debug, Clone)]
 pub struct GuardedFeed {
-    /// The guard.
-    pub guard: beamest::guard::SensorGuard<f64>,
+    /// The guard and the hold policy.
+    pub feed: Feed,
+    /// The estimator's detected plant changes when last looked at.
+    held: u32,
     /// Watch for flags from this sample index on.
     pub watch_from: u64,
     /// First flagged sample index ≥ `watch_from` and what was seen there.
@@ -326,7 +357,8 @@ impl GuardedFeed {
     /// A guard with `cfg`, watching from sample `watch_from`.
     pub fn new(cfg: &beamest::guard::GuardConfig, watch_from: u64) -> Self {
         Self {
-            guard: beamest::guard::SensorGuard::new(cfg).expect("valid guard settings"),
+            feed: Feed::new(cfg).expect("valid guard settings"),
+            held: 0,
             watch_from,
             first_flag: None,
             monitor: None,
@@ -346,35 +378,50 @@ impl GuardedFeed {
     pub fn follow<T: Real, E: Estimator<T, 7> + ?Sized>(&mut self, est: &E, k: u64) {
         if let Some(m) = self.monitor.as_mut() {
             if k.is_multiple_of(MODEL_EVERY) {
-                let th =
-                    beamest::guard::model_for_monitor(est, TS_S).map(|t| t.map(|v| v.to_f64()));
+                // As `beamctl simulate|replay --residual-monitor`: no model
+                // while a hold runs, nor soon after ([`Feed::model_allowed`]).
+                let th = if self.feed.model_allowed() {
+                    beamest::guard::model_for_monitor(est, TS_S).map(|t| t.map(|v| v.to_f64()))
+                } else {
+                    None
+                };
                 m.set_theta(th.as_ref());
             }
         }
     }
 
-    /// Screen raw sample `k`; the sample for the estimator.
-    pub fn feed(&mut self, k: u64, s: Sample<f64>) -> Sample<f64> {
-        let out = self
-            .guard
-            .push_monitored(s.u, s.y, true, k, self.monitor.as_mut());
-        let seen = self.guard.last_screening();
+    /// Screen raw sample `k` (its index must be the feed's next).
+    pub fn screen(&mut self, k: u64, s: Sample<f64>) -> Screened {
+        debug_assert_eq!(k, self.feed.index(), "samples in order");
+        let screened = self.feed.push(s.u, s.y, self.monitor.as_mut());
+        let seen = screened.screening;
         if k >= self.watch_from
             && self.first_flag.is_none()
             && (seen.fault.is_some() || seen.level.is_some())
         {
             self.first_flag = Some((k, seen));
         }
-        match out {
-            Some(g) => {
-                let (u, y) = g.for_estimator();
-                Sample { u, y }
-            }
-            None => Sample {
-                u: f64::NAN,
-                y: f64::NAN,
-            },
-        }
+        screened
+    }
+
+    /// Give a screened sample to `est` with its holds.
+    pub fn deliver<T: Real, E: Estimator<T, 7> + ?Sized>(
+        &mut self,
+        est: &mut E,
+        screened: &Screened,
+    ) -> Option<StepStatus> {
+        self.feed
+            .deliver::<T, _>(screened, &mut Direct::<E, 7>(est), &mut self.held)
+    }
+
+    /// The guard (counters, offset removed, last screening).
+    pub fn guard(&self) -> &beamest::guard::SensorGuard<f64> {
+        self.feed.guard()
+    }
+
+    /// The guard, to change its settings before the run.
+    pub fn guard_mut(&mut self) -> &mut beamest::guard::SensorGuard<f64> {
+        self.feed.guard_mut()
     }
 }
 

@@ -18,7 +18,7 @@
 //! Figures: `cargo run --release -p host-tests --example robustness_table faults`
 //! (and `faults40`).
 
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::guard::{GuardCounts, LevelEvent, SampleFault, Screening};
 use beamest::rig::{FaultKind, Scenario};
 use beamest::Real;
@@ -48,7 +48,7 @@ fn run_fault<T: Real>(kind: FaultKind) -> Outcome {
     Outcome {
         trace,
         first_flag: feed.first_flag,
-        counts: feed.guard.counts(),
+        counts: feed.guard().counts(),
         t_off: until as f64 * TS_S,
     }
 }
@@ -169,12 +169,12 @@ fn clean_noisy_data_never_looks_like_an_offset_step() {
             let mut rig = paper_rig(Scenario::default(), Some(snr), seed, None);
             let mut feed = fault_guard(y0);
             for k in 0..600_000u64 {
-                feed.feed(k, rig.tick());
+                feed.screen(k, rig.tick());
             }
-            let c = feed.guard.counts();
+            let c = feed.guard().counts();
             assert_eq!(c.offset, 0, "{snr} dB, seed {seed}: {c:?}");
             assert_eq!(c.rejected(), 0, "{snr} dB, seed {seed}: {c:?}");
-            assert_eq!(feed.guard.offset(), 0.0);
+            assert_eq!(feed.guard().offset(), 0.0);
         }
     }
 }
@@ -203,21 +203,16 @@ fn offset_steps_at_40_db_are_removed_within_the_noise() {
             let mut rig = paper_rig(fault_scenario(kind), Some(40.0), seed, None);
             let mut feed = fault_guard(y0);
             let mut flags = Vec::new();
-            let tr = run_with(
+            let tr = run_guarded_with(
                 &mut est(),
                 &mut rig,
                 until + 100_000,
                 100,
-                &mut |e: &mut Adaptive2<f64>, k, s| {
-                    let out = feed.feed(k, s);
-                    if feed.guard.last_screening().level == Some(LevelEvent::Offset) {
+                &mut feed,
+                &mut |_, k, _, screened| {
+                    if screened.screening.level == Some(LevelEvent::Offset) {
                         flags.push(k);
                     }
-                    let hold = feed.guard.take_hold();
-                    if hold > 0 {
-                        e.hold(hold);
-                    }
-                    out
                 },
             );
             let at = format!("{name}, seed {seed}");
@@ -225,7 +220,7 @@ fn offset_steps_at_40_db_are_removed_within_the_noise() {
             for (k, s) in flags.iter().zip(steps) {
                 assert!(*k >= *s && (*k - *s) as f64 * TS_S <= 0.010, "{at}: {k}");
             }
-            let left = (feed.guard.offset() - size).abs() / y0;
+            let left = (feed.guard().offset() - size).abs() / y0;
             assert!(left < 0.1, "{at}: {left} Y0 of the steps left");
             assert!(tr.est.iter().flatten().all(|v| v.is_finite()), "{at}");
             let t_on = FAULT_AT as f64 * TS_S;

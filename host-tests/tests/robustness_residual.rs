@@ -22,7 +22,7 @@
 //! Figures: `cargo run --release -p host-tests --example residual_detect guard`
 //! (and `guardclean`).
 
-use beamest::estimator::{Adaptive2, AdaptiveConfig, Estimator};
+use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::guard::{GuardCounts, LevelEvent};
 use beamest::rig::{FaultKind, Scenario, SensorFault, Window};
 use beamest::Real;
@@ -56,28 +56,22 @@ fn guarded<T: Real>(
         feed = feed.with_monitor(&f);
     }
     let mut flags = Vec::new();
-    let trace = run_with(
+    let trace = run_guarded_with(
         &mut est,
         &mut rig,
         samples,
         100,
-        &mut |e: &mut Adaptive2<T>, k, s| {
-            feed.follow(&*e, k);
-            let out = feed.feed(k, s);
-            if let Some(l) = feed.guard.last_screening().level {
+        &mut feed,
+        &mut |_, k, _, screened| {
+            if let Some(l) = screened.screening.level {
                 flags.push((k, l));
             }
-            let hold = feed.guard.take_hold();
-            if hold > 0 {
-                e.hold(hold);
-            }
-            out
         },
     );
     Run {
         trace,
         flags,
-        counts: feed.guard.counts(),
+        counts: feed.guard().counts(),
         first_flag: feed.first_flag.map(|(k, _)| k),
     }
 }

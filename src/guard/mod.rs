@@ -88,7 +88,7 @@ mod step;
 pub(crate) use delay::MAX_DELAY;
 pub(crate) use highpass::HighPass;
 pub(crate) use monitor::MonitorEvent;
-pub use monitor::{model_for_monitor, ResidualMonitor};
+pub use monitor::{model_for_monitor, ResidualMonitor, CHANGE_QUIET_S};
 pub use residual::{ResidualFilter, RESIDUAL_LAG};
 pub(crate) use step::{STEP_LATENCY, STEP_PEAK_WAIT};
 

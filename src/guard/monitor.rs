@@ -80,7 +80,9 @@ pub(crate) const MONITOR_SETTLE_TIME_CONSTANTS: f64 = 40.0;
 /// correction.
 pub(crate) const MONITOR_CORRECTION_TIME_CONSTANTS: f64 = 10.0;
 /// [`model_for_monitor`]: no model within this long of a detected plant
-/// change (s), nor before the estimator has run this long.
+/// change (s); a caller that holds the estimator after a change (the
+/// guard's change hold) gives the monitor no model until this long after
+/// the hold ends either (the law tracks the new plant only from then on).
 pub const CHANGE_QUIET_S: f64 = 1.0;
 /// See [`CHANGE_QUIET_S`] (s).
 pub const MODEL_AFTER_S: f64 = 3.0;

@@ -21,6 +21,7 @@ pub mod drive;
 pub mod error;
 pub mod estimator;
 pub mod events;
+pub mod feed;
 pub mod plant;
 pub mod seeds;
 pub mod session;

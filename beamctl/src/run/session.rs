@@ -10,11 +10,12 @@
 use crate::judge::fit::{Fit, Model};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
+use crate::run::feed::Feed;
 use crate::run::tuned::{Build, RobustStatus, Totals, Tuned};
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::guard::{
     model_for_monitor, GuardConfig, GuardCounts, GuardError, LevelEvent, ResidualMonitor,
-    SampleFault, Screening, SensorGuard,
+    SampleFault, Screening,
 };
 use beamest::modal::modal_from_tf;
 use beamest::modal::Validity;
@@ -350,12 +351,11 @@ pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
     runs: Vec<Tuned<T, D, NP, NS>>,
     history: Vec<History>,
     weights: Vec<T>,
-    guard: SensorGuard<f64>,
+    /// The sensor guard and the hold policy ([`super::feed`]).
+    feed: Feed,
     ts_s: f64,
     /// The guard's residual monitor (`--residual-monitor`), if on.
     monitor: Option<Monitor>,
-    /// Samples given to the guard.
-    index: u64,
     hold: OutputHold,
     /// [`MONITOR_MODEL_PERIOD_S`] in samples.
     model_every: u64,
@@ -382,7 +382,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         tuning: &TuningConfig,
         weights: &[f64],
     ) -> Result<Self, RunError> {
-        let guard = SensorGuard::new(&guard_config(tuning.ts_s, None, false))
+        let feed = Feed::new(&guard_config(tuning.ts_s, None, false))
             .map_err(|e: GuardError| RunError::Setup(e.to_string()))?;
         let runs = kinds
             .iter()
@@ -393,10 +393,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             history: vec![History::default(); runs.len()],
             runs,
             weights: weights.iter().map(|&w| T::from_f64(w)).collect(),
-            guard,
+            feed,
             ts_s: tuning.ts_s,
             monitor: None,
-            index: 0,
             hold: tuning.hold,
             model_every: (MONITOR_MODEL_PERIOD_S / tuning.ts_s).round().max(1.0) as u64,
             changes_held: vec![0; kinds.len()],
@@ -453,6 +452,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         }
         let theta = run
             .estimate()
+            .filter(|_| self.feed.model_allowed())
             .and_then(|e| model_for_monitor(e, self.ts_s))
             .and_then(|t| <[f64; 7]>::try_from(t.map(|v| v.to_f64()).as_slice()).ok());
         if let Some(mon) = m.mon.as_mut() {
@@ -465,58 +465,31 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     /// # Errors
     /// Invalid guard settings.
     pub fn with_guard(mut self, cfg: &GuardConfig) -> Result<Self, RunError> {
-        self.guard = SensorGuard::new(cfg).map_err(|e| RunError::Setup(e.to_string()))?;
+        self.feed = Feed::new(cfg).map_err(|e| RunError::Setup(e.to_string()))?;
         Ok(self)
     }
 
     /// Feed one raw sample: it passes the sensor guard
     /// ([`beamest::guard`]), and the pair leaving the guard's delay line
     /// (faulty ones as NaN, which the estimators reject) goes to every
-    /// estimator. Returns what the guard saw in this sample at once.
+    /// estimator, with the holds the guard asks for ([`super::feed`]).
+    /// Returns what the guard saw in this sample at once.
     #[inline]
     pub fn step(&mut self, u: f64, y: f64) -> Screening {
-        if self.monitor.is_some() && self.index.is_multiple_of(self.model_every) {
+        if self.monitor.is_some() && self.feed.index().is_multiple_of(self.model_every) {
             self.follow();
         }
         let monitor = self.monitor.as_mut().and_then(|m| m.mon.as_mut());
-        let out = self.guard.push_monitored(u, y, true, self.index, monitor);
-        self.index += 1;
-        // With the high-pass on: hold after a gap or an offset step (the
-        // guard asks), and an estimator that has just detected a plant
-        // change (it tells), while the high-pass's memory settles.
-        let gap_hold = self.guard.take_hold();
-        let change_hold = self.guard.change_hold();
-        if let Some(g) = out {
-            let (u, y) = g.for_estimator();
-            let (u, y) = (T::from_f64(u), T::from_f64(y));
-            for (r, held) in self.runs.iter_mut().zip(&mut self.changes_held) {
-                if gap_hold > 0 {
-                    r.hold(gap_hold);
-                }
-                r.step(u, y);
-                if change_hold > 0 {
-                    // A rebuilt estimator counts from 0 again.
-                    let changes = r
-                        .estimator()
-                        .and_then(|e| e.supervision())
-                        .map_or(0, |s| s.changes);
-                    if changes > *held {
-                        r.hold(change_hold);
-                    }
-                    *held = changes;
-                }
-            }
-        } else if gap_hold > 0 {
-            for r in &mut self.runs {
-                r.hold(gap_hold);
-            }
+        let screened = self.feed.push(u, y, monitor);
+        for (r, held) in self.runs.iter_mut().zip(&mut self.changes_held) {
+            self.feed.deliver(&screened, r, held);
         }
-        self.guard.last_screening()
+        screened.screening
     }
 
     /// The guard's counters so far.
     pub fn guard_counts(&self) -> GuardCounts {
-        self.guard.counts()
+        self.feed.guard().counts()
     }
 
     /// The supervisor's state of estimator `i` now, if it is supervised.
@@ -635,7 +608,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             robust: run.robust_status(),
             supervision: self.supervision(i),
             validity: validity.names().collect(),
-            guard: self.guard.counts().into(),
+            guard: self.feed.guard().counts().into(),
         }
     }
 }
