@@ -73,9 +73,17 @@ impl Observer for SimObserver<'_> {
 
 /// Run `beamctl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    let (text, status) = output(args)?;
+    write_stdout(&text)?;
+    status
+}
+
+/// What `beamctl simulate` prints (the JSON document with `--json`), and
+/// its exit status once printed (an error if a law produced no estimate).
+pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
-        return seeds::run(&plan, seeds, args.json);
+        return Ok((seeds::output(&plan, seeds, args.json)?, Ok(())));
     }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
@@ -157,12 +165,12 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     } else {
         render(&plan, &reports)
     };
-    write_stdout(&text)?;
-    report::require_estimates(
+    let status = report::require_estimates(
         reports
             .iter()
             .map(|r| (r.estimator, &r.estimate, r.tuning, r.law_updates)),
-    )
+    );
+    Ok((text, status))
 }
 
 /// Model output vs measured y over the last 0.5 s of the run, per

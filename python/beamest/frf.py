@@ -1,0 +1,144 @@
+"""The frequency-response picture: the measured FRF of a record (H1 with
+Welch averaging, and the coherence) with the identified model's response
+over it.
+
+H1 = G_yu / G_uu, the estimator structural-dynamics tools use with noise on
+the output: the record is cut into segments of ``segment_s`` seconds
+overlapping by half, each detrended (mean removed) and Hann-windowed, and
+the cross- and auto-spectra are averaged over them; the coherence
+γ² = |G_yu|² / (G_uu·G_yy) says at each frequency how much of y is
+linearly explained by u (1: all; low where u has no power or noise
+dominates). Only frequencies where u has power (G_uu above 1e-6 of its
+peak) are kept: a square wave or multisine excites a comb of lines, and
+between them H1 is noise. The model's response is the continuous
+H(s) = B(s)/A(s) of eqs. 25–26 at s = j2πf (the zero-order hold adds a
+phase lag of π·f·Ts, under 2° below 100 Hz at Ts = 0.1 ms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["H1", "h1", "plot"]
+
+
+@dataclass(frozen=True)
+class H1:
+    """An H1 estimate on the frequencies where u has power."""
+
+    #: frequency (Hz)
+    f_hz: np.ndarray
+    #: H1 = G_yu/G_uu (units of y per unit of u)
+    h: np.ndarray
+    #: coherence γ², 0..1
+    coherence: np.ndarray
+    #: segments averaged
+    segments: int
+    #: segment length (s)
+    segment_s: float
+
+
+def h1(u, y, ts: float, segment_s: Optional[float] = None) -> H1:
+    """H1 and the coherence of the record ``u``, ``y`` at sample interval
+    ``ts``. ``segment_s``: Welch segment length [default: the record / 8,
+    at least 1 s when the record allows]. Missing samples (NaN) are set to
+    0 in u and y after the mean is removed."""
+    u = np.asarray(u, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    n = len(u)
+    if n < 16:
+        raise ValueError(f"u: too few samples for an FRF ({n})")
+    if segment_s is None:
+        segment_s = max(min(1.0, n * ts), n * ts / 8)
+    nseg = int(round(segment_s / ts))
+    nseg = max(16, min(nseg, n))
+    step = nseg // 2
+    window = np.hanning(nseg)
+    guu = np.zeros(nseg // 2 + 1)
+    gyy = np.zeros(nseg // 2 + 1)
+    gyu = np.zeros(nseg // 2 + 1, dtype=np.complex128)
+    count = 0
+    for start in range(0, n - nseg + 1, step):
+        su = u[start:start + nseg]
+        sy = y[start:start + nseg]
+        su = np.nan_to_num(su - np.nanmean(su))
+        sy = np.nan_to_num(sy - np.nanmean(sy))
+        fu = np.fft.rfft(su * window)
+        fy = np.fft.rfft(sy * window)
+        guu += (fu * fu.conj()).real
+        gyy += (fy * fy.conj()).real
+        gyu += fy * fu.conj()
+        count += 1
+    f = np.fft.rfftfreq(nseg, ts)
+    keep = (f > 0) & (guu > 1e-6 * guu.max())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = gyu / guu
+        coh = np.abs(gyu) ** 2 / (guu * gyy)
+    return H1(f_hz=f[keep], h=h[keep], coherence=np.clip(coh[keep].real, 0, 1),
+              segments=count, segment_s=nseg * ts)
+
+
+def plot(result, path: Optional[str] = None, segment_s: Optional[float] = None, fig=None):
+    """Draw the FRF picture of a :class:`beamest.ReplayResult` (see the
+    module's text); save it to ``path`` when given; return the figure."""
+    try:
+        import matplotlib
+
+        if fig is None and path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # pragma: no cover
+        raise ImportError("plot_frf needs matplotlib: pip install matplotlib") from e
+    m = result.frf(segment_s=segment_s)
+    if fig is None:
+        fig = plt.figure(figsize=(10, 7.5))
+    ax_mag, ax_ph, ax_coh = fig.subplots(3, 1, sharex=True,
+                                         gridspec_kw={"height_ratios": [3, 2, 1]})
+    if len(m.f_hz) == 0:
+        raise ValueError("u: no frequency with power in the record")
+    lo = m.f_hz.min() / 1.5
+    hi = min(m.f_hz.max() * 1.5, 0.5 / result.ts)
+    omega = result.omega
+    if np.all(np.isfinite(omega)):
+        lo = min(lo, omega.min() / (2 * math.pi) / 3)
+        hi = max(hi, min(omega.max() / (2 * math.pi) * 3, 0.5 / result.ts))
+    fgrid = np.logspace(math.log10(lo), math.log10(hi), 800)
+    label_meas = f"measured H1 ({m.segments} Hann segments of {m.segment_s:.3g} s, 50 % overlap)"
+    ax_mag.loglog(m.f_hz, np.abs(m.h), "o", ms=3.5, color="tab:blue", label=label_meas)
+    ax_ph.semilogx(m.f_hz, np.degrees(np.angle(m.h)), "o", ms=3.5, color="tab:blue")
+    ax_coh.semilogx(m.f_hz, m.coherence, "o", ms=3.5, color="tab:blue")
+    if result.ok:
+        hm = result.response(fgrid)
+        ax_mag.loglog(fgrid, np.abs(hm), "-", color="tab:red", lw=1.6,
+                      label=f"identified model ({result.estimator}, fit {result.fit_percent:.2f} %)"
+                      if result.fit_percent is not None else f"identified model ({result.estimator})")
+        ax_ph.semilogx(fgrid, np.degrees(np.angle(hm)), "-", color="tab:red", lw=1.6)
+        for i, (w, z) in enumerate(zip(result.omega, result.zeta), 1):
+            fn = w / (2 * math.pi)
+            for ax in (ax_mag, ax_ph, ax_coh):
+                ax.axvline(fn, color="0.4", ls="--", lw=0.9)
+            ax_mag.annotate(f"mode {i}\nω = {w:.4g} rad/s ({fn:.4g} Hz)\nζ = {z:.4g}",
+                            xy=(fn, 1), xycoords=("data", "axes fraction"),
+                            xytext=(4, -4), textcoords="offset points", va="top", fontsize=9,
+                            bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
+    ax_mag.set_ylabel("|H| (y-units per u-unit)")
+    ax_ph.set_ylabel("phase (°)")
+    ax_ph.set_ylim(-200, 200)
+    ax_ph.set_yticks([-180, -90, 0, 90, 180])
+    ax_coh.set_ylabel("coherence γ²")
+    ax_coh.set_ylim(0, 1.05)
+    ax_coh.set_xlabel("frequency (Hz)")
+    ax_coh.set_xlim(lo, hi)
+    for ax in (ax_mag, ax_ph, ax_coh):
+        ax.grid(True, which="both", alpha=0.3)
+    ax_mag.legend(loc="lower left", fontsize=9)
+    ax_mag.set_title(f"{result.file}: frequency response (Ts = {result.ts} s, "
+                     f"{result.samples} samples)", fontsize=11)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
