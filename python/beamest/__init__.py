@@ -184,11 +184,28 @@ class ReplayResult:
         e = self._report["estimate"]
         return _nan_array(e["b"]), np.concatenate([[1.0], _nan_array(e["a"])])
 
-    def response(self, f_hz: Any) -> np.ndarray:
-        """The identified model's frequency response H(j2πf) at ``f_hz``."""
+    def response(self, f_hz: Any, zoh: bool = True) -> np.ndarray:
+        """The identified model's frequency response at ``f_hz`` (Hz).
+
+        ``zoh=True``: the sampled model the record follows, u held over
+        each sample (exact zero-order hold, as the fit uses), at
+        z = exp(j2πf·Ts): what H1 of the record measures. ``zoh=False``:
+        the continuous H(j2πf)."""
         num, den = self.transfer_function
-        s = 2j * np.pi * np.asarray(f_hz, dtype=np.float64)
-        return np.polyval(num, s) / np.polyval(den, s)
+        f = np.asarray(f_hz, dtype=np.float64)
+        if not zoh:
+            s = 2j * np.pi * f
+            return np.polyval(num, s) / np.polyval(den, s)
+        # G(s)/s = G(0)/s + Σ c_i/(s − p_i), c_i = residue of G at p_i / p_i;
+        # its sampled step response gives G_d(z) = G(0) + Σ c_i (z − 1)/(z − e^{p_i Ts}).
+        poles = np.roots(den)
+        dden = np.polyder(den)
+        z = np.exp(2j * np.pi * f * self.ts)
+        g = np.full(z.shape, np.polyval(num, 0.0) / np.polyval(den, 0.0), dtype=np.complex128)
+        for p in poles:
+            c = np.polyval(num, p) / np.polyval(dden, p) / p
+            g += c * (z - 1) / (z - np.exp(p * self.ts))
+        return g if g.ndim else complex(g)
 
     def frf(self, segment_s: Optional[float] = None):
         """The measured FRF of the record (H1 = G_yu/G_uu, Welch-averaged,

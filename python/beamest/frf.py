@@ -8,11 +8,15 @@ overlapping by half, each detrended (mean removed) and Hann-windowed, and
 the cross- and auto-spectra are averaged over them; the coherence
 γ² = |G_yu|² / (G_uu·G_yy) says at each frequency how much of y is
 linearly explained by u (1: all; low where u has no power or noise
-dominates). Only frequencies where u has power (G_uu above 1e-6 of its
-peak) are kept: a square wave or multisine excites a comb of lines, and
-between them H1 is noise. The model's response is the continuous
-H(s) = B(s)/A(s) of eqs. 25–26 at s = j2πf (the zero-order hold adds a
-phase lag of π·f·Ts, under 2° below 100 Hz at Ts = 0.1 ms).
+dominates). Only frequencies where u has power are kept: G_uu above 1e-6
+of its peak, and not below half of a neighbour's (a square wave or a
+multisine excites a comb of lines; the Hann window spreads each line over
+its two neighbouring bins at a quarter of its power, where H1 repeats the
+line's value at the wrong frequency). The model's response drawn over it
+is that of the sampled model the record follows: H(s) = B(s)/A(s) of eqs.
+25–26 under an exact zero-order hold, at z = exp(j2πf·Ts) (the continuous
+H(j2πf) differs from it by about the hold's phase lag π·f·Ts: 1.8° at
+50 Hz for Ts = 0.1 ms).
 """
 
 from __future__ import annotations
@@ -74,7 +78,8 @@ def h1(u, y, ts: float, segment_s: Optional[float] = None) -> H1:
         gyu += fy * fu.conj()
         count += 1
     f = np.fft.rfftfreq(nseg, ts)
-    keep = (f > 0) & (guu > 1e-6 * guu.max())
+    neighbour = np.maximum(np.r_[0.0, guu[:-1]], np.r_[guu[1:], 0.0])
+    keep = (f > 0) & (guu > 1e-6 * guu.max()) & (guu >= 0.5 * neighbour)
     with np.errstate(divide="ignore", invalid="ignore"):
         h = gyu / guu
         coh = np.abs(gyu) ** 2 / (guu * gyy)
@@ -103,32 +108,49 @@ def plot(result, path: Optional[str] = None, segment_s: Optional[float] = None, 
     lo = m.f_hz.min() / 1.5
     hi = min(m.f_hz.max() * 1.5, 0.5 / result.ts)
     omega = result.omega
-    if np.all(np.isfinite(omega)):
-        lo = min(lo, omega.min() / (2 * math.pi) / 3)
-        hi = max(hi, min(omega.max() / (2 * math.pi) * 3, 0.5 / result.ts))
+    valid = result.ok and bool(np.all(np.isfinite(omega)))
+    if valid:
+        # From a third of the lowest mode to ten times the highest.
+        f_modes = omega / (2 * math.pi)
+        lo = min(lo, f_modes.min() / 3)
+        hi = min(0.5 / result.ts, max(f_modes.max() * 10, lo * 10))
     fgrid = np.logspace(math.log10(lo), math.log10(hi), 800)
+    shown = m.f_hz <= hi
+    f_meas, h_meas, coh = m.f_hz[shown], m.h[shown], m.coherence[shown]
+    ph_meas = np.degrees(np.angle(h_meas))
     label_meas = f"measured H1 ({m.segments} Hann segments of {m.segment_s:.3g} s, 50 % overlap)"
-    ax_mag.loglog(m.f_hz, np.abs(m.h), "o", ms=3.5, color="tab:blue", label=label_meas)
-    ax_ph.semilogx(m.f_hz, np.degrees(np.angle(m.h)), "o", ms=3.5, color="tab:blue")
-    ax_coh.semilogx(m.f_hz, m.coherence, "o", ms=3.5, color="tab:blue")
-    if result.ok:
+    if valid:
         hm = result.response(fgrid)
-        ax_mag.loglog(fgrid, np.abs(hm), "-", color="tab:red", lw=1.6,
-                      label=f"identified model ({result.estimator}, fit {result.fit_percent:.2f} %)"
-                      if result.fit_percent is not None else f"identified model ({result.estimator})")
-        ax_ph.semilogx(fgrid, np.degrees(np.angle(hm)), "-", color="tab:red", lw=1.6)
+        ph_model = np.degrees(np.unwrap(np.angle(hm)))
+        # The measured phase on the model's branch (both are mod 360°).
+        near = np.interp(f_meas, fgrid, ph_model)
+        ph_meas = ph_meas + 360.0 * np.round((near - ph_meas) / 360.0)
+    ax_mag.loglog(f_meas, np.abs(h_meas), "o", ms=3.5, color="tab:blue", label=label_meas, zorder=3)
+    ax_ph.semilogx(f_meas, ph_meas, "o", ms=3.5, color="tab:blue", zorder=3)
+    ax_coh.semilogx(f_meas, coh, "o", ms=3.5, color="tab:blue")
+    if valid:
+        fit = result.fit_percent
+        label = f"identified model, exact ZOH ({result.estimator}"
+        label += f", fit {fit:.2f} %)" if fit is not None else ")"
+        ax_mag.loglog(fgrid, np.abs(hm), "-", color="tab:red", lw=1.6, label=label)
+        ax_ph.semilogx(fgrid, ph_model, "-", color="tab:red", lw=1.6)
         for i, (w, z) in enumerate(zip(result.omega, result.zeta), 1):
             fn = w / (2 * math.pi)
             for ax in (ax_mag, ax_ph, ax_coh):
                 ax.axvline(fn, color="0.4", ls="--", lw=0.9)
-            ax_mag.annotate(f"mode {i}\nω = {w:.4g} rad/s ({fn:.4g} Hz)\nζ = {z:.4g}",
-                            xy=(fn, 1), xycoords=("data", "axes fraction"),
-                            xytext=(4, -4), textcoords="offset points", va="top", fontsize=9,
+            ax_mag.annotate(f"mode {i}: {fn:.4g} Hz\nω = {w:.4g} rad/s\nζ = {z:.4g}",
+                            xy=(fn, 0.97 - 0.2 * (i - 1)), xycoords=("data", "axes fraction"),
+                            xytext=(5, 0), textcoords="offset points", va="top", fontsize=9,
                             bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
+        lo_ph = math.floor(min(ph_model.min(), ph_meas.min() if len(ph_meas) else 0) / 90) * 90
+        hi_ph = math.ceil(max(ph_model.max(), ph_meas.max() if len(ph_meas) else 0) / 90) * 90
+        ax_ph.set_ylim(lo_ph - 20, hi_ph + 20)
+        ax_ph.set_yticks(np.arange(lo_ph, hi_ph + 1, 90))
+    else:
+        ax_ph.set_ylim(-200, 200)
+        ax_ph.set_yticks([-180, -90, 0, 90, 180])
     ax_mag.set_ylabel("|H| (y-units per u-unit)")
     ax_ph.set_ylabel("phase (°)")
-    ax_ph.set_ylim(-200, 200)
-    ax_ph.set_yticks([-180, -90, 0, 90, 180])
     ax_coh.set_ylabel("coherence γ²")
     ax_coh.set_ylim(0, 1.05)
     ax_coh.set_xlabel("frequency (Hz)")

@@ -65,10 +65,13 @@ pub(crate) fn to_py(e: CliError) -> PyErr {
 /// its clap definition; the first line of clap's message, flags renamed.
 pub(crate) fn parse<P: clap::Parser>(argv: Vec<String>) -> PyResult<P> {
     P::try_parse_from(argv).map_err(|e| {
+        // clap's message up to its usage line, on one line.
         let text = e.render().to_string();
-        let first = text.lines().next().unwrap_or("").trim();
-        let first = first.strip_prefix("error: ").unwrap_or(first);
-        PyValueError::new_err(python_names(first))
+        let text = text.split("\nUsage:").next().unwrap_or("");
+        let text = text.split("\nFor more information").next().unwrap_or("");
+        let line = beamctl::error::one_line(text);
+        let line = line.strip_prefix("error: ").unwrap_or(&line);
+        PyValueError::new_err(python_names(line))
     })
 }
 
