@@ -153,8 +153,9 @@ class ReplayResult:
 
     @property
     def ok(self) -> bool:
-        """True when the final estimate is a valid modal model."""
-        return self.no_estimate_reason is None
+        """True when there is a final estimate and it is a physical beam
+        (``validity`` empty: ω > 0, 0 < ζ < 1, distinct modes)."""
+        return self.no_estimate_reason is None and not self._report["validity"]
 
     @property
     def ts(self) -> float:

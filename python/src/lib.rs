@@ -200,6 +200,9 @@ fn time_base(t: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
         .map_err(|(i, m)| PyValueError::new_err(format!("t[{i}]: {m}")))
 }
 
+/// u, y and Ts of a record.
+type Samples<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, f64);
+
 /// Read a replay CSV with beamctl's reader: (u, y, ts).
 #[pyfunction]
 #[pyo3(signature = (path, columns=None, ts=None))]
@@ -208,7 +211,7 @@ fn read_replay_csv<'py>(
     path: std::path::PathBuf,
     columns: Option<Vec<String>>,
     ts: Option<f64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, f64)> {
+) -> PyResult<Samples<'py>> {
     use beamctl::io::csv_in::{Columns, Reader};
     if !path.exists() {
         return Err(PyFileNotFoundError::new_err(format!(
