@@ -1,22 +1,18 @@
 """The frequency-response picture: the measured FRF of a record (H1 with
 Welch averaging, and the coherence) with the identified model's response
-over it.
+over it, as ``beamctl replay|simulate --plot`` draws it.
 
-H1 = G_yu / G_uu, the estimator structural-dynamics tools use with noise on
-the output: the record is cut into segments of ``segment_s`` seconds
-overlapping by half, each detrended (mean removed) and Hann-windowed, and
-the cross- and auto-spectra are averaged over them; the coherence
-γ² = |G_yu|² / (G_uu·G_yy) says at each frequency how much of y is
-linearly explained by u (1: all; low where u has no power or noise
-dominates). Only frequencies where u has power are kept: G_uu above 1e-6
-of its peak, and not below half of a neighbour's (a square wave or a
-multisine excites a comb of lines; the Hann window spreads each line over
-its two neighbouring bins at a quarter of its power, where H1 repeats the
-line's value at the wrong frequency). The model's response drawn over it
-is that of the sampled model the record follows: H(s) = B(s)/A(s) of eqs.
-25–26 under an exact zero-order hold, at z = exp(j2πf·Ts) (the continuous
-H(j2πf) differs from it by about the hold's phase lag π·f·Ts: 1.8° at
-50 Hz for Ts = 0.1 ms).
+H1 = G_yu / G_uu is computed by beamctl's own code (``judge::frf``; its
+module documentation is the method): Hann-windowed segments of
+``segment_s`` seconds overlapping by half, mean removed, spectra averaged;
+the coherence γ² = |G_yu|² / (G_uu·G_yy) says at each frequency how much
+of y is linearly explained by u. Only frequencies where u has power are
+kept (a square wave or a multisine excites a comb of lines; the bins the
+Hann window leaks each line into are dropped too). The model's response
+drawn over it is that of the sampled model the record follows: H(s) =
+B(s)/A(s) of eqs. 25–26 under an exact zero-order hold, at
+z = exp(j2πf·Ts) (the continuous H(j2πf) differs from it by about the
+hold's phase lag π·f·Ts: 1.8° at 50 Hz for Ts = 0.1 ms).
 """
 
 from __future__ import annotations
@@ -26,6 +22,8 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+
+from . import _beamest
 
 __all__ = ["H1", "h1", "plot"]
 
@@ -48,43 +46,18 @@ class H1:
 
 def h1(u, y, ts: float, segment_s: Optional[float] = None) -> H1:
     """H1 and the coherence of the record ``u``, ``y`` at sample interval
-    ``ts``. ``segment_s``: Welch segment length [default: the record / 8,
-    at least 1 s when the record allows]. Missing samples (NaN) are set to
-    0 in u and y after the mean is removed."""
-    u = np.asarray(u, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    n = len(u)
-    if n < 16:
-        raise ValueError(f"u: too few samples for an FRF ({n})")
-    if segment_s is None:
-        segment_s = max(min(1.0, n * ts), n * ts / 8)
-    nseg = int(round(segment_s / ts))
-    nseg = max(16, min(nseg, n))
-    step = nseg // 2
-    window = np.hanning(nseg)
-    guu = np.zeros(nseg // 2 + 1)
-    gyy = np.zeros(nseg // 2 + 1)
-    gyu = np.zeros(nseg // 2 + 1, dtype=np.complex128)
-    count = 0
-    for start in range(0, n - nseg + 1, step):
-        su = u[start:start + nseg]
-        sy = y[start:start + nseg]
-        su = np.nan_to_num(su - np.nanmean(su))
-        sy = np.nan_to_num(sy - np.nanmean(sy))
-        fu = np.fft.rfft(su * window)
-        fy = np.fft.rfft(sy * window)
-        guu += (fu * fu.conj()).real
-        gyy += (fy * fy.conj()).real
-        gyu += fy * fu.conj()
-        count += 1
-    f = np.fft.rfftfreq(nseg, ts)
-    neighbour = np.maximum(np.r_[0.0, guu[:-1]], np.r_[guu[1:], 0.0])
-    keep = (f > 0) & (guu > 1e-6 * guu.max()) & (guu >= 0.5 * neighbour)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = gyu / guu
-        coh = np.abs(gyu) ** 2 / (guu * gyy)
-    return H1(f_hz=f[keep], h=h[keep], coherence=np.clip(coh[keep].real, 0, 1),
-              segments=count, segment_s=nseg * ts)
+    ``ts`` (beamctl's ``judge::frf::h1``). ``segment_s``: Welch segment
+    length [default: an eighth of the record, at least 1 s when the record
+    allows]. Raises ValueError when u has power at no frequency or the
+    record is shorter than 16 samples."""
+    from . import _array
+
+    d = _beamest.frf_h1(_array("u", u), _array("y", y), float(ts),
+                        None if segment_s is None else float(segment_s))
+    if d is None:
+        raise ValueError("u: no frequency with power in the record (or fewer than 16 samples)")
+    return H1(f_hz=d["f_hz"], h=d["re"] + 1j * d["im"], coherence=d["coherence"],
+              segments=d["segments"], segment_s=d["segment_s"])
 
 
 def plot(result, path: Optional[str] = None, segment_s: Optional[float] = None, fig=None):

@@ -200,6 +200,40 @@ fn time_base(t: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
         .map_err(|(i, m)| PyValueError::new_err(format!("t[{i}]: {m}")))
 }
 
+/// The measured FRF of a record (beamctl's `judge::frf::h1`, what
+/// `--plot` draws): (f_hz, re, im, coherence, segments, segment_s), or
+/// None when u has power at no frequency.
+#[pyfunction]
+#[pyo3(signature = (u, y, ts, segment_s=None))]
+fn frf_h1<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray1<'py, f64>,
+    y: PyReadonlyArray1<'py, f64>,
+    ts: f64,
+    segment_s: Option<f64>,
+) -> PyResult<Option<Bound<'py, PyDict>>> {
+    if let Some(s) = segment_s {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "segment_s: must be a finite number > 0 s (got {s})"
+            )));
+        }
+    }
+    let (u, y) = (values(&u), values(&y));
+    let (u, y): (&[f64], &[f64]) = (&u, &y);
+    let Some(h) = py.detach(|| beamctl::judge::frf::h1(u, y, ts, segment_s)) else {
+        return Ok(None);
+    };
+    let d = PyDict::new(py);
+    d.set_item("f_hz", PyArray1::from_vec(py, h.f_hz))?;
+    d.set_item("re", PyArray1::from_vec(py, h.re))?;
+    d.set_item("im", PyArray1::from_vec(py, h.im))?;
+    d.set_item("coherence", PyArray1::from_vec(py, h.coherence))?;
+    d.set_item("segments", h.segments)?;
+    d.set_item("segment_s", h.segment_s)?;
+    Ok(Some(d))
+}
+
 /// u, y and Ts of a record.
 type Samples<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, f64);
 
@@ -369,6 +403,7 @@ fn _beamest(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(replay_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(time_base, m)?)?;
     m.add_function(wrap_pyfunction!(read_replay_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(frf_h1, m)?)?;
     m.add_class::<StreamCore>()?;
     tools::register(m)?;
     link::register(m)?;

@@ -28,7 +28,7 @@ use crate::error::{note, write_stdout};
 use crate::error::{CliError, EXIT_USAGE};
 use crate::io::csv_in::{Columns, Reader};
 use crate::io::csv_out::CsvOut;
-use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report::{self, Column};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
@@ -167,6 +167,9 @@ pub struct Replayed {
     pub series: Vec<plot::Series>,
     /// The model output panel (with `--plot`).
     pub output: Option<OutputPanel>,
+    /// The frequency-response row (with `--plot`; `None` if the record has
+    /// no frequency with power in u).
+    pub frf: Option<FrfPanel>,
     /// Rows written with `--csv`.
     pub csv_rows: Option<u64>,
     /// Every evaluation, one log per estimator, when asked for
@@ -408,7 +411,15 @@ fn execute(
             out.reports.first().map_or(f64::NAN, |r| r.ts_s),
             plan.est.lambda_label
         );
-        let labelled = plot::write(p, &title, None, &out.series, duration, out.output.as_ref())?;
+        let labelled = plot::write(
+            p,
+            &title,
+            None,
+            &out.series,
+            duration,
+            out.output.as_ref(),
+            out.frf.as_ref(),
+        )?;
         let extra = if labelled {
             ""
         } else {
@@ -614,6 +625,20 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     }
 }
 
+/// An estimator's model for the FRF row, owned.
+type FrfEntry = (String, Option<fit::Model>, Option<f64>, Vec<(f64, f64)>);
+
+fn frf_inputs(m: &[FrfEntry]) -> Vec<plot::FrfInput<'_>> {
+    m.iter()
+        .map(|(name, model, fit_percent, modes)| plot::FrfInput {
+            name: name.clone(),
+            model: model.as_ref(),
+            fit_percent: *fit_percent,
+            modes: modes.clone(),
+        })
+        .collect()
+}
+
 /// Read the file on its own thread, handing each batch to `each` in order.
 fn read_file(
     mut reader: Reader,
@@ -691,6 +716,7 @@ where
         models: Vec::new(),
     });
     let keep = n.saturating_sub((0.5 / ts).round() as u64)..n;
+    let mut frf_models: Vec<FrfEntry> = Vec::new();
     for i in 0..session.len() {
         let model = session.model(i, ts);
         let f = model.as_ref().and_then(|m| fit::fit(m, &record));
@@ -743,6 +769,17 @@ where
                 f.as_ref().map(|f| f.percent),
                 yhat,
             ));
+            let e = &outcome.estimate;
+            frf_models.push((
+                session.kind(i).name().to_string(),
+                model.clone(),
+                f.as_ref().map(|f| f.percent),
+                e.omega
+                    .iter()
+                    .copied()
+                    .zip(e.zeta.iter().copied())
+                    .collect::<Vec<_>>(),
+            ));
         }
         reports.push(ReplayReport {
             file: label.to_string(),
@@ -766,10 +803,18 @@ where
         panel.t = (keep.start..n).map(|k| k as f64 * ts).collect();
         panel.y = window.iter().map(|s| s.1).collect();
     }
+    let frf = if want_plot {
+        let (u, y): (Vec<f64>, Vec<f64>) = record().unzip();
+        crate::judge::frf::h1(&u, &y, ts, None)
+            .map(|h| FrfPanel::new(h, &frf_inputs(&frf_models), ts))
+    } else {
+        None
+    };
     Ok(Replayed {
         reports,
         series: recorders.into_iter().map(Recorder::finish).collect(),
         output,
+        frf,
         csv_rows,
         logs,
     })

@@ -22,9 +22,10 @@ use crate::cli::args::SimulateArgs;
 use crate::cli::progress::Progress;
 use crate::error::{note, write_stdout, CliError};
 use crate::io::csv_out::CsvOut;
-use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report;
 use crate::judge::fit::{self, Model};
+use crate::judge::frf::h1;
 use crate::run::{run_many, samples, scenario_rig};
 use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
@@ -143,7 +144,7 @@ pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), Cli
             noise_label(&plan.base)
         );
         let series: Vec<_> = recorders.into_iter().map(Recorder::finish).collect();
-        let output = output_panel(&plan.base, &reports)?;
+        let (output, frf) = output_panel(&plan.base, &reports)?;
         let labelled = plot::write(
             p,
             &title,
@@ -151,6 +152,7 @@ pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), Cli
             &series,
             plan.base.duration_s,
             Some(&output),
+            frf.as_ref(),
         )?;
         let extra = if labelled {
             ""
@@ -174,8 +176,12 @@ pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), Cli
 }
 
 /// Model output vs measured y over the last 0.5 s of the run, per
-/// estimator (the rig is replayed to get the samples again).
-fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, CliError> {
+/// estimator, and the frequency-response row (the rig is replayed to get
+/// the samples again).
+fn output_panel(
+    cfg: &RunConfig,
+    reports: &[RunReport],
+) -> Result<(OutputPanel, Option<FrfPanel>), CliError> {
     let n = samples(cfg);
     let keep = n.saturating_sub((0.5 / cfg.ts_s).round() as u64)..n;
     let start = scenario_rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
@@ -191,11 +197,16 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
         y: Vec::new(),
         models: Vec::new(),
     };
-    for r in reports {
-        let (fit, yhat) = match model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s) {
-            Some(model) => match fit::fit(&model, record) {
+    let models: Vec<Option<Model>> = reports
+        .iter()
+        .map(|r| model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s))
+        .collect();
+    let mut frf_models = Vec::new();
+    for (r, model) in reports.iter().zip(&models) {
+        let (fit, yhat) = match model {
+            Some(model) => match fit::fit(model, record) {
                 Some(f) => {
-                    let out = fit::model_output(&model, &f, record(), keep.clone());
+                    let out = fit::model_output(model, &f, record(), keep.clone());
                     if panel.t.is_empty() {
                         panel.t = out.iter().map(|o| o.0 as f64 * cfg.ts_s).collect();
                         panel.y = out.iter().map(|o| o.1).collect();
@@ -206,10 +217,24 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
             },
             None => (None, Vec::new()),
         };
+        frf_models.push(plot::FrfInput {
+            name: r.estimator.name().to_string(),
+            model: model.as_ref(),
+            fit_percent: fit,
+            modes: r
+                .estimate
+                .omega
+                .iter()
+                .copied()
+                .zip(r.estimate.zeta.iter().copied())
+                .collect(),
+        });
         panel
             .models
             .push((r.estimator.name().to_string(), fit, yhat));
     }
+    let (u, y): (Vec<f64>, Vec<f64>) = record().unzip();
+    let frf = h1(&u, &y, cfg.ts_s, None).map(|h| FrfPanel::new(h, &frf_models, cfg.ts_s));
     if panel.t.is_empty() {
         let out: Vec<(f64, f64)> = record()
             .skip(keep.start as usize)
@@ -218,7 +243,7 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
         panel.t = (keep.start..n).map(|k| k as f64 * cfg.ts_s).collect();
         panel.y = out.into_iter().map(|o| o.1).collect();
     }
-    Ok(panel)
+    Ok((panel, frf))
 }
 
 /// The identified model from report coefficients, if they are finite.
