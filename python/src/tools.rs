@@ -28,15 +28,25 @@ struct ModelCmd {
 }
 
 /// `beamctl simulate ARGV --json`: the JSON text (a law that produced no
-/// estimate is in the report, not an error).
+/// estimate is in the report, not an error). The lock is released; Ctrl-C
+/// stops the simulation (not a `--seeds` run) within a few thousand
+/// evaluations.
 #[pyfunction]
 fn simulate_json(py: Python<'_>, argv: Vec<String>) -> PyResult<String> {
     let mut args = parse::<SimulateCmd>(argv)?.args;
     args.json = true;
-    let (text, _status) = py
-        .detach(|| beamctl::cli::simulate::output(&args))
-        .map_err(to_py)?;
-    Ok(text)
+    let mut pending: Option<PyErr> = None;
+    let out = py.detach(|| {
+        let mut interrupt = || crate::signalled(&mut pending);
+        beamctl::cli::simulate::output_with(&args, Some(&mut interrupt))
+    });
+    match out {
+        Ok((text, _status)) => Ok(text),
+        Err(e) if e.code == beamctl::cli::replay::INTERRUPTED => {
+            Err(pending.unwrap_or_else(|| pyo3::exceptions::PyRuntimeError::new_err("interrupted")))
+        }
+        Err(e) => Err(to_py(e)),
+    }
 }
 
 /// `beamctl crlb ARGV --json`: the JSON text.

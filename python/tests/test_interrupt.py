@@ -45,3 +45,10 @@ def test_ctrl_c_interrupts_step_after_whole_chunks(long_record):
     # The estimator goes on from there.
     rest = est.step(u[est.samples:], y[est.samples:])
     assert est.samples == len(u) and len(rest) > 0
+
+
+def test_ctrl_c_interrupts_simulate():
+    t = interrupt_soon()
+    with pytest.raises(KeyboardInterrupt):
+        beamest.simulate(duration=3600)
+    t.join()

@@ -26,6 +26,7 @@ use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report;
 use crate::judge::fit::{self, Model};
 use crate::judge::frf::h1;
+use crate::run::error::RunError;
 use crate::run::{run_many, samples, scenario_rig};
 use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
@@ -33,15 +34,21 @@ use plan::{bound_line, plan, run_line, JsonRun, Plan};
 use std::io::IsTerminal;
 
 /// Feeds the CSV writer, the plot recorders and the progress bar.
-struct SimObserver<'a> {
+struct SimObserver<'a, 'i> {
     csv: Option<&'a mut CsvOut>,
     recorders: Vec<Recorder>,
     progress: &'a mut Progress,
     ts_s: f64,
     total: u64,
+    /// Asked every [`INTERRUPT_EVERY`] evaluations.
+    interrupt: Option<&'i mut dyn FnMut() -> bool>,
+    evaluations: u64,
 }
 
-impl Observer for SimObserver<'_> {
+/// Evaluations between two calls of an interrupt callback.
+const INTERRUPT_EVERY: u64 = 4096;
+
+impl Observer for SimObserver<'_, '_> {
     fn estimate(&mut self, index: usize, t: &Trace<'_>) {
         if let Some(c) = self.csv.as_deref_mut() {
             c.estimate(index, t);
@@ -67,6 +74,14 @@ impl Observer for SimObserver<'_> {
         }
     }
 
+    fn stopped(&mut self) -> bool {
+        self.evaluations += 1;
+        match self.interrupt.as_deref_mut() {
+            Some(f) if self.evaluations.is_multiple_of(INTERRUPT_EVERY) => f(),
+            _ => false,
+        }
+    }
+
     fn wants_samples(&self) -> bool {
         self.csv.is_some()
     }
@@ -82,6 +97,16 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 /// What `beamctl simulate` prints (the JSON document with `--json`), and
 /// its exit status once printed (an error if a law produced no estimate).
 pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), CliError> {
+    output_with(args, None)
+}
+
+/// [`output`], with `interrupt` asked every few thousand evaluations
+/// during the simulation (not with `--seeds`): true stops it with an error
+/// whose code is [`crate::cli::replay::INTERRUPTED`].
+pub fn output_with(
+    args: &SimulateArgs,
+    interrupt: Option<&mut dyn FnMut() -> bool>,
+) -> Result<(String, Result<(), CliError>), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
         return Ok((seeds::output(&plan, seeds, args.json)?, Ok(())));
@@ -113,11 +138,19 @@ pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), Cli
         progress: &mut progress,
         ts_s: plan.base.ts_s,
         total: per_run,
+        interrupt,
+        evaluations: 0,
     };
     let result = run_many(&plan.base, &plan.est.kinds, &mut obs);
     let recorders = std::mem::take(&mut obs.recorders);
     progress.finish();
-    let reports = result.map_err(|e| CliError::failure(format!("simulation: {e}")))?;
+    let reports = result.map_err(|e| match e {
+        RunError::Interrupted => CliError {
+            message: "simulation: interrupted".into(),
+            code: crate::cli::replay::INTERRUPTED,
+        },
+        e => CliError::failure(format!("simulation: {e}")),
+    })?;
 
     if let Some(c) = csv.take() {
         let rows = c.finish()?;
