@@ -838,8 +838,6 @@ trait StreamSteps: Send {
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
     for Stepper<T, D, NP, NS>
-where
-    Session<T, D, NP, NS>: Send,
 {
     fn feed(&mut self, u: &[f64], y: &[f64]) -> Vec<EstimateLog> {
         Stepper::feed(self, u.iter().copied().zip(y.iter().copied()));
@@ -908,10 +906,7 @@ impl Stream {
             plan: &Plan,
             ts: f64,
             every: u64,
-        ) -> Result<Box<dyn StreamSteps>, CliError>
-        where
-            Session<T, D, NP, NS>: Send,
-        {
+        ) -> Result<Box<dyn StreamSteps>, CliError> {
             Ok(Box::new(Stepper::<T, D, NP, NS>::new(
                 plan,
                 ts,
