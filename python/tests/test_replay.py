@@ -95,3 +95,15 @@ def test_frf_of_the_record(repo, tmp_path):
     out = tmp_path / "frf.png"
     r.plot_frf(out)
     assert out.stat().st_size > 10_000
+
+
+def test_csv_and_plot_options_write_the_clis_files(beamctl, repo, tmp_path):
+    path = FILES[1]
+    cli_csv, py_csv = tmp_path / "cli.csv", tmp_path / "py.csv"
+    beamctl("replay", path, "--estimator", "all", "--csv", cli_csv, "--plot", tmp_path / "cli.png")
+    u, y, ts = beamest.read_replay_csv(repo / path)
+    # Any series rate: the CSV keeps the CLI's 1 kHz grid.
+    beamest.replay(u, y, ts=ts, file=path, estimator="all", series_hz=3,
+                   csv=str(py_csv), plot=str(tmp_path / "py.png"))
+    assert py_csv.read_bytes() == cli_csv.read_bytes()
+    assert (tmp_path / "py.png").stat().st_size > 50_000

@@ -430,16 +430,52 @@ fn execute(
     Ok(out)
 }
 
+/// An evaluation grid: every `every` samples, the first at sample
+/// `every − 1`. A countdown, not (k + 1) % every: a 64-bit division per
+/// sample is a measurable share of the ~70 ns budget.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    every: u64,
+    countdown: u64,
+}
+
+impl Grid {
+    fn new(every: u64) -> Self {
+        let every = every.max(1);
+        Self {
+            every,
+            countdown: every,
+        }
+    }
+
+    /// Count one sample; true if it is on the grid.
+    #[inline]
+    fn tick(&mut self) -> bool {
+        self.countdown -= 1;
+        if self.countdown == 0 {
+            self.countdown = self.every;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// True if the last sample counted was on the grid.
+    fn just_hit(&self) -> bool {
+        self.countdown == self.every
+    }
+}
+
 /// The session and what is kept while the samples go through it.
 struct Stepper<T: Real, const D: usize, const NP: usize, const NS: usize> {
     session: Session<T, D, NP, NS>,
     ts: f64,
-    /// Samples between evaluations (the CSV/plot/log grid).
-    every: u64,
-    /// Samples between the evaluations kept for the drift.
-    drift: u64,
-    countdown: u64,
-    drift_countdown: u64,
+    /// The `--csv`/`--plot` grid (1 kHz with either, else the drift grid).
+    traces: Grid,
+    /// The evaluations kept for the drift (0.1 s of record).
+    drift: Grid,
+    /// The evaluations kept in `logs`, if any.
+    log: Option<Grid>,
     /// Samples stepped.
     k: u64,
     /// The last sample stepped.
@@ -447,6 +483,17 @@ struct Stepper<T: Real, const D: usize, const NP: usize, const NS: usize> {
     csv: Option<CsvOut>,
     recorders: Vec<Recorder>,
     logs: Vec<EstimateLog>,
+}
+
+/// What an evaluation is for.
+#[derive(Debug, Clone, Copy)]
+struct Uses {
+    /// The CSV row and the plot's point.
+    traced: bool,
+    /// The drift's history.
+    recorded: bool,
+    /// The logs.
+    logged: bool,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP, NS> {
@@ -458,33 +505,25 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
             if let Some(c) = self.csv.as_mut() {
                 c.screening(&screening);
             }
-            // Countdowns, not (k + 1) % every: a 64-bit division per
-            // sample is a measurable share of the ~70 ns budget.
-            self.countdown -= 1;
-            self.drift_countdown -= 1;
-            if self.countdown == 0 || self.drift_countdown == 0 {
-                let traced = self.countdown == 0;
-                let recorded = self.drift_countdown == 0;
-                if traced {
-                    self.countdown = self.every;
-                }
-                if recorded {
-                    self.drift_countdown = self.drift;
-                }
-                self.evaluate(self.k, (u, y), traced, recorded);
+            let uses = Uses {
+                traced: self.traces.tick(),
+                recorded: self.drift.tick(),
+                logged: self.log.as_mut().is_some_and(Grid::tick),
+            };
+            if uses.traced || uses.recorded || uses.logged {
+                self.evaluate(self.k, (u, y), uses);
             }
             self.k += 1;
             self.last = (u, y);
         }
     }
 
-    /// Evaluate every estimator at sample `k`: `recorded` keeps it for the
-    /// drift, `traced` writes the CSV row, the plot's point and the log.
-    fn evaluate(&mut self, k: u64, (u, y): (f64, f64), traced: bool, recorded: bool) {
+    /// Evaluate every estimator at sample `k` for `uses`.
+    fn evaluate(&mut self, k: u64, (u, y): (f64, f64), uses: Uses) {
         let t = k as f64 * self.ts;
         for i in 0..self.session.len() {
-            let e = self.session.evaluate(i, t, recorded);
-            if !traced {
+            let e = self.session.evaluate(i, t, uses.recorded);
+            if !(uses.traced || uses.logged) {
                 continue;
             }
             let trace = Trace {
@@ -499,42 +538,49 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
                 supervision: self.session.supervision(i),
                 validity: e.validity,
             };
-            if let Some(c) = self.csv.as_mut() {
-                c.estimate(i, &trace);
+            if uses.traced {
+                if let Some(c) = self.csv.as_mut() {
+                    c.estimate(i, &trace);
+                }
+                if let Some(r) = self.recorders.get_mut(i) {
+                    r.push(&trace);
+                }
             }
-            if let Some(r) = self.recorders.get_mut(i) {
-                r.push(&trace);
-            }
-            if let Some(l) = self.logs.get_mut(i) {
-                l.push(k, &trace);
+            if uses.logged {
+                if let Some(l) = self.logs.get_mut(i) {
+                    l.push(k, &trace);
+                }
             }
         }
-        if traced {
+        if uses.traced {
             if let Some(c) = self.csv.as_mut() {
                 c.row(t, u, y);
             }
         }
     }
 
-    /// After the last sample: it is always evaluated for the drift, and
-    /// traced if it was not already.
+    /// After the last sample: it is always evaluated for the drift, traced
+    /// and logged, if it was not already.
     fn end(&mut self) {
         let n = self.k;
         if n == 0 {
             return;
         }
-        let traced = self.countdown == self.every;
-        let recorded = self.drift_countdown == self.drift;
-        if !(traced && recorded) {
-            self.evaluate(n - 1, self.last, !traced, !recorded);
+        let uses = Uses {
+            traced: !self.traces.just_hit(),
+            recorded: !self.drift.just_hit(),
+            logged: self.log.is_some_and(|g| !g.just_hit()),
+        };
+        if uses.traced || uses.recorded || uses.logged {
+            self.evaluate(n - 1, self.last, uses);
         }
     }
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP, NS> {
-    /// The session of `plan` at sample interval `ts`, evaluated on the
-    /// `--csv`/`--plot` grid when `csv` or `want_plot`, else on the drift
-    /// grid, or every `log_every` samples into logs.
+    /// The session of `plan` at sample interval `ts`, traced on the
+    /// `--csv`/`--plot` grid (1 kHz) when `csv` or `want_plot`, its drift
+    /// kept every 0.1 s, and every `log_every` samples into logs.
     fn new(
         plan: &Plan,
         ts: f64,
@@ -550,10 +596,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
                 .map_err(|e| CliError::failure(format!("replay: {e}")))?;
         let dense = csv.is_some() || want_plot;
         let drift = drift_every(ts);
-        let every = match (dense, log_every) {
-            (_, Some(e)) => e.max(1),
-            (true, None) => every_for_rate(1e3, ts),
-            (false, None) => drift,
+        let traces = if dense {
+            every_for_rate(1e3, ts)
+        } else {
+            drift
         };
         let recorders: Vec<Recorder> = if want_plot {
             plan.est
@@ -571,10 +617,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
         Ok(Self {
             session,
             ts,
-            every,
-            drift,
-            countdown: every,
-            drift_countdown: drift,
+            traces: Grid::new(traces),
+            drift: Grid::new(drift),
+            log: log_every.map(Grid::new),
             k: 0,
             last: (f64::NAN, f64::NAN),
             csv,
