@@ -10,6 +10,10 @@
 //! It serves one connection at a time, each from start-up (sample 0,
 //! sequence number 0), until the client leaves or `--close-after` seconds
 //! (then it closes the connection, as an unplugged device would).
+//!
+//! `--write FILE --samples N` writes instead the bytes the device sends
+//! over its first N samples to FILE (a capture, as `beamctl monitor
+//! --capture` would record it) and exits.
 
 use beamctl::link::fake::{FakeConfig, FakeDevice, ServeOptions};
 use clap::Parser;
@@ -30,10 +34,27 @@ struct Args {
     /// Never answer commands.
     #[arg(long)]
     mute: bool,
+    /// Write the bytes of the first --samples samples to this file and
+    /// exit, instead of listening.
+    #[arg(long, requires = "samples")]
+    write: Option<std::path::PathBuf>,
+    /// Samples (at the device's 10 kHz) for --write.
+    #[arg(long)]
+    samples: Option<u64>,
 }
 
 fn main() -> std::io::Result<()> {
     let args = Args::parse();
+    if let (Some(path), Some(n)) = (&args.write, args.samples) {
+        let mut cfg = FakeConfig::default();
+        cfg.rates.raw_decimation = args.raw_decimation;
+        let mut dev = FakeDevice::new(cfg);
+        let mut bytes = Vec::new();
+        dev.advance(n, &mut bytes);
+        std::fs::write(path, &bytes)?;
+        eprintln!("wrote {} bytes to {}", bytes.len(), path.display());
+        return Ok(());
+    }
     let listener = TcpListener::bind(&args.listen)?;
     eprintln!("fake device listening on {}", listener.local_addr()?);
     for stream in listener.incoming() {

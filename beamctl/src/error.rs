@@ -15,6 +15,9 @@ use std::process::ExitCode;
 pub const EXIT_USAGE: u8 = 2;
 /// Exit code for a failure while running.
 pub const EXIT_FAILURE: u8 = 1;
+/// [`CliError::code`] of a run stopped by its caller's interrupt (the
+/// Python package's Ctrl-C; 128 + SIGINT, as shells report it).
+pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// An error to report to the user.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -20,9 +20,13 @@ pub(crate) mod compensated;
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// A real floating-point scalar (`f32` or `f64`).
+/// A real floating-point scalar (`f32` or `f64`). `Send + Sync`, so that
+/// an estimator boxed behind `dyn` can move between threads (the Python
+/// package steps one with the interpreter's lock released).
 pub trait Real:
     Copy
+    + Send
+    + Sync
     + Debug
     + Default
     + PartialEq

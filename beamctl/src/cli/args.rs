@@ -295,8 +295,10 @@ pub struct SimulateArgs {
     pub csv: Option<PathBuf>,
 
     /// Plot to this PNG file: ω̂_i and ζ̂_i vs time (truth dashed, one line
-    /// per estimator), the largest relative error vs time (log axis) and
-    /// the model output vs the measured y over the last 0.5 s.
+    /// per estimator), the largest relative error vs time (log axis), the
+    /// model output vs the measured y over the last 0.5 s, and the
+    /// frequency response (the run's measured H1 and coherence under each
+    /// model's response, modes marked).
     #[arg(long, value_name = "FILE.png")]
     pub plot: Option<PathBuf>,
 
@@ -362,8 +364,10 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
 
-    /// Plot to this PNG file: ω̂_i and ζ̂_i vs time and the model output vs
-    /// the measured y over the last 0.5 s of the record.
+    /// Plot to this PNG file: ω̂_i and ζ̂_i vs time, the model output vs
+    /// the measured y over the last 0.5 s of the record, and the frequency
+    /// response (the record's measured H1 and coherence under each model's
+    /// response, modes marked).
     #[arg(long, value_name = "FILE.png")]
     pub plot: Option<PathBuf>,
 

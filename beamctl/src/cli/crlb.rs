@@ -16,6 +16,11 @@ use serde::Serialize;
 
 /// Run `beamctl crlb`.
 pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
+    write_stdout(&output(args)?)
+}
+
+/// What `beamctl crlb` prints (the JSON document with `--json`).
+pub fn output(args: &CrlbArgs) -> Result<String, CliError> {
     let base = RunConfig::default();
     check_duration(args.duration, base.ts_s)?;
     check_noise(args.snr_db, args.noise_sd)?;
@@ -64,7 +69,7 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
     } else {
         render(&cfg, &label, &bound, set)
     };
-    write_stdout(&text)
+    Ok(text)
 }
 
 /// Heading and one row per parameter: value, absolute and relative 1σ.

@@ -272,6 +272,11 @@ struct TfJson {
 
 /// Run `beamctl model`.
 pub fn run(args: &ModelArgs) -> Result<(), CliError> {
+    write_stdout(&output(args)?)
+}
+
+/// What `beamctl model` prints (the JSON document with `--json`).
+pub fn output(args: &ModelArgs) -> Result<String, CliError> {
     let (params, source) = match &args.beam {
         None => (
             BeamParams::paper(),
@@ -294,7 +299,7 @@ pub fn run(args: &ModelArgs) -> Result<(), CliError> {
     } else {
         render(&params, &modal, &source)
     };
-    write_stdout(&text)
+    Ok(text)
 }
 
 /// The beam of a TOML file (`--beam`; keys: [`BeamFile`]).

@@ -25,10 +25,10 @@
 use crate::cli::args::ReplayArgs;
 use crate::cli::estimator_flags::{self, EstimatorPlan};
 use crate::error::{note, write_stdout};
-use crate::error::{CliError, EXIT_USAGE};
+use crate::error::{CliError, EXIT_INTERRUPTED, EXIT_USAGE};
 use crate::io::csv_in::{Columns, Reader};
 use crate::io::csv_out::CsvOut;
-use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report::{self, Column};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
@@ -41,7 +41,6 @@ use beamest::model::default_output_weight;
 use beamest::tuning::TuningConfig;
 use beamest::Real;
 use serde::Serialize;
-use std::path::Path;
 use std::sync::mpsc::sync_channel;
 
 /// Samples per batch handed from the parsing thread.
@@ -160,11 +159,133 @@ pub struct ReplayReport {
 }
 
 /// Everything a replay produced, before formatting.
-struct Replayed {
-    reports: Vec<ReplayReport>,
-    series: Vec<plot::Series>,
-    output: Option<OutputPanel>,
-    csv_rows: Option<u64>,
+#[derive(Debug)]
+pub struct Replayed {
+    /// One report per estimator, in run order (the `--json` objects).
+    pub reports: Vec<ReplayReport>,
+    /// The plotted ω̂, ζ̂ over time (with `--plot`).
+    pub series: Vec<plot::Series>,
+    /// The model output panel (with `--plot`).
+    pub output: Option<OutputPanel>,
+    /// The frequency-response row (with `--plot`; `None` if the record has
+    /// no frequency with power in u).
+    pub frf: Option<FrfPanel>,
+    /// Rows written with `--csv`.
+    pub csv_rows: Option<u64>,
+    /// Every evaluation, one log per estimator, when asked for
+    /// ([`ArrayOptions::log_every`]).
+    pub logs: Vec<EstimateLog>,
+}
+
+/// One estimator's evaluations over a record (the estimate over time), one
+/// entry per evaluation; NaN where there is no estimate.
+#[derive(Debug, Clone, Default)]
+pub struct EstimateLog {
+    /// Modes of the model.
+    pub modes: usize,
+    /// Entries of Θ̂ (4N − 1).
+    pub params: usize,
+    /// Index of the evaluated sample (from 0).
+    pub sample: Vec<u64>,
+    /// Time of the evaluated sample (s), `sample × Ts`.
+    pub t_s: Vec<f64>,
+    /// Θ̂ of eq. 29 (physical units), `params` per evaluation.
+    pub theta: Vec<f64>,
+    /// ω̂_i (rad/s), `modes` per evaluation.
+    pub omega: Vec<f64>,
+    /// ζ̂_i, `modes` per evaluation.
+    pub zeta: Vec<f64>,
+    /// b̂̄_i, `modes` per evaluation.
+    pub bbar: Vec<f64>,
+    /// λ in use (rad/s), NaN before the estimator is built.
+    pub lambda_rad_s: Vec<f64>,
+    /// [`beamest::modal::Validity`] bits (0 = valid).
+    pub validity: Vec<u8>,
+    /// The supervisor's excitation flag (false for an unsupervised law or
+    /// before the build).
+    pub excited: Vec<bool>,
+}
+
+impl EstimateLog {
+    /// An empty log for `modes` modes and `params` entries of Θ̂.
+    pub fn new(modes: usize, params: usize) -> Self {
+        Self {
+            modes,
+            params,
+            ..Self::default()
+        }
+    }
+
+    /// Append one evaluation.
+    pub fn push(&mut self, sample: u64, trace: &Trace<'_>) {
+        self.sample.push(sample);
+        self.t_s.push(trace.t_s);
+        self.theta.extend_from_slice(&trace.theta[..self.params]);
+        let n = self.modes;
+        match trace.modal.filter(|m| m.modes == n) {
+            Some(m) => {
+                self.omega.extend_from_slice(&m.omega_rad_s[..n]);
+                self.zeta.extend_from_slice(&m.zeta[..n]);
+                self.bbar.extend_from_slice(&m.bbar[..n]);
+            }
+            None => {
+                for v in [&mut self.omega, &mut self.zeta, &mut self.bbar] {
+                    v.extend(std::iter::repeat_n(f64::NAN, n));
+                }
+            }
+        }
+        self.lambda_rad_s
+            .push(trace.lambda_rad_s.unwrap_or(f64::NAN));
+        self.validity.push(trace.validity);
+        self.excited
+            .push(trace.supervision.is_some_and(|s| s.excited));
+    }
+
+    /// Number of evaluations.
+    pub fn len(&self) -> usize {
+        self.sample.len()
+    }
+
+    /// True without evaluations.
+    pub fn is_empty(&self) -> bool {
+        self.sample.is_empty()
+    }
+}
+
+/// Samples between two evaluations for a rate in Hz of record time at
+/// sample interval `ts_s` (at least 1): 10 Hz is the drift grid
+/// ([`drift_every`]), 1000 Hz the `--csv`/`--plot` grid.
+pub fn every_for_rate(rate_hz: f64, ts_s: f64) -> u64 {
+    ((1.0 / rate_hz) / ts_s).round().max(1.0) as u64
+}
+
+/// How a replay of arrays ([`replay_arrays`]) is run besides its flags.
+pub struct ArrayOptions<'a> {
+    /// The name reported as `file`.
+    pub label: String,
+    /// Sample interval (s).
+    pub ts_s: f64,
+    /// Keep every evaluation in [`Replayed::logs`], evaluating every this
+    /// many samples (and at the last sample); `None`: no logs.
+    pub log_every: Option<u64>,
+    /// Samples stepped between two calls of `interrupt`.
+    pub chunk: usize,
+    /// Called between chunks; returning true stops the replay with an
+    /// error whose code is [`EXIT_INTERRUPTED`].
+    pub interrupt: &'a mut dyn FnMut() -> bool,
+}
+
+/// Where a replay's samples come from.
+enum Source<'a> {
+    /// The CSV reader (`beamctl replay FILE`), read on its own thread.
+    File(Reader),
+    /// Two arrays of the same length.
+    Arrays {
+        u: &'a [f64],
+        y: &'a [f64],
+        chunk: usize,
+        interrupt: &'a mut dyn FnMut() -> bool,
+    },
 }
 
 /// Run `beamctl replay`.
@@ -175,6 +296,89 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         code: EXIT_USAGE,
     };
     let reader = Reader::open(&args.file, &plan.columns, plan.ts_s).map_err(input)?;
+    let ts = reader.ts_s();
+    let label = args.file.display().to_string();
+    let out = execute(args, &plan, &label, ts, None, Source::File(reader))?;
+    let text = if args.json {
+        report::to_json(&out.reports)?
+    } else {
+        render(&plan, &out.reports)
+    };
+    write_stdout(&text)?;
+    require_estimates(&out.reports)
+}
+
+/// Exit status after the report: an error naming the first law that
+/// produced no estimate (see [`report::require_estimates`]).
+pub fn require_estimates(reports: &[ReplayReport]) -> Result<(), CliError> {
+    report::require_estimates(reports.iter().map(|r| {
+        (
+            r.estimator,
+            &r.outcome.estimate,
+            r.outcome.tuning,
+            r.outcome.law_updates,
+        )
+    }))
+}
+
+/// `beamctl replay` over samples already in memory: `u[k]`, `y[k]` as the
+/// file's rows, at the sample interval of `opts`; every flag of `args` as
+/// on the command line except the file's own (`FILE.csv` is only the
+/// `file` of the report unless `opts.label` says otherwise, `--columns`
+/// and `--ts` do not apply). Same session, same evaluation grid, same
+/// report as [`run`] on a file holding the same values (the Python
+/// package's `beamest.replay`).
+///
+/// # Errors
+/// The flags' errors (as [`run`]'s), `u` and `y` of different lengths or
+/// empty, a bad `ts_s`, and [`EXIT_INTERRUPTED`].
+pub fn replay_arrays(
+    args: &ReplayArgs,
+    u: &[f64],
+    y: &[f64],
+    opts: ArrayOptions<'_>,
+) -> Result<Replayed, CliError> {
+    let plan = plan(args)?;
+    if !(opts.ts_s.is_finite() && opts.ts_s > 0.0) {
+        return Err(CliError::usage(
+            "ts",
+            format!(
+                "the sample interval must be a finite number > 0 s (got {})",
+                opts.ts_s
+            ),
+        ));
+    }
+    if u.len() != y.len() {
+        return Err(CliError::usage(
+            "y",
+            format!(
+                "u and y must have the same length (got {} and {})",
+                u.len(),
+                y.len()
+            ),
+        ));
+    }
+    if u.is_empty() {
+        return Err(CliError::usage("u", "no samples (empty arrays)"));
+    }
+    let source = Source::Arrays {
+        u,
+        y,
+        chunk: opts.chunk.max(1),
+        interrupt: opts.interrupt,
+    };
+    execute(args, &plan, &opts.label, opts.ts_s, opts.log_every, source)
+}
+
+/// The replay proper: the session over `source`, then `--csv`/`--plot`.
+fn execute(
+    args: &ReplayArgs,
+    plan: &Plan,
+    label: &str,
+    ts: f64,
+    log_every: Option<u64>,
+    source: Source<'_>,
+) -> Result<Replayed, CliError> {
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     let csv = match &args.csv {
         Some(p) => Some(CsvOut::create(p, plan.modes, &names)?),
@@ -191,7 +395,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         (3, Precision::F64) => replay_sized::<f64, 6, 11, 66>,
         _ => replay_sized::<f32, 6, 11, 66>,
     };
-    let out = sized(&plan, &args.file, reader, csv, args.plot.is_some())?;
+    let out = sized(plan, label, ts, source, csv, args.plot.is_some(), log_every)?;
     if let (Some(rows), Some(p)) = (out.csv_rows, &args.csv) {
         note(&format!("wrote {} ({rows} rows)", p.display()));
     }
@@ -199,12 +403,20 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         let duration = out.reports.first().map_or(0.0, |r| r.duration_s);
         let title = format!(
             "{} — {} samples, Ts = {} s, {}",
-            args.file.display(),
+            label,
             out.reports.first().map_or(0, |r| r.samples),
             out.reports.first().map_or(f64::NAN, |r| r.ts_s),
             plan.est.lambda_label
         );
-        let labelled = plot::write(p, &title, None, &out.series, duration, out.output.as_ref())?;
+        let labelled = plot::write(
+            p,
+            &title,
+            None,
+            &out.series,
+            duration,
+            out.output.as_ref(),
+            out.frf.as_ref(),
+        )?;
         let extra = if labelled {
             ""
         } else {
@@ -212,71 +424,107 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         };
         note(&format!("wrote {}{extra}", p.display()));
     }
-    let text = if args.json {
-        report::to_json(&out.reports)?
-    } else {
-        render(&plan, &out.reports)
-    };
-    write_stdout(&text)?;
-    report::require_estimates(out.reports.iter().map(|r| {
-        (
-            r.estimator,
-            &r.outcome.estimate,
-            r.outcome.tuning,
-            r.outcome.law_updates,
-        )
-    }))
+    Ok(out)
 }
 
-fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
-    plan: &Plan,
-    path: &Path,
-    mut reader: Reader,
-    mut csv: Option<CsvOut>,
-    want_plot: bool,
-) -> Result<Replayed, CliError> {
-    let ts = reader.ts_s();
-    let tuning = TuningConfig::new(ts, plan.est.lambda);
-    let mut session =
-        Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
-            .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
-            .and_then(|s| s.with_monitor(plan.residual_monitor))
-            .map_err(|e| CliError::failure(format!("replay: {e}")))?;
-    let dense = csv.is_some() || want_plot;
-    let drift = drift_every(ts);
-    let every = if dense {
-        (1e-3 / ts).round().max(1.0) as u64
-    } else {
-        drift
-    };
-    let mut recorders: Vec<Recorder> = if want_plot {
-        plan.est
-            .kinds
-            .iter()
-            .map(|k| Recorder::unbounded(k.name(), plan.modes))
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let file_error = |e: crate::io::csv_in::CsvError| CliError {
-        message: format!("{}: {e}", path.display()),
-        code: EXIT_USAGE,
-    };
-    let mut batches: Vec<Vec<(f64, f64)>> = Vec::new();
-    let mut k: u64 = 0;
-    let mut countdown = every;
-    let mut last = (f64::NAN, f64::NAN);
-    let mut evaluate = |session: &mut Session<T, D, NP, NS>,
-                        k: u64,
-                        (u, y): (f64, f64),
-                        csv: &mut Option<CsvOut>,
-                        last: bool| {
-        let t = k as f64 * ts;
-        let record = last || (k + 1).is_multiple_of(drift);
-        for i in 0..session.len() {
-            let e = session.evaluate(i, t, record);
+/// An evaluation grid: every `every` samples, the first at sample
+/// `every − 1`. A countdown, not (k + 1) % every: a 64-bit division per
+/// sample is a measurable share of the ~70 ns budget.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    every: u64,
+    countdown: u64,
+}
+
+impl Grid {
+    fn new(every: u64) -> Self {
+        let every = every.max(1);
+        Self {
+            every,
+            countdown: every,
+        }
+    }
+
+    /// Count one sample; true if it is on the grid.
+    #[inline]
+    fn tick(&mut self) -> bool {
+        self.countdown -= 1;
+        if self.countdown == 0 {
+            self.countdown = self.every;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// True if the last sample counted was on the grid.
+    fn just_hit(&self) -> bool {
+        self.countdown == self.every
+    }
+}
+
+/// The session and what is kept while the samples go through it.
+struct Stepper<T: Real, const D: usize, const NP: usize, const NS: usize> {
+    session: Session<T, D, NP, NS>,
+    ts: f64,
+    /// The `--csv`/`--plot` grid (1 kHz with either, else the drift grid).
+    traces: Grid,
+    /// The evaluations kept for the drift (0.1 s of record).
+    drift: Grid,
+    /// The evaluations kept in `logs`, if any.
+    log: Option<Grid>,
+    /// Samples stepped.
+    k: u64,
+    /// The last sample stepped.
+    last: (f64, f64),
+    csv: Option<CsvOut>,
+    recorders: Vec<Recorder>,
+    logs: Vec<EstimateLog>,
+}
+
+/// What an evaluation is for.
+#[derive(Debug, Clone, Copy)]
+struct Uses {
+    /// The CSV row and the plot's point.
+    traced: bool,
+    /// The drift's history.
+    recorded: bool,
+    /// The logs.
+    logged: bool,
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP, NS> {
+    /// Step every sample of `samples`.
+    #[inline]
+    fn feed(&mut self, samples: impl Iterator<Item = (f64, f64)>) {
+        for (u, y) in samples {
+            let screening = self.session.step(u, y);
+            if let Some(c) = self.csv.as_mut() {
+                c.screening(&screening);
+            }
+            let uses = Uses {
+                traced: self.traces.tick(),
+                recorded: self.drift.tick(),
+                logged: self.log.as_mut().is_some_and(Grid::tick),
+            };
+            if uses.traced || uses.recorded || uses.logged {
+                self.evaluate(self.k, (u, y), uses);
+            }
+            self.k += 1;
+            self.last = (u, y);
+        }
+    }
+
+    /// Evaluate every estimator at sample `k` for `uses`.
+    fn evaluate(&mut self, k: u64, (u, y): (f64, f64), uses: Uses) {
+        let t = k as f64 * self.ts;
+        for i in 0..self.session.len() {
+            let e = self.session.evaluate(i, t, uses.recorded);
+            if !(uses.traced || uses.logged) {
+                continue;
+            }
             let trace = Trace {
-                estimator: session.kind(i),
+                estimator: self.session.kind(i),
                 t_s: t,
                 u,
                 y,
@@ -284,20 +532,161 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 modal: e.modal.as_ref(),
                 lambda_rad_s: e.lambda_rad_s,
                 max_rel_error: None,
-                supervision: session.supervision(i),
+                supervision: self.session.supervision(i),
                 validity: e.validity,
             };
-            if let Some(c) = csv.as_mut() {
-                c.estimate(i, &trace);
+            if uses.traced {
+                if let Some(c) = self.csv.as_mut() {
+                    c.estimate(i, &trace);
+                }
+                if let Some(r) = self.recorders.get_mut(i) {
+                    r.push(&trace);
+                }
             }
-            if let Some(r) = recorders.get_mut(i) {
-                r.push(&trace);
+            if uses.logged {
+                if let Some(l) = self.logs.get_mut(i) {
+                    l.push(k, &trace);
+                }
             }
         }
-        if let Some(c) = csv.as_mut() {
-            c.row(t, u, y);
+        if uses.traced {
+            if let Some(c) = self.csv.as_mut() {
+                c.row(t, u, y);
+            }
         }
-    };
+    }
+
+    /// After the last sample: it is always evaluated for the drift, traced
+    /// and logged, if it was not already.
+    fn end(&mut self) {
+        let n = self.k;
+        if n == 0 {
+            return;
+        }
+        let uses = Uses {
+            traced: !self.traces.just_hit(),
+            recorded: !self.drift.just_hit(),
+            logged: self.log.is_some_and(|g| !g.just_hit()),
+        };
+        if uses.traced || uses.recorded || uses.logged {
+            self.evaluate(n - 1, self.last, uses);
+        }
+    }
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP, NS> {
+    /// The session of `plan` at sample interval `ts`, traced on the
+    /// `--csv`/`--plot` grid (1 kHz) when `csv` or `want_plot`, its drift
+    /// kept every 0.1 s, and every `log_every` samples into logs.
+    fn new(
+        plan: &Plan,
+        ts: f64,
+        csv: Option<CsvOut>,
+        want_plot: bool,
+        log_every: Option<u64>,
+    ) -> Result<Self, CliError> {
+        let tuning = TuningConfig::new(ts, plan.est.lambda);
+        let session =
+            Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
+                .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
+                .and_then(|s| s.with_monitor(plan.residual_monitor))
+                .map_err(|e| CliError::failure(format!("replay: {e}")))?;
+        let dense = csv.is_some() || want_plot;
+        let drift = drift_every(ts);
+        let traces = if dense {
+            every_for_rate(1e3, ts)
+        } else {
+            drift
+        };
+        let recorders: Vec<Recorder> = if want_plot {
+            plan.est
+                .kinds
+                .iter()
+                .map(|k| Recorder::unbounded(k.name(), plan.modes))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let logs = match log_every {
+            Some(_) => vec![EstimateLog::new(plan.modes, NP); plan.est.kinds.len()],
+            None => Vec::new(),
+        };
+        Ok(Self {
+            session,
+            ts,
+            traces: Grid::new(traces),
+            drift: Grid::new(drift),
+            log: log_every.map(Grid::new),
+            k: 0,
+            last: (f64::NAN, f64::NAN),
+            csv,
+            recorders,
+            logs,
+        })
+    }
+}
+
+fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
+    plan: &Plan,
+    label: &str,
+    ts: f64,
+    source: Source<'_>,
+    csv: Option<CsvOut>,
+    want_plot: bool,
+    log_every: Option<u64>,
+) -> Result<Replayed, CliError> {
+    let mut st = Stepper::<T, D, NP, NS>::new(plan, ts, csv, want_plot, log_every)?;
+    match source {
+        Source::File(reader) => {
+            let mut batches: Vec<Vec<(f64, f64)>> = Vec::new();
+            read_file(reader, label, |batch| {
+                st.feed(batch.iter().copied());
+                batches.push(batch);
+            })?;
+            st.end();
+            judge(plan, label, st, || batches.iter().flatten().copied())
+        }
+        Source::Arrays {
+            u,
+            y,
+            chunk,
+            interrupt,
+        } => {
+            for (cu, cy) in u.chunks(chunk).zip(y.chunks(chunk)) {
+                st.feed(cu.iter().copied().zip(cy.iter().copied()));
+                if interrupt() {
+                    return Err(CliError {
+                        message: "replay: interrupted".into(),
+                        code: EXIT_INTERRUPTED,
+                    });
+                }
+            }
+            st.end();
+            judge(plan, label, st, || u.iter().copied().zip(y.iter().copied()))
+        }
+    }
+}
+
+/// An estimator's model for the FRF row, owned.
+type FrfEntry = (String, Option<fit::Model>, Option<f64>, Vec<(f64, f64)>);
+
+fn frf_inputs(m: &[FrfEntry]) -> Vec<plot::FrfInput<'_>> {
+    m.iter()
+        .map(|(name, model, fit_percent, modes)| plot::FrfInput {
+            name: name.clone(),
+            model: model.as_ref(),
+            fit_percent: *fit_percent,
+            modes: modes.clone(),
+        })
+        .collect()
+}
+
+/// Read the file on its own thread, handing each batch to `each` in order.
+fn read_file(
+    mut reader: Reader,
+    label: &str,
+    mut each: impl FnMut(Vec<(f64, f64)>),
+) -> Result<(), CliError> {
     let mut failed: Option<CliError> = None;
     std::thread::scope(|scope| {
         let (tx, rx) = sync_channel(4);
@@ -317,55 +706,50 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             }
         });
         for msg in rx {
-            let batch = match msg {
-                Ok(b) => b,
+            match msg {
+                Ok(b) => each(b),
                 Err(e) => {
-                    failed = Some(file_error(e));
+                    failed = Some(CliError {
+                        message: format!("{label}: {e}"),
+                        code: EXIT_USAGE,
+                    });
                     return;
                 }
-            };
-            for &(u, y) in &batch {
-                let screening = session.step(u, y);
-                if let Some(c) = csv.as_mut() {
-                    c.screening(&screening);
-                }
-                // A countdown, not (k + 1) % every: a 64-bit division per
-                // sample is a measurable share of the ~70 ns budget.
-                countdown -= 1;
-                if countdown == 0 {
-                    countdown = every;
-                    evaluate(&mut session, k, (u, y), &mut csv, false);
-                }
-                k += 1;
             }
-            if let Some(&l) = batch.last() {
-                last = l;
-            }
-            batches.push(batch);
         }
     });
-    if let Some(e) = failed {
-        return Err(e);
+    match failed {
+        Some(e) => Err(e),
+        None => Ok(()),
     }
-    let n = k;
-    if n > 0 {
-        // The last sample is always evaluated for the drift; its CSV row
-        // only if it was not written already.
-        if n.is_multiple_of(every) {
-            if !n.is_multiple_of(drift) {
-                for i in 0..session.len() {
-                    session.evaluate(i, (n - 1) as f64 * ts, true);
-                }
-            }
-        } else {
-            evaluate(&mut session, n - 1, last, &mut csv, true);
-        }
-    }
+}
+
+/// The reports once every sample is stepped: each estimator's model, its
+/// fit over the record (`record` yields it again, from the start), the
+/// bound, the plot's panels.
+fn judge<T: Real, const D: usize, const NP: usize, const NS: usize, I>(
+    plan: &Plan,
+    label: &str,
+    st: Stepper<T, D, NP, NS>,
+    record: impl Fn() -> I,
+) -> Result<Replayed, CliError>
+where
+    I: Iterator<Item = (f64, f64)>,
+{
+    let Stepper {
+        session,
+        ts,
+        k: n,
+        csv,
+        recorders,
+        logs,
+        ..
+    } = st;
+    let want_plot = !recorders.is_empty();
     let csv_rows = match csv {
         Some(c) => Some(c.finish()?),
         None => None,
     };
-    let record = || batches.iter().flatten().copied();
     let end_s = n.saturating_sub(1) as f64 * ts;
     let mut reports = Vec::with_capacity(session.len());
     let mut output = want_plot.then(|| OutputPanel {
@@ -374,9 +758,10 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         models: Vec::new(),
     });
     let keep = n.saturating_sub((0.5 / ts).round() as u64)..n;
+    let mut frf_models: Vec<FrfEntry> = Vec::new();
     for i in 0..session.len() {
         let model = session.model(i, ts);
-        let f = model.as_ref().and_then(|m| fit::fit(m, record));
+        let f = model.as_ref().and_then(|m| fit::fit(m, &record));
         let outcome = session.outcome(i, end_s, f.as_ref());
         let (crlb, crlb_sigma_source) = match plan.crlb {
             Some((set, given)) => {
@@ -426,9 +811,20 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 f.as_ref().map(|f| f.percent),
                 yhat,
             ));
+            let e = &outcome.estimate;
+            frf_models.push((
+                session.kind(i).name().to_string(),
+                model.clone(),
+                f.as_ref().map(|f| f.percent),
+                e.omega
+                    .iter()
+                    .copied()
+                    .zip(e.zeta.iter().copied())
+                    .collect::<Vec<_>>(),
+            ));
         }
         reports.push(ReplayReport {
-            file: path.display().to_string(),
+            file: label.to_string(),
             estimator: session.kind(i),
             precision: match std::mem::size_of::<T>() {
                 4 => Precision::F32,
@@ -449,12 +845,163 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
         panel.t = (keep.start..n).map(|k| k as f64 * ts).collect();
         panel.y = window.iter().map(|s| s.1).collect();
     }
+    let frf = if want_plot {
+        let (u, y): (Vec<f64>, Vec<f64>) = record().unzip();
+        crate::judge::frf::h1(&u, &y, ts, None)
+            .map(|h| FrfPanel::new(h, &frf_inputs(&frf_models), ts))
+    } else {
+        None
+    };
     Ok(Replayed {
         reports,
         series: recorders.into_iter().map(Recorder::finish).collect(),
         output,
+        frf,
         csv_rows,
+        logs,
     })
+}
+
+/// A replay fed chunk by chunk (the Python package's `beamest.Estimator`):
+/// the session of [`replay_arrays`] (sensor guard, tuning rule, the
+/// laws), its evaluations handed back as they happen. How the samples are
+/// split into chunks changes nothing: they are stepped one at a time.
+pub struct Stream {
+    inner: Box<dyn StreamSteps>,
+    plan: Plan,
+    ts_s: f64,
+}
+
+trait StreamSteps: Send {
+    fn feed(&mut self, u: &[f64], y: &[f64]) -> Vec<EstimateLog>;
+    fn samples(&self) -> u64;
+    fn reports(&self, plan: &Plan, label: &str) -> Vec<ReplayReport>;
+}
+
+impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
+    for Stepper<T, D, NP, NS>
+{
+    fn feed(&mut self, u: &[f64], y: &[f64]) -> Vec<EstimateLog> {
+        Stepper::feed(self, u.iter().copied().zip(y.iter().copied()));
+        self.logs
+            .iter_mut()
+            .map(|l| std::mem::replace(l, EstimateLog::new(l.modes, l.params)))
+            .collect()
+    }
+
+    fn samples(&self) -> u64 {
+        self.k
+    }
+
+    fn reports(&self, plan: &Plan, label: &str) -> Vec<ReplayReport> {
+        let n = self.k;
+        let end_s = n.saturating_sub(1) as f64 * self.ts;
+        (0..self.session.len())
+            .map(|i| ReplayReport {
+                file: label.to_string(),
+                estimator: self.session.kind(i),
+                precision: match std::mem::size_of::<T>() {
+                    4 => Precision::F32,
+                    _ => Precision::F64,
+                },
+                modes: plan.modes,
+                gains: plan.est.gains.name(),
+                ts_s: self.ts,
+                samples: n,
+                duration_s: n as f64 * self.ts,
+                outcome: self.session.outcome(i, end_s, None),
+                crlb: None,
+                crlb_sigma_source: None,
+            })
+            .collect()
+    }
+}
+
+impl Stream {
+    /// A session with the flags of `args` (as [`replay_arrays`]; not
+    /// `--csv`, `--plot`, `--crlb`) at sample interval `ts_s`, evaluating
+    /// every `every` samples (the first evaluation at sample `every − 1`).
+    ///
+    /// # Errors
+    /// The flags' errors, a bad `ts_s`, a flag that does not apply.
+    pub fn new(args: &ReplayArgs, ts_s: f64, every: u64) -> Result<Self, CliError> {
+        let plan = plan(args)?;
+        if !(ts_s.is_finite() && ts_s > 0.0) {
+            return Err(CliError::usage(
+                "ts",
+                format!("the sample interval must be a finite number > 0 s (got {ts_s})"),
+            ));
+        }
+        for (given, flag) in [
+            (args.csv.is_some(), "--csv"),
+            (args.plot.is_some(), "--plot"),
+            (args.crlb, "--crlb"),
+        ] {
+            if given {
+                return Err(CliError::usage(
+                    flag,
+                    "not available for a streaming estimator (use replay)",
+                ));
+            }
+        }
+        fn make<T: Real, const D: usize, const NP: usize, const NS: usize>(
+            plan: &Plan,
+            ts: f64,
+            every: u64,
+        ) -> Result<Box<dyn StreamSteps>, CliError> {
+            Ok(Box::new(Stepper::<T, D, NP, NS>::new(
+                plan,
+                ts,
+                None,
+                false,
+                Some(every),
+            )?))
+        }
+        let inner = match (plan.modes, plan.est.precision) {
+            (1, Precision::F64) => make::<f64, 2, 3, 6>(&plan, ts_s, every)?,
+            (1, Precision::F32) => make::<f32, 2, 3, 6>(&plan, ts_s, every)?,
+            (2, Precision::F64) => make::<f64, 4, 7, 28>(&plan, ts_s, every)?,
+            (2, Precision::F32) => make::<f32, 4, 7, 28>(&plan, ts_s, every)?,
+            (3, Precision::F64) => make::<f64, 6, 11, 66>(&plan, ts_s, every)?,
+            _ => make::<f32, 6, 11, 66>(&plan, ts_s, every)?,
+        };
+        Ok(Self { inner, plan, ts_s })
+    }
+
+    /// Step `u[k]`, `y[k]` in order; the evaluations that fell in them, one
+    /// log per estimator.
+    ///
+    /// # Errors
+    /// `u` and `y` of different lengths.
+    pub fn feed(&mut self, u: &[f64], y: &[f64]) -> Result<Vec<EstimateLog>, CliError> {
+        if u.len() != y.len() {
+            return Err(CliError::usage(
+                "y",
+                format!(
+                    "u and y must have the same length (got {} and {})",
+                    u.len(),
+                    y.len()
+                ),
+            ));
+        }
+        Ok(self.inner.feed(u, y))
+    }
+
+    /// Samples stepped so far.
+    pub fn samples(&self) -> u64 {
+        self.inner.samples()
+    }
+
+    /// Sample interval (s).
+    pub fn ts_s(&self) -> f64 {
+        self.ts_s
+    }
+
+    /// The report of every estimator now (as `--json`'s, without the
+    /// model-output fit, which needs the whole record: `fit_percent` null).
+    pub fn reports(&self, label: &str) -> Vec<ReplayReport> {
+        self.inner.reports(&self.plan, label)
+    }
 }
 
 /// The human-readable report.

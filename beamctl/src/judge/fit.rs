@@ -105,6 +105,29 @@ impl Model {
     pub fn is_stable(&self) -> bool {
         self.sections.iter().all(|s| s.phi.norm() < 1.0)
     }
+
+    /// The frequency response of this sampled model (u held over each
+    /// sample, y read at its start) at `f_hz`, for the sample interval
+    /// `ts_s` it was made with: H(z) at z = e^{j2πf·Ts}, as (re, im). Each
+    /// section x ← φx + γu contributes its weight·γ/(z − φ) (a pair: the
+    /// real part taken as the sum with the conjugate pole's term).
+    pub fn response(&self, f_hz: f64, ts_s: f64) -> (f64, f64) {
+        let w = 2.0 * std::f64::consts::PI * f_hz * ts_s;
+        let z = C::new(w.cos(), w.sin());
+        let mut h = C::from_real(0.0);
+        for s in &self.sections {
+            let term = |phi: C, gamma: C, weight: C| weight * gamma / (z - phi);
+            if s.real {
+                h = h + term(s.phi, s.gamma, s.weight);
+            } else {
+                let half = s.weight.scale(0.5);
+                h = h
+                    + term(s.phi, s.gamma, half)
+                    + term(s.phi.conj(), s.gamma.conj(), half.conj());
+            }
+        }
+        (h.re, h.im)
+    }
 }
 
 /// Running state of one simulation pass (fixed-size: at most

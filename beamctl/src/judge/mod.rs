@@ -1,7 +1,9 @@
 //! How an estimate is judged: against the measurement (model output fit,
 //! [`fit`]) and against the best any unbiased estimator can do (the
-//! Cramér–Rao bound, [`bound`]). The tables and JSON that report it are
+//! Cramér–Rao bound, [`bound`]), and the measured frequency response
+//! ([`frf`]). The tables and JSON that report it are
 //! [`crate::io::report`].
 
 pub mod bound;
 pub mod fit;
+pub mod frf;

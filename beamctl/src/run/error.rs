@@ -9,6 +9,8 @@ pub enum RunError {
     Estimator(String),
     /// Invalid excitation or timing.
     Setup(String),
+    /// Stopped by its observer ([`crate::run::Observer::stopped`]).
+    Interrupted,
 }
 
 impl std::fmt::Display for RunError {
@@ -17,6 +19,7 @@ impl std::fmt::Display for RunError {
             Self::Plant(s) => write!(f, "invalid plant: {s}"),
             Self::Estimator(s) => write!(f, "invalid estimator settings: {s}"),
             Self::Setup(s) => write!(f, "invalid run settings: {s}"),
+            Self::Interrupted => f.write_str("interrupted"),
         }
     }
 }

@@ -157,7 +157,7 @@ pub fn build_estimator<T: Real, const D: usize, const NP: usize, const NS: usize
     gains: Gains,
     filter: &FilterConfig,
     theta0: Option<&[f64; NP]>,
-) -> Result<Box<dyn Estimator<T, NP>>, RunError> {
+) -> Result<Box<dyn Estimator<T, NP> + Send>, RunError> {
     let scaling = Scaling::<NP>::new(filter);
     let theta0 = theta0.copied().unwrap_or([0.0; NP]);
     let err = |e| RunError::Estimator(format!("{e}"));

@@ -289,6 +289,11 @@ pub trait Observer {
     fn wants_samples(&self) -> bool {
         false
     }
+    /// Asked after each evaluation: true stops the run with
+    /// [`RunError::Interrupted`] (the Python package's Ctrl-C).
+    fn stopped(&mut self) -> bool {
+        false
+    }
 }
 
 impl<F: FnMut(&Trace<'_>)> Observer for F {
@@ -636,6 +641,9 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                         validity: e.validity,
                     },
                 );
+            }
+            if observer.stopped() {
+                return Err(RunError::Interrupted);
             }
         }
         if per_sample {

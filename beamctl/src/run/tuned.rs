@@ -105,7 +105,7 @@ pub struct RobustStatus {
 /// The estimator a [`Tuned`] drives.
 enum Current<T: Real, const D: usize, const NP: usize, const NS: usize> {
     /// One of the paper's laws (an `Identifier`).
-    Law(Box<dyn Estimator<T, NP>>),
+    Law(Box<dyn Estimator<T, NP> + Send>),
     /// The robust estimator (kept concrete for its extra outputs).
     Robust(Box<HostRobust<T, D, NP, NS>>),
 }

@@ -22,9 +22,11 @@ use crate::cli::args::SimulateArgs;
 use crate::cli::progress::Progress;
 use crate::error::{note, write_stdout, CliError};
 use crate::io::csv_out::CsvOut;
-use crate::io::plot::{self, OutputPanel, Recorder};
+use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report;
 use crate::judge::fit::{self, Model};
+use crate::judge::frf::h1;
+use crate::run::error::RunError;
 use crate::run::{run_many, samples, scenario_rig};
 use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
@@ -32,15 +34,21 @@ use plan::{bound_line, plan, run_line, JsonRun, Plan};
 use std::io::IsTerminal;
 
 /// Feeds the CSV writer, the plot recorders and the progress bar.
-struct SimObserver<'a> {
+struct SimObserver<'a, 'i> {
     csv: Option<&'a mut CsvOut>,
     recorders: Vec<Recorder>,
     progress: &'a mut Progress,
     ts_s: f64,
     total: u64,
+    /// Asked every [`INTERRUPT_EVERY`] evaluations.
+    interrupt: Option<&'i mut dyn FnMut() -> bool>,
+    evaluations: u64,
 }
 
-impl Observer for SimObserver<'_> {
+/// Evaluations between two calls of an interrupt callback.
+const INTERRUPT_EVERY: u64 = 4096;
+
+impl Observer for SimObserver<'_, '_> {
     fn estimate(&mut self, index: usize, t: &Trace<'_>) {
         if let Some(c) = self.csv.as_deref_mut() {
             c.estimate(index, t);
@@ -66,6 +74,14 @@ impl Observer for SimObserver<'_> {
         }
     }
 
+    fn stopped(&mut self) -> bool {
+        self.evaluations += 1;
+        match self.interrupt.as_deref_mut() {
+            Some(f) if self.evaluations.is_multiple_of(INTERRUPT_EVERY) => f(),
+            _ => false,
+        }
+    }
+
     fn wants_samples(&self) -> bool {
         self.csv.is_some()
     }
@@ -73,9 +89,27 @@ impl Observer for SimObserver<'_> {
 
 /// Run `beamctl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    let (text, status) = output(args)?;
+    write_stdout(&text)?;
+    status
+}
+
+/// What `beamctl simulate` prints (the JSON document with `--json`), and
+/// its exit status once printed (an error if a law produced no estimate).
+pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), CliError> {
+    output_with(args, None)
+}
+
+/// [`output`], with `interrupt` asked every few thousand evaluations
+/// during the simulation (not with `--seeds`): true stops it with an error
+/// whose code is [`crate::error::EXIT_INTERRUPTED`].
+pub fn output_with(
+    args: &SimulateArgs,
+    interrupt: Option<&mut dyn FnMut() -> bool>,
+) -> Result<(String, Result<(), CliError>), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
-        return seeds::run(&plan, seeds, args.json);
+        return Ok((seeds::output(&plan, seeds, args.json)?, Ok(())));
     }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
@@ -104,11 +138,19 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         progress: &mut progress,
         ts_s: plan.base.ts_s,
         total: per_run,
+        interrupt,
+        evaluations: 0,
     };
     let result = run_many(&plan.base, &plan.est.kinds, &mut obs);
     let recorders = std::mem::take(&mut obs.recorders);
     progress.finish();
-    let reports = result.map_err(|e| CliError::failure(format!("simulation: {e}")))?;
+    let reports = result.map_err(|e| match e {
+        RunError::Interrupted => CliError {
+            message: "simulation: interrupted".into(),
+            code: crate::error::EXIT_INTERRUPTED,
+        },
+        e => CliError::failure(format!("simulation: {e}")),
+    })?;
 
     if let Some(c) = csv.take() {
         let rows = c.finish()?;
@@ -135,7 +177,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             noise_label(&plan.base)
         );
         let series: Vec<_> = recorders.into_iter().map(Recorder::finish).collect();
-        let output = output_panel(&plan.base, &reports)?;
+        let (output, frf) = output_panel(&plan.base, &reports)?;
         let labelled = plot::write(
             p,
             &title,
@@ -143,6 +185,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             &series,
             plan.base.duration_s,
             Some(&output),
+            frf.as_ref(),
         )?;
         let extra = if labelled {
             ""
@@ -157,17 +200,21 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     } else {
         render(&plan, &reports)
     };
-    write_stdout(&text)?;
-    report::require_estimates(
+    let status = report::require_estimates(
         reports
             .iter()
             .map(|r| (r.estimator, &r.estimate, r.tuning, r.law_updates)),
-    )
+    );
+    Ok((text, status))
 }
 
 /// Model output vs measured y over the last 0.5 s of the run, per
-/// estimator (the rig is replayed to get the samples again).
-fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, CliError> {
+/// estimator, and the frequency-response row (the rig is replayed to get
+/// the samples again).
+fn output_panel(
+    cfg: &RunConfig,
+    reports: &[RunReport],
+) -> Result<(OutputPanel, Option<FrfPanel>), CliError> {
     let n = samples(cfg);
     let keep = n.saturating_sub((0.5 / cfg.ts_s).round() as u64)..n;
     let start = scenario_rig(cfg).map_err(|e| CliError::failure(format!("--plot: {e}")))?;
@@ -183,11 +230,16 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
         y: Vec::new(),
         models: Vec::new(),
     };
-    for r in reports {
-        let (fit, yhat) = match model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s) {
-            Some(model) => match fit::fit(&model, record) {
+    let models: Vec<Option<Model>> = reports
+        .iter()
+        .map(|r| model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s))
+        .collect();
+    let mut frf_models = Vec::new();
+    for (r, model) in reports.iter().zip(&models) {
+        let (fit, yhat) = match model {
+            Some(model) => match fit::fit(model, record) {
                 Some(f) => {
-                    let out = fit::model_output(&model, &f, record(), keep.clone());
+                    let out = fit::model_output(model, &f, record(), keep.clone());
                     if panel.t.is_empty() {
                         panel.t = out.iter().map(|o| o.0 as f64 * cfg.ts_s).collect();
                         panel.y = out.iter().map(|o| o.1).collect();
@@ -198,10 +250,24 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
             },
             None => (None, Vec::new()),
         };
+        frf_models.push(plot::FrfInput {
+            name: r.estimator.name().to_string(),
+            model: model.as_ref(),
+            fit_percent: fit,
+            modes: r
+                .estimate
+                .omega
+                .iter()
+                .copied()
+                .zip(r.estimate.zeta.iter().copied())
+                .collect(),
+        });
         panel
             .models
             .push((r.estimator.name().to_string(), fit, yhat));
     }
+    let (u, y): (Vec<f64>, Vec<f64>) = record().unzip();
+    let frf = h1(&u, &y, cfg.ts_s, None).map(|h| FrfPanel::new(h, &frf_models, cfg.ts_s));
     if panel.t.is_empty() {
         let out: Vec<(f64, f64)> = record()
             .skip(keep.start as usize)
@@ -210,7 +276,7 @@ fn output_panel(cfg: &RunConfig, reports: &[RunReport]) -> Result<OutputPanel, C
         panel.t = (keep.start..n).map(|k| k as f64 * cfg.ts_s).collect();
         panel.y = out.into_iter().map(|o| o.1).collect();
     }
-    Ok(panel)
+    Ok((panel, frf))
 }
 
 /// The identified model from report coefficients, if they are finite.

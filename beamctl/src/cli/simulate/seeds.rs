@@ -8,8 +8,8 @@
 
 use crate::cli::progress::Progress;
 use crate::cli::simulate::plan::{bound_line, run_line, JsonRun, Plan};
+use crate::error::note;
 use crate::error::CliError;
-use crate::error::{note, write_stdout};
 use crate::io::report::{self, ratio};
 use crate::io::table::{rel, sig, Column, Table};
 use crate::run::seeds::{summarize, ParamStats, SeedSummary, SeedsReport};
@@ -34,8 +34,8 @@ impl Observer for SeedProgress<'_> {
     }
 }
 
-/// Run every seed, then print the summary.
-pub fn run(plan: &Plan, seeds: &[u64], json: bool) -> Result<(), CliError> {
+/// Run every seed; the summary `beamctl simulate --seeds` prints.
+pub fn output(plan: &Plan, seeds: &[u64], json: bool) -> Result<String, CliError> {
     let failure = |e| CliError::failure(format!("simulation: {e}"));
     let bound = match plan.base.crlb {
         Some(set) => run_bound(&plan.base, set).map_err(failure)?,
@@ -79,7 +79,7 @@ pub fn run(plan: &Plan, seeds: &[u64], json: bool) -> Result<(), CliError> {
     } else {
         render(plan, &report)
     };
-    write_stdout(&text)
+    Ok(text)
 }
 
 /// The JSON document: the summary with every seed's full report.

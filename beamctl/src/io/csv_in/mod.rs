@@ -38,6 +38,69 @@ pub const TS_TOLERANCE: f64 = 0.01;
 /// Read block size.
 const BLOCK: usize = 4 << 20;
 
+/// Ts from the times of the first rows (at most [`TS_PREFIX_ROWS`], at
+/// least two, increasing): their intervals checked against their median
+/// (robust to the very outlier being looked for), then the mean spacing
+/// rounded to 9 significant digits. The error names the index in `t` of
+/// the row that ends the offending interval.
+fn prefix_ts(t: &[f64]) -> Result<f64, (usize, String)> {
+    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let median = dts[dts.len() / 2];
+    for (i, w) in t.windows(2).enumerate() {
+        let dt = w[1] - w[0];
+        if (dt - median).abs() > TS_TOLERANCE * median {
+            return Err((
+                i + 1,
+                format!(
+                    "non-uniform sampling: interval {dt:e} s differs from the sample interval {median:e} s by more than 1%"
+                ),
+            ));
+        }
+    }
+    let ts = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+    Ok(format!("{ts:.8e}").parse().unwrap_or(ts))
+}
+
+/// The sample interval of a whole time column already in memory, by the
+/// file's rules (docs/REPLAY.md): every t finite and increasing, Ts the
+/// rounded mean spacing of the first [`TS_PREFIX_ROWS`] rows, every
+/// interval within 1% of it. The error is the index in `t` of the
+/// offending value and the message a file would give for its row.
+pub fn time_base(t: &[f64]) -> Result<f64, (usize, String)> {
+    if t.len() < 2 {
+        return Err((
+            0,
+            "fewer than two times: the sample interval cannot be found from the time column (give ts)".into(),
+        ));
+    }
+    for (i, &v) in t.iter().enumerate() {
+        if !v.is_finite() {
+            return Err((i, "the time column is empty or not a finite number".into()));
+        }
+        if i > 0 && !(v - t[i - 1] > 0.0) {
+            return Err((
+                i,
+                format!("the time column does not increase ({} then {v})", t[i - 1]),
+            ));
+        }
+    }
+    let prefix = t.len().min(TS_PREFIX_ROWS);
+    let ts = prefix_ts(&t[..prefix])?;
+    for i in prefix.max(1)..t.len() {
+        let dt = t[i] - t[i - 1];
+        if (dt - ts).abs() > TS_TOLERANCE * ts {
+            return Err((
+                i,
+                format!(
+                    "non-uniform sampling: interval {dt:e} s differs from the sample interval {ts:e} s by more than 1%"
+                ),
+            ));
+        }
+    }
+    Ok(ts)
+}
+
 /// A problem with the input, with the 1-based line it was found on.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CsvError {
@@ -433,32 +496,16 @@ impl Reader {
             times.push((t, self.line));
             self.prefix.push((u, y));
         }
-        let (Some(&(t0, _)), Some(&(t1, _))) = (times.first(), times.last()) else {
+        if times.is_empty() {
             return Err(CsvError::file("no data rows after the header"));
-        };
+        }
         if times.len() < 2 {
             return Err(CsvError::file(
                 "only one data row: the sample interval cannot be found from the time column (give --ts)",
             ));
         }
-        // Check the intervals against their median (robust to the very
-        // outlier being looked for), then take the mean as Ts.
-        let mut dts: Vec<f64> = times.windows(2).map(|w| w[1].0 - w[0].0).collect();
-        dts.sort_by(f64::total_cmp);
-        let median = dts[dts.len() / 2];
-        for w in times.windows(2) {
-            let dt = w[1].0 - w[0].0;
-            if (dt - median).abs() > TS_TOLERANCE * median {
-                return Err(CsvError::at(
-                    w[1].1,
-                    format!(
-                        "non-uniform sampling: interval {dt:e} s differs from the sample interval {median:e} s by more than 1%"
-                    ),
-                ));
-            }
-        }
-        let ts = (t1 - t0) / (times.len() - 1) as f64;
-        self.ts_s = format!("{ts:.8e}").parse().unwrap_or(ts);
+        let t: Vec<f64> = times.iter().map(|&(t, _)| t).collect();
+        self.ts_s = prefix_ts(&t).map_err(|(i, m)| CsvError::at(times[i].1, m))?;
         self.rows = times.len() as u64;
         Ok(())
     }

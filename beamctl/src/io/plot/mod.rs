@@ -4,7 +4,10 @@
 //! line; one coloured line per estimator), then a bottom row with the
 //! largest relative ω/ζ error vs time on a log axis (when the truth is
 //! known) and the model output vs the measured y (the paper's Figs. 5 and
-//! 8), with each model's fit %.
+//! 8), with each model's fit %; with a record at hand (`replay`,
+//! `simulate`), a last row with the frequency response: the measured H1
+//! and its coherence under each identified model's response, modes marked
+//! (`frf.rs`).
 //!
 //! # Design
 //! * Text needs a font (`font.rs`). plotters' `ttf` feature would link
@@ -26,8 +29,10 @@
 //!   marked with triangles, and its legend entry says "off scale".
 
 mod font;
+mod frf;
 
 pub use font::ensure_font;
+pub use frf::{FrfInput, FrfModel, FrfPanel};
 
 use crate::error::CliError;
 use crate::run::Trace;
@@ -174,7 +179,7 @@ pub fn check_writable(path: &Path) -> Result<(), CliError> {
 }
 
 /// Colour of an estimator's line (matplotlib's tab10).
-fn color(name: &str, index: usize) -> RGBColor {
+pub(crate) fn color(name: &str, index: usize) -> RGBColor {
     match name {
         "adaptive" => RGBColor(31, 119, 180),
         "gradient" => RGBColor(255, 127, 14),
@@ -220,8 +225,9 @@ impl TruthLines<'_> {
     }
 }
 
-/// Draw the plot. `truth` is `None` for recorded data. Returns whether
-/// text was drawn (a font was found).
+/// Draw the plot. `truth` is `None` for recorded data; `frf` adds the
+/// frequency-response row. Returns whether text was drawn (a font was
+/// found).
 pub fn write(
     path: &Path,
     title: &str,
@@ -229,6 +235,7 @@ pub fn write(
     series: &[Series],
     duration_s: f64,
     output: Option<&OutputPanel>,
+    frf: Option<&FrfPanel>,
 ) -> Result<bool, CliError> {
     let text = font::ensure_font();
     let n = series
@@ -236,7 +243,7 @@ pub fn write(
         .map_or(truth.map_or(1, |t| t.last().modes), |s| s.modes)
         .clamp(1, MAX_MODES);
     let bottom = truth.is_some() || output.is_some();
-    let rows = n + usize::from(bottom);
+    let rows = n + usize::from(bottom) + if frf.is_some() { frf::ROWS } else { 0 };
     let (w, h) = (1400u32, 60 + 330 * rows as u32);
     let fail = |e: &dyn std::fmt::Display| {
         CliError::failure(format!("--plot: drawing {}: {e}", path.display()))
@@ -249,13 +256,13 @@ pub fn write(
     } else {
         root.margin(40, 0, 0, 0)
     };
-    let (top, bottom_area) = if bottom {
-        let (_, h) = body.dim_in_pixel();
-        body.split_vertically(h * n as u32 / rows as u32)
-    } else {
-        let (_, h) = body.dim_in_pixel();
-        body.split_vertically(h)
+    let (_, body_h) = body.dim_in_pixel();
+    let row_h = body_h / rows as u32;
+    let (body, frf_area) = match frf {
+        Some(_) => body.split_vertically(body_h - row_h * frf::ROWS as u32),
+        None => body.split_vertically(body_h),
     };
+    let (top, bottom_area) = body.split_vertically(row_h * n as u32);
     let panels = top.split_evenly((n, 2));
     for i in 0..n {
         let omega: Vec<(&str, Vec<(f64, f64)>)> = series
@@ -302,6 +309,9 @@ pub fn write(
         if let Some(o) = output {
             output_panel(out_area, o, text).map_err(|e| fail(&e))?;
         }
+    }
+    if let Some(p) = frf {
+        frf::draw(&frf_area, p, text).map_err(|e| fail(&e))?;
     }
     root.present().map_err(|e| fail(&e))?;
     Ok(text)
@@ -613,7 +623,7 @@ fn output_panel(
 }
 
 /// Tick labels with enough digits for narrow ranges.
-fn format_tick(v: f64) -> String {
+pub(crate) fn format_tick(v: f64) -> String {
     if v == 0.0 {
         return "0".into();
     }

@@ -1,0 +1,194 @@
+//! The measured frequency response of a record, as structural-dynamics
+//! tools estimate it: H1 = G_yu/G_uu with Welch averaging, and the
+//! coherence γ² = |G_yu|²/(G_uu·G_yy). Drawn under the identified model's
+//! response ([`crate::judge::fit::Model::response`]) by `--plot`
+//! (`crate::io::plot`) and by the Python package's `plot_frf`.
+//!
+//! # Method
+//! * The record is cut into segments of `segment_s` seconds overlapping
+//!   by half (default: an eighth of the record, at least 1 s when the
+//!   record is that long); each segment has its mean removed (missing
+//!   samples, NaN, count as 0 after that) and a Hann window applied; the
+//!   cross- and auto-spectra are summed over the segments.
+//! * **Only frequencies where u has power are kept**: G_uu above 1e-6 of
+//!   its peak, and not below half of a neighbouring bin's. A square wave or
+//!   a multisine excites a comb of lines; between them H1 is noise, and
+//!   the Hann window spreads each line into its two neighbouring bins at a
+//!   quarter of its power, where H1 repeats the line's value at the wrong
+//!   frequency. A broadband input (steps, PRBS, chirp) keeps almost every
+//!   bin.
+
+use rustfft::num_complex::Complex64;
+use rustfft::FftPlanner;
+
+/// An H1 estimate on the frequencies where u has power.
+#[derive(Debug, Clone, PartialEq)]
+pub struct H1 {
+    /// Frequency (Hz), increasing.
+    pub f_hz: Vec<f64>,
+    /// H1 = G_yu/G_uu, real part (units of y per unit of u).
+    pub re: Vec<f64>,
+    /// Imaginary part.
+    pub im: Vec<f64>,
+    /// Coherence γ², 0..1.
+    pub coherence: Vec<f64>,
+    /// Segments averaged.
+    pub segments: usize,
+    /// Segment length (s).
+    pub segment_s: f64,
+}
+
+/// Fewest samples a segment may have.
+pub const MIN_SEGMENT: usize = 16;
+
+/// H1 and the coherence of `u`, `y` (equal lengths) sampled every `ts_s`;
+/// `segment_s` the Welch segment length (see the module docs for the
+/// default). `None` for fewer than [`MIN_SEGMENT`] samples, or no
+/// frequency where u has power.
+pub fn h1(u: &[f64], y: &[f64], ts_s: f64, segment_s: Option<f64>) -> Option<H1> {
+    let n = u.len().min(y.len());
+    if n < MIN_SEGMENT || !(ts_s > 0.0) {
+        return None;
+    }
+    let record_s = n as f64 * ts_s;
+    let segment_s = segment_s.unwrap_or_else(|| record_s.min(1.0).max(record_s / 8.0));
+    let len = ((segment_s / ts_s).round() as usize).clamp(MIN_SEGMENT, n);
+    let step = len / 2;
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(len);
+    let window: Vec<f64> = (0..len)
+        .map(|k| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / (len - 1) as f64).cos())
+        .collect();
+    let bins = len / 2 + 1;
+    let (mut guu, mut gyy) = (vec![0.0; bins], vec![0.0; bins]);
+    let mut gyu = vec![Complex64::new(0.0, 0.0); bins];
+    let mut fu = vec![Complex64::new(0.0, 0.0); len];
+    let mut fy = vec![Complex64::new(0.0, 0.0); len];
+    let mut segments = 0;
+    let mut start = 0;
+    while start + len <= n {
+        for (buf, x) in [
+            (&mut fu, &u[start..start + len]),
+            (&mut fy, &y[start..start + len]),
+        ] {
+            let finite = x.iter().filter(|v| v.is_finite());
+            let count = finite.clone().count().max(1);
+            let mean = finite.sum::<f64>() / count as f64;
+            for ((b, &v), w) in buf.iter_mut().zip(x).zip(&window) {
+                let d = if v.is_finite() { v - mean } else { 0.0 };
+                *b = Complex64::new(d * w, 0.0);
+            }
+            fft.process(buf);
+        }
+        for k in 0..bins {
+            guu[k] += fu[k].norm_sqr();
+            gyy[k] += fy[k].norm_sqr();
+            gyu[k] += fy[k] * fu[k].conj();
+        }
+        segments += 1;
+        start += step;
+    }
+    let peak = guu.iter().copied().fold(0.0, f64::max);
+    let mut out = H1 {
+        f_hz: Vec::new(),
+        re: Vec::new(),
+        im: Vec::new(),
+        coherence: Vec::new(),
+        segments,
+        segment_s: len as f64 * ts_s,
+    };
+    for k in 1..bins {
+        let neighbour = guu[k - 1].max(guu.get(k + 1).copied().unwrap_or(0.0));
+        if !(guu[k] > 1e-6 * peak && guu[k] >= 0.5 * neighbour) {
+            continue;
+        }
+        let h = gyu[k] / guu[k];
+        let coh = gyu[k].norm_sqr() / (guu[k] * gyy[k]);
+        out.f_hz.push(k as f64 / (len as f64 * ts_s));
+        out.re.push(h.re);
+        out.im.push(h.im);
+        out.coherence.push(if coh.is_finite() {
+            coh.clamp(0.0, 1.0)
+        } else {
+            0.0
+        });
+    }
+    (!out.f_hz.is_empty()).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::judge::fit::Model;
+    use beamest::model::{TransferFunction, MAX_ORDER};
+
+    /// A sampled one-mode model driven by a square wave and a broadband
+    /// input: H1 on the kept lines is the model's exact-ZOH response.
+    #[test]
+    fn h1_of_a_simulated_record_is_the_models_response() {
+        let ts = 1e-4;
+        let (w, z) = (2.0 * std::f64::consts::PI * 12.0, 0.05);
+        let mut tf = TransferFunction {
+            modes: 1,
+            a: [0.0; MAX_ORDER],
+            b: [0.0; MAX_ORDER],
+        };
+        tf.a[..2].copy_from_slice(&[2.0 * z * w, w * w]);
+        tf.b[0] = 3.0e3;
+        let model = Model::new(&tf, ts).unwrap();
+        for input in ["square", "steps"] {
+            let n = 40_000u64;
+            let mut state = 0x2545_f491_4f6c_dd1du64;
+            let mut level = 0.0;
+            let u: Vec<f64> = (0..n)
+                .map(|k| match input {
+                    "square" => {
+                        if (k as f64 * ts * 5.0).fract() < 0.5 {
+                            1.0
+                        } else {
+                            -1.0
+                        }
+                    }
+                    _ => {
+                        if k % 50 == 0 {
+                            state ^= state << 13;
+                            state ^= state >> 7;
+                            state ^= state << 17;
+                            level = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                        }
+                        level
+                    }
+                })
+                .collect();
+            // The model from rest (no free response) driven by u.
+            let rest = crate::judge::fit::Fit {
+                percent: 0.0,
+                initial: vec![0.0; 2],
+                residual_rms: 0.0,
+            };
+            let y: Vec<f64> =
+                crate::judge::fit::model_output(&model, &rest, u.iter().map(|&v| (v, 0.0)), 0..n)
+                    .into_iter()
+                    .map(|o| o.2)
+                    .collect();
+            let m = h1(&u, &y, ts, None).unwrap();
+            assert_eq!(m.segments, 7, "{input}");
+            let mut checked = 0;
+            for k in 0..m.f_hz.len() {
+                if m.coherence[k] < 0.999 || m.f_hz[k] > 500.0 {
+                    continue;
+                }
+                let (re, im) = model.response(m.f_hz[k], ts);
+                let err = (re - m.re[k]).hypot(im - m.im[k]) / re.hypot(im);
+                assert!(err < 0.02, "{input} at {} Hz: {err}", m.f_hz[k]);
+                checked += 1;
+            }
+            assert!(checked >= 10, "{input}: {checked}");
+        }
+    }
+
+    #[test]
+    fn too_short_or_silent_records_have_no_frf() {
+        assert_eq!(h1(&[1.0; 8], &[1.0; 8], 1e-3, None), None);
+        assert_eq!(h1(&[0.0; 100], &[1.0; 100], 1e-3, None), None);
+    }
+}
