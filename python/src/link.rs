@@ -60,19 +60,7 @@ fn frame_dict<'py>(py: Python<'py>, f: &Frame) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("modes", s.modes)?;
             let c = &s.counters;
             let counters = PyDict::new(py);
-            for (k, v) in [
-                ("overruns", c.overruns),
-                ("adc_crc_errors", c.adc_crc_errors),
-                ("adc_status_errors", c.adc_status_errors),
-                ("adc_stuck", c.adc_stuck),
-                ("adc_saturations", c.adc_saturations),
-                ("dac_saturations", c.dac_saturations),
-                ("rejected_samples", c.rejected_samples),
-                ("telemetry_dropped", c.telemetry_dropped),
-                ("commands_accepted", c.commands_accepted),
-                ("commands_rejected", c.commands_rejected),
-                ("rx_frame_errors", c.rx_frame_errors),
-            ] {
+            for (k, v) in c.named() {
                 counters.set_item(k, v)?;
             }
             d.set_item("counters", counters)?;

@@ -348,16 +348,7 @@ pub fn replay_arrays(
             ),
         ));
     }
-    if u.len() != y.len() {
-        return Err(CliError::usage(
-            "y",
-            format!(
-                "u and y must have the same length (got {} and {})",
-                u.len(),
-                y.len()
-            ),
-        ));
-    }
+    same_length(u, y)?;
     if u.is_empty() {
         return Err(CliError::usage("u", "no samples (empty arrays)"));
     }
@@ -974,16 +965,7 @@ impl Stream {
     /// # Errors
     /// `u` and `y` of different lengths.
     pub fn feed(&mut self, u: &[f64], y: &[f64]) -> Result<Vec<EstimateLog>, CliError> {
-        if u.len() != y.len() {
-            return Err(CliError::usage(
-                "y",
-                format!(
-                    "u and y must have the same length (got {} and {})",
-                    u.len(),
-                    y.len()
-                ),
-            ));
-        }
+        same_length(u, y)?;
         Ok(self.inner.feed(u, y))
     }
 
@@ -1072,4 +1054,20 @@ any bias of the estimate too).\n",
         );
     }
     out
+}
+
+/// `u` and `y` are sample pairs: the same length, else a usage error
+/// naming `y`.
+fn same_length(u: &[f64], y: &[f64]) -> Result<(), CliError> {
+    if u.len() == y.len() {
+        return Ok(());
+    }
+    Err(CliError::usage(
+        "y",
+        format!(
+            "u and y must have the same length (got {} and {})",
+            u.len(),
+            y.len()
+        ),
+    ))
 }

@@ -425,19 +425,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
         format!("{}.{}.{}", fw.major, fw.minor, fw.patch),
     );
     row.set(cols, "modes", s.modes);
-    for (name, v) in [
-        ("overruns", c.overruns),
-        ("adc_crc_errors", c.adc_crc_errors),
-        ("adc_status_errors", c.adc_status_errors),
-        ("adc_stuck", c.adc_stuck),
-        ("adc_saturations", c.adc_saturations),
-        ("dac_saturations", c.dac_saturations),
-        ("rejected_samples", c.rejected_samples),
-        ("telemetry_dropped", c.telemetry_dropped),
-        ("commands_accepted", c.commands_accepted),
-        ("commands_rejected", c.commands_rejected),
-        ("rx_frame_errors", c.rx_frame_errors),
-    ] {
+    for (name, v) in c.named() {
         row.set(cols, name, v);
     }
     row.set(cols, "adaptation_frozen", u8::from(s.adaptation_frozen));

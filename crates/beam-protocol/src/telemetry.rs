@@ -229,6 +229,26 @@ impl MaxSize for DeviceCounters {
     const MAX_SIZE: usize = fields_of::<Self, u32>() * u32::MAX_SIZE;
 }
 
+impl DeviceCounters {
+    /// Every counter by its field's name, in declaration (wire) order: what
+    /// host tools write as named columns or keys.
+    pub fn named(&self) -> [(&'static str, u32); 11] {
+        [
+            ("overruns", self.overruns),
+            ("adc_crc_errors", self.adc_crc_errors),
+            ("adc_status_errors", self.adc_status_errors),
+            ("adc_stuck", self.adc_stuck),
+            ("adc_saturations", self.adc_saturations),
+            ("dac_saturations", self.dac_saturations),
+            ("rejected_samples", self.rejected_samples),
+            ("telemetry_dropped", self.telemetry_dropped),
+            ("commands_accepted", self.commands_accepted),
+            ("commands_rejected", self.commands_rejected),
+            ("rx_frame_errors", self.rx_frame_errors),
+        ]
+    }
+}
+
 /// Counters and the settings in force, sent on request and at the status
 /// rate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
