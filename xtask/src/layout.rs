@@ -531,6 +531,18 @@ impl Crate {
                 .is_some_and(|&c| self.modules[c].public)
     }
 
+    /// What `use path` written in module `at` brings in: the module its
+    /// last segment lives in (the one the rest names) and that segment.
+    fn use_target<'p>(&self, at: usize, path: &'p [String]) -> Option<(usize, &'p String)> {
+        let (last, head) = path.split_last()?;
+        let home = if head.is_empty() {
+            at
+        } else {
+            self.resolve(at, head)?
+        };
+        Some((home, last))
+    }
+
     /// `pub use`s of exported modules that give an item a second public
     /// path: what they name already has one where it is declared. `skip`
     /// leaves a subtree out (the board support).
@@ -541,16 +553,9 @@ impl Crate {
                 continue;
             }
             for (name, path, line) in &m.pub_uses {
-                let Some((last, head)) = path.split_last() else {
+                let Some((home, last)) = self.use_target(i, path) else {
                     continue;
                 };
-                // Where the last segment lives: the module the rest names.
-                let home = if head.is_empty() {
-                    Some(i)
-                } else {
-                    self.resolve(i, head)
-                };
-                let Some(home) = home else { continue };
                 if home != i && self.has_own_public_path(home, last) {
                     out.push(SecondPath {
                         file: m.file.clone(),
@@ -1025,15 +1030,21 @@ fn idents(tokens: TokenStream, out: &mut BTreeSet<String>) {
     }
 }
 
-/// The core's `pub` items (the `beamest` library less `board`) that no
-/// file of another crate names, and how many there are in all.
-fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), String> {
+/// The core (the `beamest` library) and its `board` module, which the
+/// checks leave out.
+fn core_of(crates: &[(String, Crate)]) -> Result<(&Crate, Option<usize>), String> {
     let core = crates
         .iter()
         .find(|(m, c)| m == "." && c.name.ends_with("/lib"))
         .map(|(_, c)| c)
         .ok_or("no beamest library")?;
-    let board = core.modules[0].children.get("board").copied();
+    Ok((core, core.modules[0].children.get("board").copied()))
+}
+
+/// The core's `pub` items (the `beamest` library less `board`) that no
+/// file of another crate names, and how many there are in all.
+fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), String> {
+    let (core, board) = core_of(crates)?;
     // What exported modules re-export: (the module it is declared in, name).
     let mut via_use = BTreeSet::new();
     for (j, m) in core.modules.iter().enumerate() {
@@ -1041,15 +1052,8 @@ fn unused_pub(crates: &[(String, Crate)]) -> Result<(Vec<PubItem>, usize), Strin
             continue;
         }
         for (_, path, _) in &m.pub_uses {
-            if let Some((last, head)) = path.split_last() {
-                let home = if head.is_empty() {
-                    Some(j)
-                } else {
-                    core.resolve(j, head)
-                };
-                if let Some(home) = home {
-                    via_use.insert((home, last.clone()));
-                }
+            if let Some((home, last)) = core.use_target(j, path) {
+                via_use.insert((home, last.clone()));
             }
         }
     }
@@ -1174,12 +1178,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     for c in &cycles {
         print!("{c}");
     }
-    let core = crates
-        .iter()
-        .find(|(m, c)| m == "." && c.name.ends_with("/lib"))
-        .map(|(_, c)| c)
-        .ok_or("no beamest library")?;
-    let board = core.modules[0].children.get("board").copied();
+    let (core, board) = core_of(&crates)?;
     let second = core.second_paths(board);
     println!(
         "\nsecond public paths in the core (a `pub use` of what is public where it is declared): {}",
