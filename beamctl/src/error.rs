@@ -45,6 +45,15 @@ impl CliError {
         }
     }
 
+    /// `what` was stopped by its caller's interrupt: `what: interrupted`,
+    /// exit code [`EXIT_INTERRUPTED`].
+    pub fn interrupted(what: &str) -> Self {
+        Self {
+            message: format!("{what}: interrupted"),
+            code: EXIT_INTERRUPTED,
+        }
+    }
+
     /// Print `error: <message>` on stderr and return the exit code.
     pub fn report(&self) -> ExitCode {
         let line = one_line(&self.message);

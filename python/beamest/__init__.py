@@ -356,11 +356,22 @@ class Estimator:
         """Samples stepped so far."""
         return self._core.samples
 
-    def reports(self) -> List[Dict[str, Any]]:
+    def reports(self, u: Any = None, y: Any = None) -> List[Dict[str, Any]]:
         """Each estimator's report now, as ``beamctl replay --json``'s
-        objects but without the model-output fit (``fit_percent`` is None:
-        it needs the whole record)."""
-        return json.loads(self._core.reports(self._name))
+        objects. The estimator keeps no samples, so the model-output fit
+        (``fit_percent``) is computed over the ``u``, ``y`` given here (the
+        record so far, or a recent window of it: the fit includes the free
+        response of the window's initial state); without them it is
+        None."""
+        if u is None and y is None:
+            return json.loads(self._core.reports(self._name))
+        if u is None or y is None:
+            missing = "u" if u is None else "y"
+            raise ValueError(f"{missing}: required with {'y' if missing == 'u' else 'u'}")
+        ua, ya = _array("u", u), _array("y", y)
+        if len(ua) != len(ya):
+            raise ValueError(f"y: u and y must have the same length (got {len(ua)} and {len(ya)})")
+        return json.loads(self._core.reports(self._name, ua, ya))
 
 
 def simulate(**options: Any) -> Union[Dict[str, Any], List[Dict[str, Any]]]:

@@ -132,6 +132,16 @@ fn signalled(pending: &mut Option<PyErr>) -> bool {
     }
 }
 
+/// A [`beamctl::error::CliError`] as the Python exception: the pending
+/// signal's (KeyboardInterrupt) for an interrupted run.
+pub(crate) fn interrupted_or(e: CliError, pending: Option<PyErr>) -> PyErr {
+    if e.code == EXIT_INTERRUPTED {
+        pending.unwrap_or_else(|| PyRuntimeError::new_err("interrupted"))
+    } else {
+        to_py(e)
+    }
+}
+
 /// `replay(argv, u, y, ts, label, log_hz)` → (JSON text of the list of
 /// reports, one dict of arrays per estimator, per report the reason it
 /// has no estimate or None: the message `beamctl replay` exits 1 with).
@@ -172,13 +182,7 @@ fn replay_arrays<'py>(
             },
         )
     });
-    let out = match out {
-        Ok(o) => o,
-        Err(e) if e.code == EXIT_INTERRUPTED => {
-            return Err(pending.unwrap_or_else(|| PyRuntimeError::new_err("interrupted")))
-        }
-        Err(e) => return Err(to_py(e)),
-    };
+    let out = out.map_err(|e| interrupted_or(e, pending))?;
     let json =
         serde_json::to_string(&out.reports).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     let logs = PyList::empty(py);
@@ -374,11 +378,30 @@ impl StreamCore {
         Ok(self.inner.lock().map_err(|_| poisoned())?.samples())
     }
 
-    /// JSON text of the list of reports now.
-    fn reports(&self, label: &str) -> PyResult<String> {
-        let inner = self.inner.lock().map_err(|_| poisoned())?;
-        serde_json::to_string(&inner.reports(label))
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    /// JSON text of the list of reports now; the model-output fit over
+    /// `record` (`u`, `y`) when given.
+    #[pyo3(signature = (label, u=None, y=None))]
+    fn reports<'py>(
+        &self,
+        py: Python<'py>,
+        label: &str,
+        u: Option<PyReadonlyArray1<'py, f64>>,
+        y: Option<PyReadonlyArray1<'py, f64>>,
+    ) -> PyResult<String> {
+        let record = match (&u, &y) {
+            (Some(u), Some(y)) => Some((values(u), values(y))),
+            (None, None) => None,
+            (Some(_), None) => return Err(PyValueError::new_err("y: required with u")),
+            (None, Some(_)) => return Err(PyValueError::new_err("u: required with y")),
+        };
+        let stream = &self.inner;
+        let reports = py.detach(|| {
+            let inner = stream.lock().map_err(|_| poisoned())?;
+            inner
+                .reports(label, record.as_ref().map(|(u, y)| replay::Record { u, y }))
+                .map_err(to_py)
+        })?;
+        serde_json::to_string(&reports).map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 }
 

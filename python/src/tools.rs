@@ -29,7 +29,7 @@ struct ModelCmd {
 
 /// `beamctl simulate ARGV --json`: the JSON text (a law that produced no
 /// estimate is in the report, not an error). The lock is released; Ctrl-C
-/// stops the simulation (not a `--seeds` run) within a few thousand
+/// stops the simulation (each seed's, with `seeds`) within a few thousand
 /// evaluations.
 #[pyfunction]
 fn simulate_json(py: Python<'_>, argv: Vec<String>) -> PyResult<String> {
@@ -40,22 +40,22 @@ fn simulate_json(py: Python<'_>, argv: Vec<String>) -> PyResult<String> {
         let mut interrupt = || crate::signalled(&mut pending);
         beamctl::cli::simulate::output_with(&args, Some(&mut interrupt))
     });
-    match out {
-        Ok((text, _status)) => Ok(text),
-        Err(e) if e.code == beamctl::error::EXIT_INTERRUPTED => {
-            Err(pending.unwrap_or_else(|| pyo3::exceptions::PyRuntimeError::new_err("interrupted")))
-        }
-        Err(e) => Err(to_py(e)),
-    }
+    out.map(|(text, _status)| text)
+        .map_err(|e| crate::interrupted_or(e, pending))
 }
 
-/// `beamctl crlb ARGV --json`: the JSON text.
+/// `beamctl crlb ARGV --json`: the JSON text. The lock is released;
+/// Ctrl-C stops the computation within a few thousand samples.
 #[pyfunction]
 fn crlb_json(py: Python<'_>, argv: Vec<String>) -> PyResult<String> {
     let mut args = parse::<CrlbCmd>(argv)?.args;
     args.json = true;
-    py.detach(|| beamctl::cli::crlb::output(&args))
-        .map_err(to_py)
+    let mut pending: Option<PyErr> = None;
+    let out = py.detach(|| {
+        let mut interrupt = || crate::signalled(&mut pending);
+        beamctl::cli::crlb::output_with(&args, Some(&mut interrupt))
+    });
+    out.map_err(|e| crate::interrupted_or(e, pending))
 }
 
 /// `beamctl model ARGV --json`: the JSON text.

@@ -40,6 +40,14 @@ def test_the_stream_ends_at_the_replay_estimate(repo):
     (report,) = est.reports()
     assert report["estimate"] == full["estimate"]
     assert report["fit_percent"] is None
+    # Given the record, the fit is the replay's, bit for bit.
+    (with_fit,) = est.reports(u, y)
+    assert with_fit["fit_percent"] == full["fit_percent"] and with_fit["fit_percent"] > 90
+    assert {k: v for k, v in with_fit.items() if k != "fit_percent"} == \
+        {k: v for k, v in report.items() if k != "fit_percent"}
+    # Over a recent window: a fit of its own.
+    (window,) = est.reports(u[-5000:], y[-5000:])
+    assert window["fit_percent"] is not None and window["fit_percent"] != full["fit_percent"]
     for key in ("law_updates", "rejected_samples", "builds", "lambda_rad_s", "guard", "supervision", "validity"):
         assert report[key] == full[key], key
     # Evaluations on the same 0.1 s grid as the replay's series (the

@@ -52,3 +52,17 @@ def test_ctrl_c_interrupts_simulate():
     with pytest.raises(KeyboardInterrupt):
         beamest.simulate(duration=3600)
     t.join()
+
+
+def test_ctrl_c_interrupts_simulate_seeds():
+    t = interrupt_soon()
+    with pytest.raises(KeyboardInterrupt):
+        beamest.simulate(duration=600, seeds="1..20", snr_db=40)
+    t.join()
+
+
+def test_ctrl_c_interrupts_crlb():
+    t = interrupt_soon()
+    with pytest.raises(KeyboardInterrupt):
+        beamest.crlb(snr_db=40, duration=36000)
+    t.join()

@@ -10,6 +10,7 @@ use crate::io::report;
 use crate::io::table::{rel, sig, Column, Table};
 use crate::judge::bound::{model_set_description, ExperimentBound, NoiseLevel};
 use crate::run::drive::drive;
+use crate::run::interrupt::Interrupt;
 use crate::run::samples;
 use crate::run::RunConfig;
 use serde::Serialize;
@@ -21,6 +22,16 @@ pub fn run(args: &CrlbArgs) -> Result<(), CliError> {
 
 /// What `beamctl crlb` prints (the JSON document with `--json`).
 pub fn output(args: &CrlbArgs) -> Result<String, CliError> {
+    output_with(args, None)
+}
+
+/// [`output`], with `interrupt` asked every few thousand samples of the
+/// Fisher information's accumulation: true stops it with an error whose
+/// code is [`crate::error::EXIT_INTERRUPTED`].
+pub fn output_with(
+    args: &CrlbArgs,
+    interrupt: Option<&mut dyn FnMut() -> bool>,
+) -> Result<String, CliError> {
     let base = RunConfig::default();
     check_duration(args.duration, base.ts_s)?;
     check_noise(args.snr_db, args.noise_sd)?;
@@ -40,15 +51,19 @@ pub fn output(args: &CrlbArgs) -> Result<String, CliError> {
     let truth = cfg.plant.truth();
     let u = drive(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
     let n = samples(&cfg);
+    let mut interrupt = Interrupt::new(interrupt);
     let bound = crate::judge::bound::experiment_bound(
         &truth.tf,
         &truth.modal.output_weight[..modes],
         cfg.ts_s,
-        u.take(n as usize),
+        u.take(n as usize).take_while(|_| !interrupt.stopped()),
         noise,
         set,
-    )
-    .map_err(|e| CliError::failure(format!("crlb: {e}")))?;
+    );
+    if interrupt.fired() {
+        return Err(CliError::interrupted("crlb"));
+    }
+    let bound = bound.map_err(|e| CliError::failure(format!("crlb: {e}")))?;
     let text = if args.json {
         #[derive(Serialize)]
         struct Doc<'a> {

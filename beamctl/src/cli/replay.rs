@@ -25,7 +25,7 @@
 use crate::cli::args::ReplayArgs;
 use crate::cli::estimator_flags::{self, EstimatorPlan};
 use crate::error::{note, write_stdout};
-use crate::error::{CliError, EXIT_INTERRUPTED, EXIT_USAGE};
+use crate::error::{CliError, EXIT_USAGE};
 use crate::io::csv_in::{Columns, Reader};
 use crate::io::csv_out::CsvOut;
 use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
@@ -271,7 +271,7 @@ pub struct ArrayOptions<'a> {
     /// Samples stepped between two calls of `interrupt`.
     pub chunk: usize,
     /// Called between chunks; returning true stops the replay with an
-    /// error whose code is [`EXIT_INTERRUPTED`].
+    /// error whose code is [`crate::error::EXIT_INTERRUPTED`].
     pub interrupt: &'a mut dyn FnMut() -> bool,
 }
 
@@ -331,7 +331,7 @@ pub fn require_estimates(reports: &[ReplayReport]) -> Result<(), CliError> {
 ///
 /// # Errors
 /// The flags' errors (as [`run`]'s), `u` and `y` of different lengths or
-/// empty, a bad `ts_s`, and [`EXIT_INTERRUPTED`].
+/// empty, a bad `ts_s`, and [`crate::error::EXIT_INTERRUPTED`].
 pub fn replay_arrays(
     args: &ReplayArgs,
     u: &[f64],
@@ -646,10 +646,7 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             for (cu, cy) in u.chunks(chunk).zip(y.chunks(chunk)) {
                 st.feed(cu.iter().copied().zip(cy.iter().copied()));
                 if interrupt() {
-                    return Err(CliError {
-                        message: "replay: interrupted".into(),
-                        code: EXIT_INTERRUPTED,
-                    });
+                    return Err(CliError::interrupted("replay"));
                 }
             }
             st.end();
@@ -866,7 +863,16 @@ pub struct Stream {
 trait StreamSteps: Send {
     fn feed(&mut self, u: &[f64], y: &[f64]) -> Vec<EstimateLog>;
     fn samples(&self) -> u64;
-    fn reports(&self, plan: &Plan, label: &str) -> Vec<ReplayReport>;
+    fn reports(&self, plan: &Plan, label: &str, record: Option<Record<'_>>) -> Vec<ReplayReport>;
+}
+
+/// Drive and sensor samples a streaming report's fit is computed over.
+#[derive(Clone, Copy)]
+pub struct Record<'a> {
+    /// Drive, one per sample.
+    pub u: &'a [f64],
+    /// Sensor, one per sample.
+    pub y: &'a [f64],
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
@@ -884,11 +890,18 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
         self.k
     }
 
-    fn reports(&self, plan: &Plan, label: &str) -> Vec<ReplayReport> {
+    fn reports(&self, plan: &Plan, label: &str, record: Option<Record<'_>>) -> Vec<ReplayReport> {
         let n = self.k;
         let end_s = n.saturating_sub(1) as f64 * self.ts;
         (0..self.session.len())
-            .map(|i| ReplayReport {
+            .map(|i| {
+                let fit = record.and_then(|r| {
+                    let model = self.session.model(i, self.ts)?;
+                    fit::fit(&model, || r.u.iter().copied().zip(r.y.iter().copied()))
+                });
+                (i, fit)
+            })
+            .map(|(i, fit)| ReplayReport {
                 file: label.to_string(),
                 estimator: self.session.kind(i),
                 precision: match std::mem::size_of::<T>() {
@@ -900,7 +913,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                 ts_s: self.ts,
                 samples: n,
                 duration_s: n as f64 * self.ts,
-                outcome: self.session.outcome(i, end_s, None),
+                outcome: self.session.outcome(i, end_s, fit.as_ref()),
                 crlb: None,
                 crlb_sigma_source: None,
             })
@@ -979,10 +992,22 @@ impl Stream {
         self.ts_s
     }
 
-    /// The report of every estimator now (as `--json`'s, without the
-    /// model-output fit, which needs the whole record: `fit_percent` null).
-    pub fn reports(&self, label: &str) -> Vec<ReplayReport> {
-        self.inner.reports(&self.plan, label)
+    /// The report of every estimator now, as `--json`'s. The model-output
+    /// fit is computed over `record` (the caller's samples: the whole
+    /// record so far, or a recent window of it, since the stream keeps no
+    /// samples); without it `fit_percent` is null.
+    ///
+    /// # Errors
+    /// `record`'s `u` and `y` of different lengths.
+    pub fn reports(
+        &self,
+        label: &str,
+        record: Option<Record<'_>>,
+    ) -> Result<Vec<ReplayReport>, CliError> {
+        if let Some(r) = record {
+            same_length(r.u, r.y)?;
+        }
+        Ok(self.inner.reports(&self.plan, label, record))
     }
 }
 

@@ -22,6 +22,7 @@ pub mod error;
 pub mod estimator;
 pub mod events;
 pub mod feed;
+pub mod interrupt;
 pub mod plant;
 pub mod seeds;
 pub mod session;

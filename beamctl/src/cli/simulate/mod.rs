@@ -27,6 +27,7 @@ use crate::io::report;
 use crate::judge::fit::{self, Model};
 use crate::judge::frf::h1;
 use crate::run::error::RunError;
+use crate::run::interrupt::Interrupt;
 use crate::run::{run_many, samples, scenario_rig};
 use crate::run::{Observer, RunConfig, RunReport, Trace};
 use beamest::model::{TransferFunction, MAX_ORDER};
@@ -40,13 +41,9 @@ struct SimObserver<'a, 'i> {
     progress: &'a mut Progress,
     ts_s: f64,
     total: u64,
-    /// Asked every [`INTERRUPT_EVERY`] evaluations.
-    interrupt: Option<&'i mut dyn FnMut() -> bool>,
-    evaluations: u64,
+    /// Asked after each evaluation.
+    interrupt: Interrupt<'i>,
 }
-
-/// Evaluations between two calls of an interrupt callback.
-const INTERRUPT_EVERY: u64 = 4096;
 
 impl Observer for SimObserver<'_, '_> {
     fn estimate(&mut self, index: usize, t: &Trace<'_>) {
@@ -75,11 +72,7 @@ impl Observer for SimObserver<'_, '_> {
     }
 
     fn stopped(&mut self) -> bool {
-        self.evaluations += 1;
-        match self.interrupt.as_deref_mut() {
-            Some(f) if self.evaluations.is_multiple_of(INTERRUPT_EVERY) => f(),
-            _ => false,
-        }
+        self.interrupt.stopped()
     }
 
     fn wants_samples(&self) -> bool {
@@ -101,15 +94,15 @@ pub fn output(args: &SimulateArgs) -> Result<(String, Result<(), CliError>), Cli
 }
 
 /// [`output`], with `interrupt` asked every few thousand evaluations
-/// during the simulation (not with `--seeds`): true stops it with an error
-/// whose code is [`crate::error::EXIT_INTERRUPTED`].
+/// during the simulation (each seed's, with `--seeds`): true stops it with
+/// an error whose code is [`crate::error::EXIT_INTERRUPTED`].
 pub fn output_with(
     args: &SimulateArgs,
     interrupt: Option<&mut dyn FnMut() -> bool>,
 ) -> Result<(String, Result<(), CliError>), CliError> {
     let plan = plan(args)?;
     if let Some(seeds) = &plan.seeds {
-        return Ok((seeds::output(&plan, seeds, args.json)?, Ok(())));
+        return Ok((seeds::output(&plan, seeds, args.json, interrupt)?, Ok(())));
     }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     // Create output files up front so a bad path fails before the run.
@@ -138,17 +131,13 @@ pub fn output_with(
         progress: &mut progress,
         ts_s: plan.base.ts_s,
         total: per_run,
-        interrupt,
-        evaluations: 0,
+        interrupt: Interrupt::new(interrupt),
     };
     let result = run_many(&plan.base, &plan.est.kinds, &mut obs);
     let recorders = std::mem::take(&mut obs.recorders);
     progress.finish();
     let reports = result.map_err(|e| match e {
-        RunError::Interrupted => CliError {
-            message: "simulation: interrupted".into(),
-            code: crate::error::EXIT_INTERRUPTED,
-        },
+        RunError::Interrupted => CliError::interrupted("simulation"),
         e => CliError::failure(format!("simulation: {e}")),
     })?;
 

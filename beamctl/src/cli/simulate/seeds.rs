@@ -12,31 +12,50 @@ use crate::error::note;
 use crate::error::CliError;
 use crate::io::report::{self, ratio};
 use crate::io::table::{rel, sig, Column, Table};
+use crate::run::error::RunError;
+use crate::run::interrupt::Interrupt;
 use crate::run::seeds::{summarize, ParamStats, SeedSummary, SeedsReport};
 use crate::run::{run_bound, run_many};
 use crate::run::{Observer, RunConfig, Trace};
 use serde::Serialize;
 use std::io::IsTerminal;
 
-/// Moves the progress bar across all seeds.
-struct SeedProgress<'a> {
+/// Moves the progress bar across all seeds; asks the caller whether to
+/// stop.
+struct SeedProgress<'a, 'i> {
     progress: &'a mut Progress,
     offset: u64,
     ts_s: f64,
+    interrupt: &'a mut Interrupt<'i>,
 }
 
-impl Observer for SeedProgress<'_> {
+impl Observer for SeedProgress<'_, '_> {
     fn estimate(&mut self, index: usize, t: &Trace<'_>) {
         if index == 0 {
             let done = (t.t_s / self.ts_s).round() as u64 + 1;
             self.progress.set_position(self.offset + done);
         }
     }
+
+    fn stopped(&mut self) -> bool {
+        self.interrupt.stopped()
+    }
 }
 
 /// Run every seed; the summary `beamctl simulate --seeds` prints.
-pub fn output(plan: &Plan, seeds: &[u64], json: bool) -> Result<String, CliError> {
-    let failure = |e| CliError::failure(format!("simulation: {e}"));
+/// `interrupt` is asked every few thousand evaluations; true stops the
+/// runs with an error whose code is [`crate::error::EXIT_INTERRUPTED`].
+pub fn output(
+    plan: &Plan,
+    seeds: &[u64],
+    json: bool,
+    interrupt: Option<&mut dyn FnMut() -> bool>,
+) -> Result<String, CliError> {
+    let failure = |e| match e {
+        RunError::Interrupted => CliError::interrupted("simulation"),
+        e => CliError::failure(format!("simulation: {e}")),
+    };
+    let mut interrupt = Interrupt::new(interrupt);
     let bound = match plan.base.crlb {
         Some(set) => run_bound(&plan.base, set).map_err(failure)?,
         None => None,
@@ -59,6 +78,7 @@ pub fn output(plan: &Plan, seeds: &[u64], json: bool) -> Result<String, CliError
             progress: &mut progress,
             offset: i as u64 * per_run,
             ts_s: cfg.ts_s,
+            interrupt: &mut interrupt,
         };
         per_seed.push(run_many(&cfg, &plan.est.kinds, &mut obs).map_err(failure)?);
     }
