@@ -158,6 +158,12 @@ class ReplayResult:
         return self.no_estimate_reason is None and not self._report["validity"]
 
     @property
+    def trusted(self) -> bool:
+        """The report's verdict: no check failed (``verdict["reasons"]``
+        says which did)."""
+        return bool(self._report["verdict"]["trusted"])
+
+    @property
     def ts(self) -> float:
         """Sample interval (s)."""
         return self._report["ts_s"]

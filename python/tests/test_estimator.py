@@ -40,11 +40,14 @@ def test_the_stream_ends_at_the_replay_estimate(repo):
     (report,) = est.reports()
     assert report["estimate"] == full["estimate"]
     assert report["fit_percent"] is None
-    # Given the record, the fit is the replay's, bit for bit.
+    # Given the record, the fit and the verdict are the replay's, bit for bit.
     (with_fit,) = est.reports(u, y)
     assert with_fit["fit_percent"] == full["fit_percent"] and with_fit["fit_percent"] > 90
-    assert {k: v for k, v in with_fit.items() if k != "fit_percent"} == \
-        {k: v for k, v in report.items() if k != "fit_percent"}
+    assert with_fit["verdict"] == full["verdict"] and with_fit["verdict"]["trusted"]
+    assert report["verdict"]["reasons"][0]["code"] == "no_fit"
+    judged = ("fit_percent", "verdict")
+    assert {k: v for k, v in with_fit.items() if k not in judged} == \
+        {k: v for k, v in report.items() if k not in judged}
     # Over a recent window: a fit of its own.
     (window,) = est.reports(u[-5000:], y[-5000:])
     assert window["fit_percent"] is not None and window["fit_percent"] != full["fit_percent"]

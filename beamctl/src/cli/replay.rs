@@ -32,6 +32,7 @@ use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report::{self, Column};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
+use crate::judge::frf::InputSpectrum;
 use crate::run::estimator::EstimatorKind;
 use crate::run::session::Outcome;
 use crate::run::session::{drift_every, guard_config, Session};
@@ -747,10 +748,11 @@ where
     });
     let keep = n.saturating_sub((0.5 / ts).round() as u64)..n;
     let mut frf_models: Vec<FrfEntry> = Vec::new();
+    let input = InputSpectrum::of(record().map(|(u, _)| u), n as usize, ts);
     for i in 0..session.len() {
         let model = session.model(i, ts);
         let f = model.as_ref().and_then(|m| fit::fit(m, &record));
-        let outcome = session.outcome(i, end_s, f.as_ref());
+        let outcome = session.outcome(i, end_s, f.as_ref(), input.as_ref());
         let (crlb, crlb_sigma_source) = match plan.crlb {
             Some((set, given)) => {
                 let sigma = match (given, outcome.robust.and_then(|r| r.noise_rms)) {
@@ -893,6 +895,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
     fn reports(&self, plan: &Plan, label: &str, record: Option<Record<'_>>) -> Vec<ReplayReport> {
         let n = self.k;
         let end_s = n.saturating_sub(1) as f64 * self.ts;
+        let input = record.and_then(|r| InputSpectrum::of(r.u.iter().copied(), r.u.len(), self.ts));
         (0..self.session.len())
             .map(|i| {
                 let fit = record.and_then(|r| {
@@ -913,7 +916,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                 ts_s: self.ts,
                 samples: n,
                 duration_s: n as f64 * self.ts,
-                outcome: self.session.outcome(i, end_s, fit.as_ref()),
+                outcome: self.session.outcome(i, end_s, fit.as_ref(), input.as_ref()),
                 crlb: None,
                 crlb_sigma_source: None,
             })
@@ -1055,6 +1058,7 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
             validity: &r.outcome.validity,
             guard: r.outcome.guard,
             tracking: None,
+            verdict: &r.outcome.verdict,
         })
         .collect();
     if let Some((set, _)) = plan.crlb {
@@ -1065,8 +1069,10 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     }
     out.push('\n');
     out.push_str(&report::table(plan.modes, None, None, &columns));
+    out.push_str(&report::verdict_reasons(&columns));
     out.push_str(report::FOOTNOTE);
     out.push_str(report::FOOTNOTE_GUARD);
+    out.push_str(report::FOOTNOTE_VERDICT);
     if reports.iter().any(|r| r.outcome.robust.is_some()) {
         out.push_str(report::FOOTNOTE_ROBUST);
     }

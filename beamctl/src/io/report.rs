@@ -5,6 +5,7 @@
 use crate::error::CliError;
 use crate::io::table::{rel, seconds, sig, Column as TableColumn, Table};
 use crate::judge::bound::{BoundRatio, ExperimentBound};
+use crate::judge::verdict::Verdict;
 use crate::run::estimator::EstimatorKind;
 use crate::run::session::ModalSummary;
 use crate::run::session::{GuardReport, SupervisionReport};
@@ -68,6 +69,8 @@ pub struct Column<'a> {
     pub guard: GuardReport,
     /// After a plant step: the tracking times to 1% and 0.1%.
     pub tracking: Option<(Option<f64>, Option<f64>)>,
+    /// Whether the estimate can be trusted.
+    pub verdict: &'a Verdict,
 }
 
 /// The table: estimate (and with the truth, truth and relative error) per
@@ -245,6 +248,7 @@ pub fn table(
             format!("no: {}", c.validity.join(", "))
         }
     });
+    metric(&mut t, "trusted", &|c| c.verdict.summary());
     metric(&mut t, "samples", &|c| c.samples.to_string());
     metric(&mut t, "guard: rejected", &|c| guard_kinds(&c.guard));
     metric(&mut t, "guard: level events", &|c| {
@@ -257,6 +261,26 @@ pub fn table(
     metric(&mut t, "skipped updates", &|c| c.skipped.to_string());
     t.render()
 }
+
+/// The reasons of every untrusted column, a line each ("" when every
+/// column is trusted).
+pub fn verdict_reasons(cols: &[Column<'_>]) -> String {
+    let mut out = String::new();
+    for c in cols {
+        for r in &c.verdict.reasons {
+            out.push_str(&format!(
+                "not trusted ({}): {}: {}\n",
+                c.name, r.code, r.detail
+            ));
+        }
+    }
+    out
+}
+
+/// Footnote of the verdict.
+pub const FOOTNOTE_VERDICT: &str = "trusted: no check failed — an estimate, physically valid, \
+a white model-output residual (or one whose structure is below 1% of y), moved ≤ 1% over the last \
+10%, and input power within an octave of every mode (docs/REPLAY.md, \"The verdict\").\n";
 
 /// "none" or "N (stuck N, …)": the guard's rejections by kind.
 pub fn guard_kinds(g: &GuardReport) -> String {

@@ -47,6 +47,8 @@ struct Section {
     weight: C,
     /// A real pole (one basis function) or a pair (two).
     real: bool,
+    /// |p| (rad/s): the mode's ω for a pair.
+    omega_rad_s: f64,
 }
 
 /// The identified model, discretised for simulation.
@@ -96,6 +98,7 @@ impl Model {
                 gamma,
                 weight,
                 real,
+                omega_rad_s: p.norm(),
             });
         }
         Some(Self { sections, basis: d })
@@ -206,6 +209,83 @@ pub struct Fit {
     /// a-posteriori estimate of the measurement noise's σ when the model is
     /// right (it also holds any model error).
     pub residual_rms: f64,
+    /// How much of the residual its own past predicts: var(ε) ÷ the
+    /// one-step prediction error variance of an AR([`WHITENESS_LAGS`])
+    /// model of ε (Yule–Walker, Levinson–Durbin). 1 for a white residual;
+    /// a residual with structure (unmodelled dynamics, a line, an offset,
+    /// coloured noise) reads more. Lags across a non-finite y are left out.
+    pub residual_prediction_gain: f64,
+    /// Per complex pole pair (a mode) of the model: its ω (rad/s) and the
+    /// energy Σ_k of its fitted free response (the initial state's part of
+    /// ŷ; units of y², ≈ (c_re² + c_im²)/2 ÷ (1 − |e^{pTs}|²)).
+    pub free_response: Vec<(f64, f64)>,
+    /// Σ (y − ȳ)² over the finite samples (units of y²).
+    pub output_energy: f64,
+}
+
+/// Lags of the residual's AR model in [`Fit::residual_prediction_gain`].
+pub const WHITENESS_LAGS: usize = 10;
+
+/// Running lag products Σ ε_k·ε_{k−j}, j = 0..=[`WHITENESS_LAGS`], of a
+/// residual sequence (a run of finite samples; a non-finite y restarts
+/// the run).
+#[derive(Debug, Clone, Default)]
+struct LagSums {
+    sums: [f64; WHITENESS_LAGS + 1],
+    /// The last residuals, newest at `(head + WHITENESS_LAGS) % len`.
+    last: [f64; WHITENESS_LAGS],
+    /// Finite residuals in the current run (up to the ring's length).
+    run: usize,
+    head: usize,
+}
+
+impl LagSums {
+    fn push(&mut self, r: f64) {
+        self.sums[0] += r * r;
+        for j in 1..=self.run.min(WHITENESS_LAGS) {
+            let idx = (self.head + WHITENESS_LAGS - j) % WHITENESS_LAGS;
+            self.sums[j] += r * self.last[idx];
+        }
+        self.last[self.head] = r;
+        self.head = (self.head + 1) % WHITENESS_LAGS;
+        self.run = (self.run + 1).min(WHITENESS_LAGS);
+    }
+
+    fn gap(&mut self) {
+        self.run = 0;
+    }
+
+    fn add(&mut self, other: &Self) {
+        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
+            *a += b;
+        }
+    }
+
+    /// r(0) ÷ the AR model's prediction error variance (Levinson–Durbin on
+    /// the autocorrelation r(j)); 1 when r(0) is zero or the recursion
+    /// breaks down numerically.
+    fn prediction_gain(&self) -> f64 {
+        let r = &self.sums;
+        if !(r[0] > 0.0 && r[0].is_finite()) {
+            return 1.0;
+        }
+        let mut a = [0.0; WHITENESS_LAGS + 1];
+        let mut err = r[0];
+        for m in 1..=WHITENESS_LAGS {
+            let acc: f64 = r[m] - (1..m).map(|i| a[i] * r[m - i]).sum::<f64>();
+            let kappa = acc / err;
+            if !(kappa.abs() < 1.0) {
+                break;
+            }
+            let prev = a;
+            a[m] = kappa;
+            for i in 1..m {
+                a[i] = prev[i] - kappa * prev[m - i];
+            }
+            err *= 1.0 - kappa * kappa;
+        }
+        r[0] / err
+    }
 }
 
 /// Fit of `model` driven by the u of the record against its y (see the
@@ -232,6 +312,7 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     // normal equations are complete, and `dead` is where that happened.
     let mut basis_live = true;
     let mut dead = u64::MAX;
+    let mut tail_lags = LagSums::default();
     let sections = model.sections.len();
     for (k, (u, y)) in (0u64..).zip(samples()) {
         let yf = if basis_live {
@@ -246,6 +327,7 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
             pass.step_forced(u)
         };
         if !y.is_finite() {
+            tail_lags.gap();
             continue;
         }
         n += 1;
@@ -262,6 +344,7 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
             }
         } else {
             sse_tail += r * r;
+            tail_lags.push(r);
         }
     }
     if n < 2 {
@@ -275,6 +358,7 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
     // response is large).
     let mut pass = Pass::new(model);
     let mut sse_head = 0.0;
+    let mut lags = LagSums::default();
     for (u, y) in samples()
         .into_iter()
         .take(usize::try_from(dead).unwrap_or(usize::MAX))
@@ -284,14 +368,45 @@ pub fn fit<I: IntoIterator<Item = (f64, f64)>>(
             let free: f64 = c.iter().zip(&b).map(|(c, b)| c * b).sum();
             let r = y - yf - free;
             sse_head += r * r;
+            lags.push(r);
+        } else {
+            lags.gap();
         }
     }
+    lags.add(&tail_lags);
     let percent = 100.0 * (1.0 - ((sse_head + sse_tail) / sst).sqrt());
     (sst > 0.0 && percent.is_finite()).then_some(Fit {
         percent,
-        initial: c,
         residual_rms: ((sse_head + sse_tail) / n as f64).sqrt(),
+        residual_prediction_gain: lags.prediction_gain(),
+        free_response: free_energies(model, &c),
+        output_energy: sst,
+        initial: c,
     })
+}
+
+/// Per pole pair of `model`: (|p|, energy of the free response with the
+/// basis coefficients `c`); see [`Fit::free_response`].
+fn free_energies(model: &Model, c: &[f64]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut j = 0;
+    for s in &model.sections {
+        if s.real {
+            j += 1;
+            continue;
+        }
+        let (a, b) = (
+            c.get(j).copied().unwrap_or(0.0),
+            c.get(j + 1).copied().unwrap_or(0.0),
+        );
+        j += 2;
+        let r2 = s.phi.norm() * s.phi.norm();
+        out.push((
+            s.omega_rad_s,
+            0.5 * (a * a + b * b) / (1.0 - r2).max(f64::MIN_POSITIVE),
+        ));
+    }
+    out
 }
 
 /// The model output ŷ_k (with the fitted initial state) for the samples

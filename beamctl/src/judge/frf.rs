@@ -50,42 +50,23 @@ pub fn h1(u: &[f64], y: &[f64], ts_s: f64, segment_s: Option<f64>) -> Option<H1>
     if n < MIN_SEGMENT || !(ts_s > 0.0) {
         return None;
     }
-    let record_s = n as f64 * ts_s;
-    let segment_s = segment_s.unwrap_or_else(|| record_s.min(1.0).max(record_s / 8.0));
-    let len = ((segment_s / ts_s).round() as usize).clamp(MIN_SEGMENT, n);
-    let step = len / 2;
-    let fft = FftPlanner::<f64>::new().plan_fft_forward(len);
-    let window: Vec<f64> = (0..len)
-        .map(|k| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / (len - 1) as f64).cos())
-        .collect();
+    let welch = Welch::new(n, ts_s, segment_s);
+    let len = welch.len;
     let bins = len / 2 + 1;
     let (mut guu, mut gyy) = (vec![0.0; bins], vec![0.0; bins]);
     let mut gyu = vec![Complex64::new(0.0, 0.0); bins];
     let mut fu = vec![Complex64::new(0.0, 0.0); len];
     let mut fy = vec![Complex64::new(0.0, 0.0); len];
     let mut segments = 0;
-    let mut start = 0;
-    while start + len <= n {
-        for (buf, x) in [
-            (&mut fu, &u[start..start + len]),
-            (&mut fy, &y[start..start + len]),
-        ] {
-            let finite = x.iter().filter(|v| v.is_finite());
-            let count = finite.clone().count().max(1);
-            let mean = finite.sum::<f64>() / count as f64;
-            for ((b, &v), w) in buf.iter_mut().zip(x).zip(&window) {
-                let d = if v.is_finite() { v - mean } else { 0.0 };
-                *b = Complex64::new(d * w, 0.0);
-            }
-            fft.process(buf);
-        }
+    for start in welch.starts(n) {
+        welch.transform(&mut fu, &u[start..start + len]);
+        welch.transform(&mut fy, &y[start..start + len]);
         for k in 0..bins {
             guu[k] += fu[k].norm_sqr();
             gyy[k] += fy[k].norm_sqr();
             gyu[k] += fy[k] * fu[k].conj();
         }
         segments += 1;
-        start += step;
     }
     let peak = guu.iter().copied().fold(0.0, f64::max);
     let mut out = H1 {
@@ -113,6 +94,105 @@ pub fn h1(u: &[f64], y: &[f64], ts_s: f64, segment_s: Option<f64>) -> Option<H1>
         });
     }
     (!out.f_hz.is_empty()).then_some(out)
+}
+
+/// Welch's segmenting: Hann-windowed segments overlapping by half.
+struct Welch {
+    len: usize,
+    window: Vec<f64>,
+    fft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+}
+
+impl Welch {
+    /// Segments of `segment_s` seconds (default: an eighth of the record,
+    /// at least 1 s when the record is that long) of a record of `n ≥`
+    /// [`MIN_SEGMENT`] samples.
+    fn new(n: usize, ts_s: f64, segment_s: Option<f64>) -> Self {
+        let record_s = n as f64 * ts_s;
+        let segment_s = segment_s.unwrap_or_else(|| record_s.min(1.0).max(record_s / 8.0));
+        let len = ((segment_s / ts_s).round() as usize).clamp(MIN_SEGMENT, n);
+        let window = (0..len)
+            .map(|k| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / (len - 1) as f64).cos())
+            .collect();
+        Self {
+            len,
+            window,
+            fft: FftPlanner::<f64>::new().plan_fft_forward(len),
+        }
+    }
+
+    /// The first sample of each segment.
+    fn starts(&self, n: usize) -> impl Iterator<Item = usize> {
+        let len = self.len;
+        (0..).step_by(len / 2).take_while(move |s| s + len <= n)
+    }
+
+    /// The spectrum of segment `x` (its mean removed; a missing sample,
+    /// NaN, counts as 0 after that; Hann-windowed) into `buf`.
+    fn transform(&self, buf: &mut [Complex64], x: &[f64]) {
+        let finite = x.iter().filter(|v| v.is_finite());
+        let count = finite.clone().count().max(1);
+        let mean = finite.sum::<f64>() / count as f64;
+        for ((b, &v), w) in buf.iter_mut().zip(x).zip(&self.window) {
+            let d = if v.is_finite() { v - mean } else { 0.0 };
+            *b = Complex64::new(d * w, 0.0);
+        }
+        self.fft.process(buf);
+    }
+}
+
+/// The power spectrum of an input (Welch, the segmenting of [`h1`]),
+/// accumulated from a stream of samples, to ask what share of its power
+/// lies in a band.
+#[derive(Debug, Clone)]
+pub struct InputSpectrum {
+    /// Bin spacing (Hz).
+    df: f64,
+    /// Summed |U_k|² of bins 0..=len/2.
+    guu: Vec<f64>,
+}
+
+impl InputSpectrum {
+    /// The spectrum of the `n` samples `u` yields (its first `n`); `None`
+    /// for fewer than [`MIN_SEGMENT`] samples.
+    pub fn of(u: impl IntoIterator<Item = f64>, n: usize, ts_s: f64) -> Option<Self> {
+        if n < MIN_SEGMENT || !(ts_s > 0.0) {
+            return None;
+        }
+        let welch = Welch::new(n, ts_s, None);
+        let len = welch.len;
+        let mut guu = vec![0.0; len / 2 + 1];
+        let mut buf = vec![Complex64::new(0.0, 0.0); len];
+        let mut segment: Vec<f64> = Vec::with_capacity(len);
+        for x in u.into_iter().take(n) {
+            segment.push(x);
+            if segment.len() == len {
+                welch.transform(&mut buf, &segment);
+                for (g, b) in guu.iter_mut().zip(&buf) {
+                    *g += b.norm_sqr();
+                }
+                segment.drain(..len / 2);
+            }
+        }
+        Some(Self {
+            df: 1.0 / (len as f64 * ts_s),
+            guu,
+        })
+    }
+
+    /// The share of the power at every non-zero frequency that lies in
+    /// `[lo_hz, hi_hz]`; `None` for an input without power (constant).
+    pub fn share(&self, lo_hz: f64, hi_hz: f64) -> Option<f64> {
+        let total: f64 = self.guu[1..].iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let in_band: f64 = (1..self.guu.len())
+            .filter(|&k| (lo_hz..=hi_hz).contains(&(k as f64 * self.df)))
+            .map(|k| self.guu[k])
+            .sum();
+        Some(in_band / total)
+    }
 }
 
 #[cfg(test)]
@@ -164,6 +244,9 @@ mod tests {
                 percent: 0.0,
                 initial: vec![0.0; 2],
                 residual_rms: 0.0,
+                residual_prediction_gain: 1.0,
+                free_response: Vec::new(),
+                output_energy: 0.0,
             };
             let y: Vec<f64> =
                 crate::judge::fit::model_output(&model, &rest, u.iter().map(|&v| (v, 0.0)), 0..n)

@@ -7,3 +7,4 @@
 pub mod bound;
 pub mod fit;
 pub mod frf;
+pub mod verdict;

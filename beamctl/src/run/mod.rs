@@ -30,6 +30,7 @@ pub mod tuned;
 
 use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::judge::fit::{self, Model};
+use crate::judge::frf::InputSpectrum;
 use crate::run::drive::{drive, Drive};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
@@ -246,6 +247,8 @@ pub struct RunReport {
     pub validity: Vec<&'static str>,
     /// The sensor guard's counters.
     pub guard: crate::run::session::GuardReport,
+    /// Whether the estimate can be trusted ([`session::Outcome::verdict`]).
+    pub verdict: crate::judge::verdict::Verdict,
     /// With events: what they did (tracking time, fault latency).
     pub scenario: Option<ScenarioReport>,
 }
@@ -660,12 +663,13 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     };
     let truth = *truths.at(total.saturating_sub(1));
     let mut reports = Vec::with_capacity(kinds.len());
+    let input = input_on_rig(cfg)?;
     for (i, score) in scores.into_iter().enumerate() {
         let fit = match session.model(i, cfg.ts_s) {
             Some(model) => fit_on_rig(cfg, &model)?,
             None => None,
         };
-        let o = session.outcome(i, end_s, fit.as_ref());
+        let o = session.outcome(i, end_s, fit.as_ref(), input.as_ref());
         let modal = o.estimate.is_valid().then(|| {
             let mut m = truth.modal;
             let n = m.modes;
@@ -716,10 +720,23 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             supervision: o.supervision,
             validity: o.validity,
             guard: o.guard,
+            verdict: o.verdict,
             scenario,
         });
     }
     Ok(reports)
+}
+
+/// The input spectrum of the run's samples (for the verdict; the rig is
+/// replayed, as for [`fit_on_rig`]).
+fn input_on_rig(cfg: &RunConfig) -> Result<Option<InputSpectrum>, RunError> {
+    let mut rig = scenario_rig(cfg)?;
+    let n = samples(cfg);
+    Ok(InputSpectrum::of(
+        (0..n).map(move |_| rig.tick().u),
+        usize::try_from(n).unwrap_or(usize::MAX),
+        cfg.ts_s,
+    ))
 }
 
 /// The model-output fit over the run's samples (the rig is deterministic:

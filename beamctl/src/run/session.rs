@@ -8,6 +8,8 @@
 //! estimate's physical validity.
 
 use crate::judge::fit::{Fit, Model};
+use crate::judge::frf::InputSpectrum;
+use crate::judge::verdict::{Evidence, Verdict};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::feed::Feed;
@@ -167,6 +169,9 @@ pub struct Outcome {
     /// What the sensor guard flagged over the record (shared by every
     /// estimator of the run: they see the same samples).
     pub guard: GuardReport,
+    /// Whether the estimate can be trusted, and why not
+    /// ([`crate::judge::verdict`]).
+    pub verdict: Verdict,
 }
 
 /// The supervisor's state ([`beamest::supervise::Supervision`]) as
@@ -565,8 +570,16 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     }
 
     /// The truth-free part of estimator `i`'s report. `end_s` is the time
-    /// of the last sample, `fit` the model-output fit (see [`crate::judge::fit::fit`]).
-    pub fn outcome(&self, i: usize, end_s: f64, fit: Option<&Fit>) -> Outcome {
+    /// of the last sample, `fit` the model-output fit (see
+    /// [`crate::judge::fit::fit`]), `input` the record's input spectrum
+    /// (both for the verdict).
+    pub fn outcome(
+        &self,
+        i: usize,
+        end_s: f64,
+        fit: Option<&Fit>,
+        input: Option<&InputSpectrum>,
+    ) -> Outcome {
         let run = &self.runs[i];
         let n = self.weights.len();
         let (estimate, exc, ok, validity, feedthrough) = match run.estimate() {
@@ -592,6 +605,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             ),
         };
         let totals = run.totals();
+        let validity: Vec<&'static str> = validity.names().collect();
+        let drift = self.history[i].drift(end_s);
+        let verdict = Verdict::of(&Evidence {
+            omega: estimate.is_valid().then_some(&estimate.omega[..]),
+            validity: &validity,
+            fit,
+            drift,
+            input,
+        });
         Outcome {
             estimate,
             excitation_min_eig: exc,
@@ -604,11 +626,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             tuning: run.phase_label(),
             builds: run.builds().to_vec(),
             fit_percent: fit.map(|f| f.percent),
-            drift_last_10pct: self.history[i].drift(end_s),
+            drift_last_10pct: drift,
             robust: run.robust_status(),
             supervision: self.supervision(i),
-            validity: validity.names().collect(),
+            validity,
             guard: self.feed.guard().counts().into(),
+            verdict,
         }
     }
 }

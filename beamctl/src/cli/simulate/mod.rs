@@ -370,6 +370,7 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
                 .as_ref()
                 .filter(|s| s.step_at_s.is_some())
                 .map(|s| (s.tracking_1pct_s, s.tracking_0p1pct_s)),
+            verdict: &r.verdict,
         })
         .collect();
     out.push_str(&report::table(
@@ -378,9 +379,11 @@ pub fn render(plan: &Plan, reports: &[RunReport]) -> String {
         first.crlb.as_ref(),
         &columns,
     ));
+    out.push_str(&report::verdict_reasons(&columns));
     out.push_str(report::FOOTNOTE_TRUTH);
     out.push_str(report::FOOTNOTE);
     out.push_str(report::FOOTNOTE_GUARD);
+    out.push_str(report::FOOTNOTE_VERDICT);
     if reports.iter().any(|r| r.robust.is_some()) {
         out.push_str(report::FOOTNOTE_ROBUST);
     }

@@ -1,0 +1,350 @@
+//! Whether a report's estimate can be trusted, from what the record itself
+//! shows (no truth): `verdict: {trusted, reasons}` of every replay and
+//! simulate report.
+//!
+//! # The checks (each failing one is a reason; trusted = none fails)
+//! * **`no_estimate`**: the law produced no modal estimate.
+//! * **`not_physical`**: the estimate fails the physical-validity test
+//!   (ω > 0, 0 < ζ < 1, distinct modes; [`beamest::modal::Validity`]).
+//! * **`no_fit`**: the model-output fit could not be computed (an unstable
+//!   model, or no record to compute it on).
+//! * **`residual_structured`**: the fit's residual ε = y − ŷ holds
+//!   structure the model does not explain: its own past predicts more than
+//!   1 − 1/[`RESIDUAL_GAIN_LIMIT`] of its power (an AR model of ε;
+//!   [`crate::judge::fit::Fit::residual_prediction_gain`]) **and** that
+//!   predictable part is more than [`RESIDUAL_STRUCTURE_LIMIT`] of y's RMS.
+//!   Unmodelled dynamics (a mode above the band, an acceleration output's
+//!   direct term), an offset or drift, a mains line or coloured noise all
+//!   read so; a white residual (the model is right and the noise is white)
+//!   reads a gain of 1 whatever the noise level, and a structured residual
+//!   far below y's level (a noise-free record's round-off, a tiny model
+//!   error) does not count.
+//! * **`drifting`**: the estimate moved by more than [`DRIFT_LIMIT`] over
+//!   the last 10% of the record (the report's `drift_last_10pct`).
+//! * **`mode_not_excited`**: neither the input nor the record's initial
+//!   motion reveals a reported mode: u has less than [`COVERAGE_LIMIT`] of
+//!   its power (Welch spectrum) within an octave either side of it,
+//!   [ω/2, 2ω], **and** the mode's fitted free response (a record that
+//!   starts with the beam moving) holds less than [`FREE_RESPONSE_SHARE`]
+//!   of y's energy about its mean. Such a mode is
+//!   reported as not identifiable (`identifiable[i]` false) rather than as
+//!   estimated, however well the model fits. (On a record that holds
+//!   exactly the model's modes the response far from a mode still carries
+//!   information on it; on a real structure that part of the response
+//!   belongs to modes the model does not have.)
+
+use crate::judge::fit::Fit;
+use crate::judge::frf::InputSpectrum;
+use serde::Serialize;
+
+/// `residual_structured` when the residual's prediction gain exceeds this
+/// (its past predicts more than 20% of its power)...
+pub const RESIDUAL_GAIN_LIMIT: f64 = 1.25;
+/// ...and the predictable part's RMS exceeds this share of y's RMS.
+pub const RESIDUAL_STRUCTURE_LIMIT: f64 = 1e-2;
+/// `drifting` above this `drift_last_10pct`.
+pub const DRIFT_LIMIT: f64 = 1e-2;
+/// `mode_not_excited` below this share of u's power in [ω/2, 2ω]...
+pub const COVERAGE_LIMIT: f64 = 1e-6;
+/// ...unless the mode's fitted free response holds this share of
+/// Σ (y − ȳ)².
+pub const FREE_RESPONSE_SHARE: f64 = 1e-2;
+
+/// One failed check.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reason {
+    /// `no_estimate`, `not_physical`, `no_fit`, `residual_structured`,
+    /// `drifting` or `mode_not_excited` (module docs).
+    pub code: &'static str,
+    /// The evidence, in words and numbers.
+    pub detail: String,
+}
+
+/// The verdict on one estimator's report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Verdict {
+    /// No check failed.
+    pub trusted: bool,
+    /// The failed checks, in the order of the module docs.
+    pub reasons: Vec<Reason>,
+    /// Per reported mode: the input has power near it (see
+    /// `mode_not_excited`); empty without an estimate or an input spectrum.
+    pub identifiable: Vec<bool>,
+    /// Per reported mode: the share of u's power in [ω/2, 2ω].
+    pub input_power_near_mode: Vec<f64>,
+    /// Per reported mode: the energy of its fitted free response ÷
+    /// Σ (y − ȳ)² (0 without a fit).
+    pub free_response_share: Vec<f64>,
+    /// [`Fit::residual_prediction_gain`], if there is a fit.
+    pub residual_prediction_gain: Option<f64>,
+    /// RMS of the residual's predictable part ÷ RMS of y about its mean,
+    /// if there is a fit.
+    pub residual_structure: Option<f64>,
+}
+
+/// What the verdict is formed from.
+#[derive(Debug, Clone, Copy)]
+pub struct Evidence<'a> {
+    /// The final estimate's ω_i (rad/s), `None` without an estimate.
+    pub omega: Option<&'a [f64]>,
+    /// Its physical-validity flags (empty: valid).
+    pub validity: &'a [&'static str],
+    /// The model-output fit over the record.
+    pub fit: Option<&'a Fit>,
+    /// The report's `drift_last_10pct`.
+    pub drift: Option<f64>,
+    /// The record's input spectrum.
+    pub input: Option<&'a InputSpectrum>,
+}
+
+impl Verdict {
+    /// Run every check of the module docs on `e`.
+    pub fn of(e: &Evidence<'_>) -> Self {
+        let mut reasons = Vec::new();
+        let has_estimate = e.omega.is_some();
+        if !has_estimate {
+            reasons.push(Reason {
+                code: "no_estimate",
+                detail: "the law produced no modal estimate".into(),
+            });
+        } else if !e.validity.is_empty() {
+            reasons.push(Reason {
+                code: "not_physical",
+                detail: format!(
+                    "the estimate is not a physical beam ({})",
+                    e.validity.join(", ")
+                ),
+            });
+        }
+        let (gain, structure) = match e.fit {
+            Some(f) => {
+                let gain = f.residual_prediction_gain;
+                let residual_share = (1.0 - f.percent / 100.0).max(0.0);
+                let structure = residual_share * (1.0 - 1.0 / gain.max(1.0)).sqrt();
+                (Some(gain), Some(structure))
+            }
+            None => (None, None),
+        };
+        match (gain, structure) {
+            (Some(g), Some(s)) if g > RESIDUAL_GAIN_LIMIT && s > RESIDUAL_STRUCTURE_LIMIT => {
+                reasons.push(Reason {
+                    code: "residual_structured",
+                    detail: format!(
+                        "the residual y − ŷ is not white: its own past predicts {:.0}% of its power, \
+                         {} of y's RMS (unmodelled dynamics, an offset or drift, a line, or coloured noise)",
+                        100.0 * (1.0 - 1.0 / g),
+                        crate::io::table::sig(s, 2)
+                    ),
+                });
+            }
+            (None, _) if has_estimate => reasons.push(Reason {
+                code: "no_fit",
+                detail: "no model-output fit (an unstable model, or no record)".into(),
+            }),
+            _ => {}
+        }
+        if let Some(d) = e.drift.filter(|d| *d > DRIFT_LIMIT) {
+            reasons.push(Reason {
+                code: "drifting",
+                detail: format!(
+                    "the estimate moved by {} over the last 10% of the record",
+                    crate::io::table::sig(d, 2)
+                ),
+            });
+        }
+        let mut identifiable = Vec::new();
+        let mut near = Vec::new();
+        let mut free = Vec::new();
+        if let (Some(omega), Some(input)) = (e.omega, e.input) {
+            for (i, &w) in omega.iter().enumerate() {
+                let f_hz = w / (2.0 * std::f64::consts::PI);
+                let share = input.share(f_hz / 2.0, 2.0 * f_hz).unwrap_or(0.0);
+                let free_share = e.fit.map_or(0.0, |f| free_response_share(f, w));
+                let revealed = share >= COVERAGE_LIMIT || free_share >= FREE_RESPONSE_SHARE;
+                near.push(share);
+                free.push(free_share);
+                identifiable.push(revealed);
+                if !revealed {
+                    reasons.push(Reason {
+                        code: "mode_not_excited",
+                        detail: format!(
+                            "mode {} ({} Hz): the input has {} of its power within an octave of it \
+                             and the initial motion does not reveal it (free response {} of y's energy); \
+                             not identifiable from this record",
+                            i + 1,
+                            crate::io::table::sig(f_hz, 4),
+                            crate::io::table::sig(share, 2),
+                            crate::io::table::sig(free_share, 2)
+                        ),
+                    });
+                }
+            }
+        }
+        Self {
+            trusted: reasons.is_empty(),
+            reasons,
+            identifiable,
+            input_power_near_mode: near,
+            free_response_share: free,
+            residual_prediction_gain: gain,
+            residual_structure: structure,
+        }
+    }
+
+    /// "yes" or "no: code, code" (each code once).
+    pub fn summary(&self) -> String {
+        if self.trusted {
+            return "yes".into();
+        }
+        let mut codes: Vec<&str> = self.reasons.iter().map(|r| r.code).collect();
+        codes.dedup();
+        format!("no: {}", codes.join(", "))
+    }
+}
+
+/// Energy of the fitted free response of the model's mode nearest `omega`
+/// (in log ω) ÷ Σ (y − ȳ)².
+fn free_response_share(f: &Fit, omega: f64) -> f64 {
+    let nearest = f.free_response.iter().min_by(|a, b| {
+        let d = |w: f64| (w / omega).ln().abs();
+        d(a.0).total_cmp(&d(b.0))
+    });
+    match nearest {
+        Some(&(_, energy)) => energy / f.output_energy.max(f64::MIN_POSITIVE),
+        None => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit(percent: f64, gain: f64) -> Fit {
+        Fit {
+            percent,
+            initial: Vec::new(),
+            residual_rms: 1.0,
+            residual_prediction_gain: gain,
+            free_response: Vec::new(),
+            output_energy: 1.0,
+        }
+    }
+
+    /// A multisine's lines at 400–800 Hz and a PRBS-like flat input.
+    fn spectra() -> (InputSpectrum, InputSpectrum) {
+        let ts = 1e-4;
+        let n = 100_000;
+        let lines = (0..n).map(|k| {
+            let t = k as f64 * ts;
+            (1..=5)
+                .map(|j| (2.0 * std::f64::consts::PI * (300.0 + 100.0 * j as f64) * t).sin())
+                .sum::<f64>()
+        });
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let flat = (0..n).map(move |_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            if state & 1 == 0 {
+                1.0
+            } else {
+                -1.0
+            }
+        });
+        (
+            InputSpectrum::of(lines, n, ts).unwrap(),
+            InputSpectrum::of(flat, n, ts).unwrap(),
+        )
+    }
+
+    #[test]
+    fn a_good_estimate_on_a_covering_input_is_trusted() {
+        let (_, flat) = spectra();
+        let est = [50.0, 280.0];
+        let v = Verdict::of(&Evidence {
+            omega: Some(&est),
+            validity: &[],
+            fit: Some(&fit(99.0, 1.001)),
+            drift: Some(1e-4),
+            input: Some(&flat),
+        });
+        assert!(v.trusted, "{v:?}");
+        assert_eq!(v.identifiable, vec![true, true]);
+        assert_eq!(v.summary(), "yes");
+    }
+
+    #[test]
+    fn modes_the_input_does_not_reach_are_not_identifiable() {
+        let (lines, _) = spectra();
+        // 8 and 45 Hz, lines only at 400–800 Hz; mode 3 at 600 Hz is reached.
+        let est = [50.0, 282.0, 3770.0];
+        let v = Verdict::of(&Evidence {
+            omega: Some(&est),
+            validity: &[],
+            fit: Some(&fit(99.9, 1.0)),
+            drift: Some(0.0),
+            input: Some(&lines),
+        });
+        assert!(!v.trusted);
+        assert_eq!(v.identifiable, vec![false, false, true]);
+        let codes: Vec<_> = v.reasons.iter().map(|r| r.code).collect();
+        assert_eq!(codes, ["mode_not_excited", "mode_not_excited"]);
+        assert!(v.input_power_near_mode[0] < 1e-9 && v.input_power_near_mode[2] > 0.1);
+        // A record that starts with mode 1 ringing reveals it.
+        let moving = Fit {
+            free_response: vec![(50.0, 0.5), (282.0, 1e-3)],
+            ..fit(99.9, 1.0)
+        };
+        let v = Verdict::of(&Evidence {
+            omega: Some(&est),
+            validity: &[],
+            fit: Some(&moving),
+            drift: Some(0.0),
+            input: Some(&lines),
+        });
+        assert_eq!(v.identifiable, vec![true, false, true]);
+    }
+
+    #[test]
+    fn structure_counts_only_when_it_is_a_visible_part_of_y() {
+        let est = [50.0];
+        let with = |f: Fit| {
+            Verdict::of(&Evidence {
+                omega: Some(&est),
+                validity: &[],
+                fit: Some(&f),
+                drift: None,
+                input: None,
+            })
+        };
+        // A white residual at a low SNR: trusted.
+        assert!(with(fit(10.0, 1.01)).trusted);
+        // A structured residual of 1e-4 of y (noise-free round-off): trusted.
+        assert!(with(fit(99.99, 1e4)).trusted);
+        // A structured residual of 30% of y: not.
+        let v = with(fit(70.0, 50.0));
+        assert_eq!(v.summary(), "no: residual_structured");
+        assert!((v.residual_structure.unwrap() - 0.3 * (1.0f64 - 1.0 / 50.0).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn no_estimate_invalid_and_drifting_are_reasons() {
+        let est = [50.0];
+        let v = Verdict::of(&Evidence {
+            omega: Some(&est),
+            validity: &["zeta_out_of_range"],
+            fit: None,
+            drift: Some(0.05),
+            input: None,
+        });
+        assert_eq!(v.summary(), "no: not_physical, no_fit, drifting");
+        let v = Verdict::of(&Evidence {
+            omega: None,
+            validity: &["not_recovered"],
+            fit: None,
+            drift: None,
+            input: None,
+        });
+        assert_eq!(v.summary(), "no: no_estimate");
+    }
+}
