@@ -128,7 +128,8 @@ impl State {
 }
 
 /// One line per estimate (plain output): sample index, device time,
-/// sequence number, law, ω̂, ζ̂, b̂̄ per mode, λmin(P) and the flags.
+/// sequence number, law, ω̂, ζ̂, b̂̄ per mode, the λ of its Θ̂, the
+/// excitation level λmin(P)/tr(P) and the flags.
 /// Values are the f32 the device sent, printed exactly (shortest form);
 /// `-` where there is none, `?` for a time before the sample rate is known.
 pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
@@ -150,12 +151,13 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
         .excitation_level
         .map_or_else(|| "-".to_string(), |l| l.to_string());
     format!(
-        "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_min={level} flags={}",
+        "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_rad_s={} excitation_level={level} flags={}",
         e.sample_index,
         e.estimator.name(),
         list(&|m| m.omega_rad_s),
         list(&|m| m.zeta),
         list(&|m| m.b_bar),
+        e.lambda_rad_s,
         text::flags_text(e.flags, "|"),
     )
 }
