@@ -433,7 +433,9 @@ mod tests {
             // Duplicates are dropped, everything else delivered.
             let dropped: Vec<_> = r.iter().filter_map(|x| x.as_ref().err()).collect();
             assert_eq!(dropped.len() as u64, dup, "{seqs:?}");
-            assert!(dropped.iter().all(|e| matches!(e, DecodeError::Duplicate(_))));
+            assert!(dropped
+                .iter()
+                .all(|e| matches!(e, DecodeError::Duplicate(_))));
             let c = d.counters();
             assert_eq!(
                 (c.lost, c.duplicates, c.out_of_order, c.frames_ok),
@@ -459,10 +461,19 @@ mod tests {
             .iter()
             .map(|x| x.as_ref().map(|f| f.seq).map_err(|e| *e))
             .collect();
-        assert_eq!(seqs, [Ok(4), Err(DecodeError::Duplicate(4)), Ok(5), Ok(0), Ok(6)]);
+        assert_eq!(
+            seqs,
+            [Ok(4), Err(DecodeError::Duplicate(4)), Ok(5), Ok(0), Ok(6)]
+        );
         let c = d.counters();
         assert_eq!(
-            (c.frames_ok, c.duplicates, c.lost, c.out_of_order, c.errors()),
+            (
+                c.frames_ok,
+                c.duplicates,
+                c.lost,
+                c.out_of_order,
+                c.errors()
+            ),
             (4, 1, 0, 0, 0)
         );
     }

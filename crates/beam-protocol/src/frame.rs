@@ -728,9 +728,12 @@ mod tests {
             Message::Command(Command::Freeze)
         );
         let mut settings = [0u8; 24];
-        let n = postcard::to_slice(&Command::SetEstimator(EstimatorSettings::default()), &mut settings)
-            .unwrap()
-            .len();
+        let n = postcard::to_slice(
+            &Command::SetEstimator(EstimatorSettings::default()),
+            &mut settings,
+        )
+        .unwrap()
+        .len();
         let mut bad_option = settings[..n].to_vec();
         *bad_option.last_mut().unwrap() = 2;
         let mut bad_bool = worst_status_payload();
@@ -759,7 +762,9 @@ mod tests {
     /// The worst status's payload bytes.
     fn worst_status_payload() -> Vec<u8> {
         let mut out = [0u8; MAX_PAYLOAD_LEN];
-        postcard::to_slice(&worst_status(), &mut out).unwrap().to_vec()
+        postcard::to_slice(&worst_status(), &mut out)
+            .unwrap()
+            .to_vec()
     }
 
     /// Bytes after `adaptation_frozen` in [`worst_status_payload`]: the

@@ -52,7 +52,15 @@ pub fn estimate() -> impl Strategy<Value = Estimate> {
             )
         })
         .prop_map(
-            |(sample_index, estimator, flags, with_modes, modes, (lambda_rad_s, theta), excitation_level)| {
+            |(
+                sample_index,
+                estimator,
+                flags,
+                with_modes,
+                modes,
+                (lambda_rad_s, theta),
+                excitation_level,
+            )| {
                 Estimate {
                     sample_index,
                     estimator,
@@ -159,7 +167,14 @@ pub fn status() -> impl Strategy<Value = Status> {
         (telemetry_rates(), any::<bool>()),
     )
         .prop_map(
-            |((uptime_samples, sample_rate_hz, fw, modes), c, frozen, excitation, est, (tel, auto))| {
+            |(
+                (uptime_samples, sample_rate_hz, fw, modes),
+                c,
+                frozen,
+                excitation,
+                est,
+                (tel, auto),
+            )| {
                 Status {
                     uptime_samples,
                     sample_rate_hz,
