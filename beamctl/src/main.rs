@@ -91,12 +91,12 @@ Watch a device's estimates live over the serial link (docs/PROTOCOL.md): from a 
 port (--port, --baud), a TCP socket (--tcp, e.g. QEMU's -serial tcp:...) or a file of \
 captured bytes (--file).
 
-On a terminal: a live view of the current estimates (ω̂_i, ζ̂_i, b̂̄_i, λmin(P), flags), \
+On a terminal: a live view of the current estimates (ω̂_i, ζ̂_i, b̂̄_i, λ, λmin(P)/tr(P), flags), \
 charts of ω̂_i and ζ̂_i over the last 60 s of device time, the link's health (frames/s, \
 frames lost by sequence gaps, CRC and framing errors, the device's counters) and a \
 command line (:). Otherwise, or with --plain: one line per estimate on stdout \
-(sample=... t_s=... seq=... law=... omega_rad_s=... zeta=... bbar=... lambda_min=... \
-flags=...), messages on stderr.
+(sample=... t_s=... seq=... law=... omega_rad_s=... zeta=... bbar=... lambda_rad_s=... \
+excitation_level=... flags=...), messages on stderr.
 
 At start-up the monitor asks a live device for a Status (its sample rate and settings) \
 unless --listen-only. It stops after --duration, on q or Ctrl-C, at the end of a --file \

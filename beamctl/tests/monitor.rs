@@ -424,10 +424,10 @@ fn another_protocol_version_stops_with_a_clear_error() {
         let mut dev = FakeDevice::new(FakeConfig::default());
         let mut out = vec![0u8];
         dev.advance(1_000, &mut out);
-        // A frame of version 2 (CRC good), then silence.
+        // A frame of version 3 (CRC good), then silence.
         let mut frame = [0u8; 64];
         let h = Header {
-            version: 2,
+            version: 3,
             ..Header::new(Kind::Estimate, 11)
         };
         let n = encode_raw(&h, &[1, 2, 3], &mut frame).unwrap();
@@ -450,11 +450,11 @@ fn another_protocol_version_stops_with_a_clear_error() {
     let err = stderr(&o);
     assert!(
         err.contains(
-            "protocol version mismatch: the peer speaks version 2, this build 1; stopped without interpreting its frames"
+            "protocol version mismatch: the peer speaks version 3, this build 2; stopped without interpreting its frames"
         ),
         "{err}"
     );
-    assert_eq!(stdout(&o).lines().count(), 10, "the v1 estimates before it");
+    assert_eq!(stdout(&o).lines().count(), 10, "the v2 estimates before it");
     let rows = csv_rows(&record);
     let kind = col(&rows[0], "kind");
     assert!(rows

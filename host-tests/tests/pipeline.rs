@@ -441,8 +441,10 @@ fn records_recover_the_modes_in_the_low_priority_task() {
         std::mem::size_of::<TelemetryRecord<f64, 7, 28>>(),
         std::mem::size_of::<beamest::pipeline::RawBlock<f32>>()
     );
-    // 248 since issue 9 (the open, offset-step and drift counters).
-    assert_eq!(std::mem::size_of::<TelemetryRecord<f32, 7, 28>>(), 248);
+    // 248 with the open, offset-step and drift counters; 256 with the
+    // supervisor's in-loop Lemma 1 ratio (an `Option<f32>`, the excitation
+    // level an Estimate sends, docs/PROTOCOL.md §9.3).
+    assert_eq!(std::mem::size_of::<TelemetryRecord<f32, 7, 28>>(), 256);
 }
 
 /// Scripted converters for the property test.

@@ -41,10 +41,12 @@ class Estimate:
     omega: Tuple[float, ...]
     zeta: Tuple[float, ...]
     bbar: Tuple[float, ...]
+    #: λ of the filter Λ(s) = (s + λ)^{2n} that theta belongs to (rad/s)
+    lambda_rad_s: float
     #: Θ̂ of eq. 29, physical units
     theta: Tuple[float, ...]
-    #: λmin(P), None for laws without P
-    lambda_min: Optional[float]
+    #: λmin(P)/tr(P) in [0, 1] (Lemma 1; EXCITED tests it), None when not measured
+    excitation_level: Optional[float]
     kind: str = "estimate"
 
 
@@ -80,10 +82,13 @@ class Status:
     forgetting_p: float
     forgetting_h: float
     initial_gain: float
+    #: the λ in use (rad/s), None before the automatic rule has chosen
     lambda_rad_s: Optional[float]
     estimate_rate_hz: float
     raw_decimation: int
     status_rate_hz: float
+    #: λ is the device's automatic rule's (may change without a command)
+    lambda_automatic: bool
     kind: str = "status"
 
 
@@ -134,8 +139,9 @@ class LinkCounters:
     lost: int
     duplicates: int
     out_of_order: int
-    #: frames received but not delivered (CRC + framing + oversize +
-    #: malformed + version mismatches)
+    #: frames received but not delivered for an error (CRC + framing +
+    #: oversize + malformed + version mismatches; duplicates are counted
+    #: apart, and not delivered either)
     errors: int
     #: bytes after the last delimiter (a frame not finished yet)
     partial_bytes: int

@@ -22,7 +22,8 @@ class Recording:
     #: every row, in order: {"kind": ..., column: text}
     rows: List[Dict[str, str]]
     #: the estimate rows: host_s, sample_index, t_s, flags, omega (rows ×
-    #: 3), zeta, bbar, lambda_min, theta (rows × 11); NaN where empty
+    #: 3), zeta, bbar, lambda_rad_s (the λ of Θ̂), excitation_level
+    #: (λmin(P)/tr(P)), theta (rows × 11); NaN where empty
     estimates: Dict[str, np.ndarray]
     #: FILE.raw.csv: {"t" or "sample_index", "u", "y"} or None
     raw: Optional[Dict[str, np.ndarray]]
@@ -52,7 +53,8 @@ def read_recording(path: str) -> Recording:
         "sample_index": np.array([int(r["sample_index"]) for r in est], dtype=np.int64),
         "t_s": np.array([_num(r.get("t_s")) for r in est]),
         "flags": np.array([int(r.get("flags", 0)) for r in est], dtype=np.int64),
-        "lambda_min": np.array([_num(r.get("lambda_min")) for r in est]),
+        "lambda_rad_s": np.array([_num(r.get("lambda_rad_s")) for r in est]),
+        "excitation_level": np.array([_num(r.get("excitation_level")) for r in est]),
     }
     for name, n in (("omega", 3), ("zeta", 3), ("bbar", 3), ("theta", 11)):
         estimates[name] = np.array(

@@ -38,8 +38,9 @@ fn frame_dict<'py>(py: Python<'py>, f: &Frame) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("omega", f32s(e.modes.iter().map(|m| m.omega_rad_s)))?;
             d.set_item("zeta", f32s(e.modes.iter().map(|m| m.zeta)))?;
             d.set_item("bbar", f32s(e.modes.iter().map(|m| m.b_bar)))?;
+            d.set_item("lambda_rad_s", f64::from(e.lambda_rad_s))?;
             d.set_item("theta", f32s(e.theta.iter().copied()))?;
-            d.set_item("lambda_min", e.excitation_level.map(f64::from))?;
+            d.set_item("excitation_level", e.excitation_level.map(f64::from))?;
         }
         Message::RawSamples(r) => {
             d.set_item("kind", "raw")?;
@@ -83,6 +84,7 @@ fn frame_dict<'py>(py: Python<'py>, f: &Frame) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("estimate_rate_hz", f64::from(t.estimate_rate_hz))?;
             d.set_item("raw_decimation", t.raw_decimation)?;
             d.set_item("status_rate_hz", f64::from(t.status_rate_hz))?;
+            d.set_item("lambda_automatic", s.lambda_automatic)?;
         }
         Message::Ack(a) => {
             d.set_item("kind", "ack")?;

@@ -65,6 +65,21 @@ def test_decoder_equals_monitor_file_on_a_qemu_capture(beamctl, tmp_path):
     # The emulated firmware's stream: estimates and a status, nothing lost.
     assert {"estimate", "status"} <= kinds, kinds
     assert (counters.lost, counters.errors) == (0, 0)
+    # Every estimate means what PROTOCOL.md §4.1 says: EXCITED is the
+    # firmware's test of the level sent (≥ 1e-7, §9.3, and INPUT_GONE
+    # clear); Θ̂ = 0 carries no modes and no PHYSICALLY_VALID; λ > 0.
+    estimates = [f for f in frames if f.kind == "estimate"]
+    for e in estimates:
+        gone = "INPUT_GONE" in e.flag_names
+        level_ok = e.excitation_level is not None and np.float32(e.excitation_level) >= np.float32(1e-7)
+        assert ("EXCITED" in e.flag_names) == (level_ok and not gone), e
+        if all(t == 0.0 for t in e.theta):
+            assert e.omega == () and "PHYSICALLY_VALID" not in e.flag_names, e
+        assert e.lambda_rad_s > 0.0
+    # The first estimates (the law held at start-up) have no modes; later
+    # ones do.
+    assert estimates[0].omega == ()
+    assert any(len(e.omega) == 2 for e in estimates)
 
 
 def decode_as_monitor_does(beamctl, data, tmp_path):
@@ -98,6 +113,12 @@ def decode_as_monitor_does(beamctl, data, tmp_path):
                 assert same_f32(b, r[f"bbar_{i}"])
             for i, th in enumerate(f.theta, 1):
                 assert same_f32(th, r[f"theta_{i}"])
+            assert same_f32(f.lambda_rad_s, r["lambda_rad_s"])
+            if f.excitation_level is None:
+                assert r["excitation_level"] == ""
+            else:
+                assert same_f32(f.excitation_level, r["excitation_level"])
+                assert 0.0 <= f.excitation_level <= 1.0
         elif f.kind == "raw":
             assert f.first_sample_index == int(r["sample_index"])
             assert f.decimation == int(r["decimation"]) and len(f.u) == int(r["samples"])
@@ -106,9 +127,11 @@ def decode_as_monitor_does(beamctl, data, tmp_path):
             assert f.waveform == r["waveform"] and f.waveform_params == r["waveform_params"]
             assert f.firmware == r["firmware"] and f.modes == int(r["modes"])
             assert f.counters["overruns"] == int(r["overruns"])
+            assert int(f.lambda_automatic) == int(r["lambda_automatic"])
     c = d.counters
     assert c.frames_ok == sum(f.kind != "error" for f in frames)
-    assert c.errors == sum(f.kind == "error" for f in frames)
+    # Dropped: errors, and duplicates (not delivered twice, PROTOCOL.md §1.6).
+    assert c.errors + c.duplicates == sum(f.kind == "error" for f in frames)
     # The raw samples are those of FILE.raw.csv, exactly.
     recording = beamest.read_recording(rec)
     raw = [f.u for f in frames if f.kind == "raw"]

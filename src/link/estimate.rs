@@ -6,12 +6,12 @@
 //! The sample task sets the bits it knows in the record's own
 //! [`StatusFlags`] ([`TelemetryRecord::flags`]): FROZEN_BY_COMMAND,
 //! FROZEN_AUTO, STATE_DEGRADED, INPUT_GONE, CHANGE_DETECTED, SENSOR_LEVEL,
-//! TELEMETRY_DROPPED (records dropped) and, for a supervised estimator,
-//! EXCITED. The estimate keeps them and adds:
+//! TELEMETRY_DROPPED (records dropped). The estimate keeps them and adds
+//! (EXCITED replaced: decided from the level that is sent):
 //!
 //! | protocol bit | set when |
 //! |---|---|
-//! | EXCITED | (an estimator without supervision) λmin(P) of the record ≥ [`FlagRules::excitation_rel_threshold`] · tr(P) (Lemma 1, the same test [`crate::supervise::lemma1_excited`]) |
+//! | EXCITED | the excitation level sent (λmin(P)/tr(P): the supervisor's in-loop value, else the record's) ≥ [`FlagRules::excitation_rel_threshold`], and INPUT_GONE clear (Lemma 1) |
 //! | CONVERGED | [`Convergence`]: every ω̂, ζ̂ within [`FlagRules::converged_rel_tol`] of its value at the start of a window of [`FlagRules::converged_window_samples`] |
 //! | PHYSICALLY_VALID | modes recovered, as many as the model has, ω > 0, 0 < ζ < 1, ω strictly ascending, all finite |
 //! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions, an open bridge |
@@ -33,10 +33,10 @@ use beam_protocol::{
 /// The firmware's rules for the flags that need a threshold.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlagRules {
-    /// For an estimator without supervision: EXCITED when λmin(P)
-    /// (scaled coordinates, Lemma 1) reaches this fraction of tr(P) (the
-    /// threshold moves with P's size, which grows with time and with 1/l,
-    /// and so does the rounding noise on λmin). Default: the core's
+    /// EXCITED when the excitation level sent, λmin(P)/tr(P) (scaled
+    /// coordinates, Lemma 1), reaches this value and the input is present
+    /// (relative to tr(P): P's size grows with time and with 1/l, and so
+    /// does the rounding noise on λmin). Default: the core's
     /// `crate::supervise::EXCITATION_REL_THRESHOLD`, the supervisor's.
     pub excitation_rel_threshold: f32,
     /// CONVERGED tolerance: relative change of every ω̂ and ζ̂.
@@ -245,31 +245,31 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     convergence: &mut Convergence,
 ) -> Estimate {
     let rules = ctx.rules;
+    // Θ̂ = 0 is the law's initial value, never an estimate (B = 0): its
+    // "modes" would be λ's own poles (ω = λ, ζ = 1).
+    let uninformed = ctx.no_update_yet || record.theta.iter().all(|v| *v == T::ZERO);
     let modal = recovered
         .modal
         .as_ref()
         .ok()
-        .filter(|_| !ctx.no_update_yet)
+        .filter(|_| !uninformed)
         .map(modal_f32);
     let valid = modal
         .as_ref()
         .is_some_and(|m| physically_valid(m, ctx.model_modes));
-    let lmin = recovered.excitation_min_eig.map(|v| v.to_f64() as f32);
+    let level = excitation_level(record, recovered);
     let now = &record.counters;
     let prev = ctx.previous;
     let grew = |f: fn(&Counters) -> u32| f(now) != f(prev);
 
     // The sample task's bits as they are; the link adds those that need
-    // the recovery, the thresholds or the counters' differences.
+    // the recovery, the thresholds or the counters' differences. EXCITED
+    // is decided here, from the level that is sent, so that a receiver
+    // can check it: level ≥ threshold and the input present.
     let mut flags = record.flags;
-    if !record.supervised {
-        let trace = record
-            .has_information
-            .then(|| information_trace(&record.information))
-            .map(|t| t.to_f64() as f32);
-        let lemma1 = matches!((lmin, trace), (Some(l), Some(t)) if t > 0.0 && l >= rules.excitation_rel_threshold * t);
-        flags.set(StatusFlags::EXCITED, lemma1);
-    }
+    let input_gone = flags.contains(StatusFlags::INPUT_GONE);
+    let lemma1 = level.is_some_and(|l| l >= rules.excitation_rel_threshold);
+    flags.set(StatusFlags::EXCITED, lemma1 && !input_gone);
     let converged =
         convergence.observe(record.sample_index, modal.as_ref().filter(|_| valid), rules);
     flags.set(StatusFlags::CONVERGED, converged);
@@ -312,9 +312,42 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
         estimator: ctx.estimator,
         flags,
         modes,
+        lambda_rad_s: record.lambda_rad_s as f32,
         theta,
-        excitation_level: lmin,
+        excitation_level: level,
     }
+}
+
+/// The excitation level sent with an estimate: λmin(P)/tr(P) of the scaled
+/// information matrix (Lemma 1) — the supervisor's in-loop value when it
+/// has one (its own EXCITED test), else the record's (λmin by Jacobi
+/// rotations, tr(P) from the diagonal) — rounded to `f32` and clamped to
+/// [0, 1]. P is positive semi-definite by construction (a filtered sum of
+/// φφᵀ), so λmin ≥ 0 and λmin ≤ tr(P); a negative value is the rounding of
+/// the eigenvalue solver on a nearly singular P (|λmin| ~ ε·λmax), and is
+/// sent as 0. P = 0 (no information yet) is level 0. `None` for a law
+/// without P and for a non-finite P.
+fn excitation_level<T: Real, const NP: usize, const NS: usize>(
+    record: &TelemetryRecord<T, NP, NS>,
+    recovered: &Recovered<T>,
+) -> Option<f32> {
+    let ratio = match record.lemma1_ratio {
+        Some(r) => Some(r.to_f64()),
+        None if record.has_information => {
+            let trace = information_trace(&record.information).to_f64();
+            recovered.excitation_min_eig.map(|l| {
+                if trace == 0.0 {
+                    0.0
+                } else {
+                    l.to_f64() / trace
+                }
+            })
+        }
+        None => None,
+    };
+    ratio
+        .filter(|r| r.is_finite())
+        .map(|r| (r as f32).clamp(0.0, 1.0))
 }
 
 #[cfg(test)]
@@ -370,6 +403,7 @@ mod tests {
             y: 1e-3,
             flags,
             supervised: false,
+            lemma1_ratio: None,
             steps: StepCounts::default(),
             counters,
         }
@@ -460,7 +494,9 @@ mod tests {
         assert_eq!(e.modes.len(), 2);
         assert_eq!(e.theta.len(), 7);
         assert_eq!(e.modes[1].zeta, 0.13);
-        assert_eq!(e.excitation_level, Some(1e-6));
+        // The level is λmin/tr(P) = 1e-6/7; λ is the record's.
+        assert_eq!(e.excitation_level, Some((f64::from(1e-6f32) / 7.0) as f32));
+        assert_eq!(e.lambda_rad_s, 100.0);
         assert!(e.is_consistent());
         // Each counter group and state flag sets its own bit.
         let none = StatusFlags::default();
@@ -530,19 +566,28 @@ mod tests {
             );
             assert_eq!(e.flags, bit.with(StatusFlags::PHYSICALLY_VALID), "{bit:?}");
         }
-        // A supervised estimator's EXCITED is its own decision, whatever
-        // λmin (0 or far above the threshold); its other bits pass through.
+        // A supervised estimator: the level is its in-loop ratio, whatever
+        // the record's λmin (0 or far above the threshold), and EXCITED
+        // follows that level and INPUT_GONE, not the record's EXCITED bit;
+        // its other bits pass through.
         for lmin in [0.0, 1.0] {
-            for want in [
-                StatusFlags::EXCITED,
-                StatusFlags::default(),
-                StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
-                StatusFlags::EXCITED.with(StatusFlags::CHANGE_DETECTED),
-                StatusFlags::EXCITED.with(StatusFlags::SENSOR_LEVEL),
+            for (ratio, bits, excited) in [
+                (2e-7, StatusFlags::default(), true),
+                (2e-7, StatusFlags::EXCITED, true),
+                (5e-8, StatusFlags::EXCITED, false),
+                (-3e-9, StatusFlags::EXCITED, false),
+                (
+                    2e-7,
+                    StatusFlags::INPUT_GONE.with(StatusFlags::FROZEN_AUTO),
+                    false,
+                ),
+                (2e-7, StatusFlags::CHANGE_DETECTED, true),
+                (2e-7, StatusFlags::SENSOR_LEVEL, true),
             ] {
                 let rec = TelemetryRecord {
                     supervised: true,
-                    ..record(2000, want, prev)
+                    lemma1_ratio: Some(ratio),
+                    ..record(2000, bits, prev)
                 };
                 let e = estimate(
                     &rec,
@@ -550,13 +595,43 @@ mod tests {
                     &ctx(&prev),
                     &mut Convergence::default(),
                 );
-                assert_eq!(
-                    e.flags,
-                    want.with(StatusFlags::PHYSICALLY_VALID),
-                    "{want:?} {lmin}"
-                );
+                let mut want = bits.with(StatusFlags::PHYSICALLY_VALID);
+                want.set(StatusFlags::EXCITED, excited);
+                assert_eq!(e.flags, want, "{bits:?} {ratio} {lmin}");
+                assert_eq!(e.excitation_level, Some(ratio.max(0.0)), "{ratio}");
             }
         }
+        // The record's own level is never negative either: a λmin below 0
+        // (rounding) is sent as 0, and P = 0 is level 0.
+        let e = estimate(
+            &rec,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), -1.9e-9),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert_eq!(e.excitation_level, Some(0.0));
+        assert!(!e.flags.contains(StatusFlags::EXCITED));
+        let empty = TelemetryRecord {
+            information: [0.0; 28],
+            ..record(1000, StatusFlags::default(), prev)
+        };
+        let e = estimate(
+            &empty,
+            &recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert_eq!(e.excitation_level, Some(0.0));
+        // A law without P: no level, never EXCITED.
+        let no_p = TelemetryRecord {
+            has_information: false,
+            ..record(1000, StatusFlags::EXCITED, prev)
+        };
+        let mut none = recovered(Ok(params([39.0, 245.0], [0.02, 0.13])), 0.0);
+        none.excitation_min_eig = None;
+        let e = estimate(&no_p, &none, &ctx(&prev), &mut conv);
+        assert_eq!(e.excitation_level, None);
+        assert!(!e.flags.contains(StatusFlags::EXCITED));
         // λmin just below the threshold, 1e-7·tr(P), is not excited.
         let e = estimate(
             &rec,
@@ -589,6 +664,21 @@ mod tests {
         );
         assert!(e.modes.is_empty() && e.theta.len() == 7 && e.is_consistent());
         assert_eq!(e.flags, StatusFlags::EXCITED);
+        // Θ̂ = 0 (the initial value) after an update: still no modes, not
+        // valid, although its "modes" (λ's poles) would pass the test.
+        let zero = TelemetryRecord {
+            theta: [0.0; 7],
+            ..rec
+        };
+        let e = estimate(
+            &zero,
+            &recovered(Ok(params([100.0, 100.5], [0.999, 0.999])), 1e-6),
+            &ctx(&prev),
+            &mut conv,
+        );
+        assert!(e.modes.is_empty() && e.is_consistent());
+        assert!(!e.flags.contains(StatusFlags::PHYSICALLY_VALID));
+        assert_eq!(e.theta.to_vec(), [0.0; 7]);
         // Unphysical modes are sent, flagged invalid.
         let e = estimate(
             &rec,

@@ -115,10 +115,11 @@ const fn parse_u8(s: &str) -> u8 {
     }
 }
 
-/// Bytes kept free in the TX ring for acknowledgements: two Ack frames of
-/// at most 16 bytes (`docs/PROTOCOL.md` §1.5). Telemetry frames that would
-/// eat into it are dropped instead.
-pub const ANSWER_RESERVE_BYTES: usize = 32;
+/// Bytes kept free in the TX ring for acknowledgements: two Ack frames at
+/// their longest (20 bytes each, whatever the command's sequence number;
+/// `docs/PROTOCOL.md` §9.1). Telemetry frames that would eat into it are
+/// dropped instead.
+pub const ANSWER_RESERVE_BYTES: usize = 2 * beam_protocol::budget::MAX_ACK_ENCODED_LEN;
 
 /// The device's fixed properties.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -551,6 +552,7 @@ impl DeviceLink {
                 ..self.settings.estimator
             },
             telemetry: self.settings.telemetry,
+            lambda_automatic: self.is_automatic(),
         }
     }
 

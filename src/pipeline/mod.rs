@@ -519,6 +519,7 @@ where
             y: self.last_fed.1,
             flags,
             supervised: sup.is_some(),
+            lemma1_ratio: sup.and_then(|s| s.lemma1_ratio),
             steps: self.steps,
             counters: self.counters(),
             ..TelemetryRecord::from_estimator(&self.estimator)

@@ -153,6 +153,10 @@ pub struct TelemetryRecord<T, const NP: usize, const NS: usize> {
     /// The estimator is supervised ([`crate::supervise`]): EXCITED is its
     /// own decision. Otherwise the link decides EXCITED from P (Lemma 1).
     pub supervised: bool,
+    /// The supervisor's in-loop λmin(P)/tr(P) (Lemma 1, the ratio its
+    /// EXCITED decision is tested against), if it has measured one; `None`
+    /// without supervision or before its first measurement.
+    pub lemma1_ratio: Option<T>,
     /// Estimator steps since the previous record.
     pub steps: StepCounts,
     /// Counters at the newest sample.
@@ -180,6 +184,7 @@ impl<T: Real, const NP: usize, const NS: usize> TelemetryRecord<T, NP, NS> {
             y: T::ZERO,
             flags: StatusFlags::default(),
             supervised: false,
+            lemma1_ratio: None,
             steps: StepCounts::default(),
             counters: Counters::default(),
         }

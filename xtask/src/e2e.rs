@@ -57,10 +57,36 @@ pub struct Tally {
     pub status: u64,
     pub acks: u64,
     pub other: u64,
+    /// Estimates before the first one with modes.
+    pub without_modes_first: u64,
+    /// Estimates that break PROTOCOL.md §4.1's meaning: EXCITED not
+    /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear), or
+    /// modes / PHYSICALLY_VALID with Θ̂ = 0.
+    pub meaning_violations: u64,
+}
+
+/// The firmware's EXCITED threshold on excitation_level (PROTOCOL.md §9.3).
+const EXCITED_LEVEL: f32 = 1e-7;
+
+/// An estimate's flags and modes mean what PROTOCOL.md §4.1 says.
+pub fn estimate_means_what_it_says(e: &Estimate) -> bool {
+    let level_ok = e.excitation_level.is_some_and(|l| l >= EXCITED_LEVEL);
+    let excited = level_ok && !e.flags.contains(StatusFlags::INPUT_GONE);
+    let zero = e.theta.iter().all(|v| *v == 0.0);
+    e.flags.contains(StatusFlags::EXCITED) == excited
+        && !(zero && (!e.modes.is_empty() || e.flags.contains(StatusFlags::PHYSICALLY_VALID)))
 }
 
 impl Tally {
     fn count(&mut self, m: &Message) {
+        if let Message::Estimate(e) = m {
+            if self.without_modes_first == self.estimates && e.modes.is_empty() {
+                self.without_modes_first += 1;
+            }
+            if !estimate_means_what_it_says(e) {
+                self.meaning_violations += 1;
+            }
+        }
         let c = match m {
             Message::Estimate(_) => &mut self.estimates,
             Message::RawSamples(_) => &mut self.raw,
@@ -80,10 +106,15 @@ pub struct Capture {
 }
 
 impl Capture {
-    /// No error, gap, duplicate or reordering.
+    /// No error, gap, duplicate or reordering, and every estimate means
+    /// what the protocol says.
     pub fn is_clean(&self) -> bool {
         let c = &self.counters;
-        c.errors() == 0 && c.lost == 0 && c.duplicates == 0 && c.out_of_order == 0
+        c.errors() == 0
+            && c.lost == 0
+            && c.duplicates == 0
+            && c.out_of_order == 0
+            && self.tally.meaning_violations == 0
     }
 
     /// One line.
@@ -92,6 +123,7 @@ impl Capture {
         let t = &self.tally;
         format!(
             "{} bytes, {} frames ({} estimates, {} status, {} raw-sample blocks, {} acks); \
+             {} estimates before the first with modes, {} estimates against PROTOCOL.md §4.1; \
              lost {}, CRC errors {}, other frame errors {}, duplicates {}, out of order {}{}",
             c.bytes,
             c.frames_ok,
@@ -99,6 +131,8 @@ impl Capture {
             t.status,
             t.raw,
             t.acks,
+            t.without_modes_first,
+            t.meaning_violations,
             c.lost,
             c.crc_errors,
             c.errors() - c.crc_errors,

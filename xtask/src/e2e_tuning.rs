@@ -22,19 +22,23 @@ pub fn check(
     fails: &mut Vec<String>,
 ) {
     let pass = |what: String| println!("e2e: ok: {what}");
-    match first_status.map(|s| s.estimator.lambda_rad_s) {
-        Some(None) => pass("first Status (start-up window): no lambda yet, automatic".into()),
+    match first_status.map(|s| (s.estimator.lambda_rad_s, s.lambda_automatic)) {
+        Some((None, true)) => {
+            pass("first Status (start-up window): no lambda yet, lambda_automatic".into())
+        }
         l => fails.push(format!(
-            "first Status: lambda {l:?}, expected none (automatic rule, window open)"
+            "first Status: (lambda, automatic) {l:?}, expected (None, true) (automatic rule, \
+             window open)"
         )),
     }
-    match after_auto.map(|s| s.estimator.lambda_rad_s) {
-        Some(Some(l)) if l == FIXED_LAMBDA => pass(format!(
-            "SetEstimator lambda {FIXED_LAMBDA} then none accepted; Status: lambda {l} (the rule \
-             continues from the lambda in use)"
+    match after_auto.map(|s| (s.estimator.lambda_rad_s, s.lambda_automatic)) {
+        Some((Some(l), true)) if l == FIXED_LAMBDA => pass(format!(
+            "SetEstimator lambda {FIXED_LAMBDA} then none accepted; Status: lambda {l}, \
+             lambda_automatic (the rule continues from the lambda in use)"
         )),
         l => fails.push(format!(
-            "Status after SetEstimator(none): lambda {l:?}, expected Some({FIXED_LAMBDA})"
+            "Status after SetEstimator(none): (lambda, automatic) {l:?}, expected \
+             (Some({FIXED_LAMBDA}), true)"
         )),
     }
     let last_lambda = last_status

@@ -26,7 +26,7 @@
 
 use beam_protocol::{
     budget::MAX_COMMAND_ENCODED_LEN, Ack, AckResult, Command, Decoder, DeviceCounters, Estimate,
-    EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, Limits, Message, ModeEstimate,
+    EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, Limits, ModeEstimate,
     RawSamples, Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_ENCODED_LEN,
     MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
 };
@@ -41,6 +41,9 @@ use std::time::{Duration, Instant};
 pub const CONVERGENCE_TAU_S: f64 = 0.5;
 /// λ reported when the settings ask for the automatic rule (rad/s).
 pub const AUTO_LAMBDA_RAD_S: f32 = 100.0;
+/// The excitation level at which EXCITED is set: the firmware's threshold
+/// (docs/PROTOCOL.md §9.3).
+const EXCITED_LEVEL: f32 = 1e-7;
 
 /// What the fake device is.
 #[derive(Debug, Clone, PartialEq)]
@@ -252,6 +255,7 @@ impl FakeDevice {
                 ..self.estimator
             },
             telemetry: self.rates,
+            lambda_automatic: self.estimator.lambda_rad_s.is_none(),
         }
     }
 
@@ -294,10 +298,18 @@ impl FakeDevice {
                 .to_theta(f64::from(lambda), &mut theta[..np]);
         }
         let mut flags = StatusFlags::PHYSICALLY_VALID;
-        let excited = !matches!(self.excitation.waveform, Waveform::Off);
+        let driven = !matches!(self.excitation.waveform, Waveform::Off);
+        // The level λmin(P)/tr(P) grows while driven; EXCITED is the
+        // protocol's test of it (§4.1: ≥ 1e-7, the input present).
+        let level = if driven {
+            (1e-3 * (1.0 - (-t).exp())) as f32
+        } else {
+            0.0
+        };
+        let excited = level >= EXCITED_LEVEL;
         flags.set(StatusFlags::EXCITED, excited);
         flags.set(StatusFlags::FROZEN_BY_COMMAND, self.frozen);
-        flags.set(StatusFlags::FROZEN_AUTO, !excited);
+        flags.set(StatusFlags::FROZEN_AUTO, !driven);
         flags.set(StatusFlags::CONVERGED, t > 5.0 * CONVERGENCE_TAU_S);
         // Every field the fake models today; a field added to `Estimate`
         // later takes its default here until the fake models it.
@@ -307,8 +319,9 @@ impl FakeDevice {
             estimator: self.estimator.kind,
             flags,
             modes,
+            lambda_rad_s: lambda,
             theta: theta[..np].iter().map(|&v| v as f32).collect(),
-            excitation_level: Some((1e-3 * (1.0 - (-t).exp())) as f32),
+            excitation_level: Some(level),
             ..Estimate::default()
         }
     }
@@ -373,14 +386,16 @@ impl FakeDevice {
     /// Bytes from the host: decode, check and apply the commands they
     /// complete, appending the answers to `out`.
     pub fn receive(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-        let frames: Vec<_> = self.rx.feed(bytes).collect();
+        // As the device: commands only, every one executed whatever its
+        // sequence number (a repeat included, docs/PROTOCOL.md §5.4).
+        let frames: Vec<_> = bytes
+            .iter()
+            .filter_map(|&b| self.rx.push_command(b))
+            .collect();
         for f in frames {
             let cmd = match f {
-                Ok(beam_protocol::Frame {
-                    seq,
-                    message: Message::Command(c),
-                }) => (seq, c),
-                _ => {
+                Ok(c) => c,
+                Err(_) => {
                     self.counters.rx_frame_errors = self.counters.rx_frame_errors.saturating_add(1);
                     continue;
                 }
@@ -538,7 +553,7 @@ pub enum ServeEnd {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beam_protocol::{Frame, RejectReason};
+    use beam_protocol::{Frame, Message, RejectReason};
 
     fn decode(bytes: &[u8]) -> Vec<Frame> {
         let mut d: Decoder = Decoder::new();

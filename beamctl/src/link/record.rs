@@ -56,7 +56,7 @@ pub fn columns() -> Vec<String> {
             format!("bbar_{i}"),
         ]);
     }
-    c.push("lambda_min".into());
+    c.push("excitation_level".into());
     c.extend((1..=MAX_THETA).map(|i| format!("theta_{i}")));
     c.extend(
         [
@@ -86,6 +86,7 @@ pub fn columns() -> Vec<String> {
             "forgetting_h",
             "initial_gain",
             "lambda_rad_s",
+            "lambda_automatic",
             "estimate_rate_hz",
             "raw_decimation",
             "status_rate_hz",
@@ -407,8 +408,9 @@ fn estimate_fields(row: &mut Row, cols: &[String], e: &Estimate) {
         row.set(cols, &format!("bbar_{i}"), m.b_bar);
     }
     if let Some(l) = e.excitation_level {
-        row.set(cols, "lambda_min", l);
+        row.set(cols, "excitation_level", l);
     }
+    row.set(cols, "lambda_rad_s", e.lambda_rad_s);
     for (i, v) in e.theta.iter().enumerate() {
         row.set(cols, &format!("theta_{}", i + 1), v);
     }
@@ -446,6 +448,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
     if let Some(l) = e.lambda_rad_s {
         row.set(cols, "lambda_rad_s", l);
     }
+    row.set(cols, "lambda_automatic", u8::from(s.lambda_automatic));
     let t = &s.telemetry;
     row.set(cols, "estimate_rate_hz", t.estimate_rate_hz);
     row.set(cols, "raw_decimation", t.raw_decimation);
@@ -476,6 +479,6 @@ mod tests {
         s.sort();
         s.dedup();
         assert_eq!(s.len(), c.len());
-        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 32);
+        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 33);
     }
 }

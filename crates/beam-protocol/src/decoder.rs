@@ -9,9 +9,15 @@
 //!
 //! Sequence numbers are checked across frames: a forward step of d > 1
 //! means d − 1 frames were lost (modulo 2³², so the wrap from 2³² − 1 to 0
-//! is a normal step); a step of 0 is a duplicate; a backward step (the
-//! sender restarted, or frames were reordered) is counted as out of order,
-//! and counting continues from the new number.
+//! is a normal step); a step of 0 is a duplicate (the stream decoder,
+//! [`Decoder::push`], drops it; the command decoder,
+//! [`Decoder::push_command`], delivers it: the device executes every
+//! command, docs/PROTOCOL.md §5.4); a backward step (the sender restarted,
+//! or frames were reordered) is counted as out of order, and counting
+//! continues from the new number. The stream decoder delivers an intact
+//! frame of the host → device kind (an echo of the host's own commands)
+//! without counting it in the device's sequence: each direction has its
+//! own counter.
 
 use super::budget::MAX_ENCODED_LEN;
 use super::frame::{parse_command_frame, parse_frame, DecodeError};
@@ -42,7 +48,8 @@ pub struct LinkCounters {
     /// Frames missing from the sequence numbers (lost for any reason,
     /// including the corrupted frames counted above).
     pub lost: u64,
-    /// Frames with the same sequence number as the previous one.
+    /// Frames with the same sequence number as the previous one (dropped
+    /// by [`Decoder::push`], delivered by [`Decoder::push_command`]).
     pub duplicates: u64,
     /// Backward steps of the sequence number.
     pub out_of_order: u64,
@@ -67,6 +74,7 @@ impl LinkCounters {
                 &mut self.malformed
             }
             DecodeError::VersionMismatch { .. } => &mut self.version_mismatches,
+            DecodeError::Duplicate(_) => &mut self.duplicates,
         };
         *c = c.saturating_add(1);
     }
@@ -150,15 +158,19 @@ impl<const N: usize> Decoder<N> {
         self.last_seq
     }
 
-    /// Feed one byte. Returns a result when the byte ends a frame: the
-    /// frame, or why it was dropped (already counted). Empty frames
-    /// (consecutive delimiters) are ignored.
+    /// Feed one byte of the device → host stream (a host's receiver).
+    /// Returns a result when the byte ends a frame: the frame, or why it
+    /// was dropped (already counted), a duplicate
+    /// ([`DecodeError::Duplicate`]) included. Empty frames (consecutive
+    /// delimiters) are ignored. A frame of the host → device kind is
+    /// delivered (an echo of commands) but kept out of the sequence check.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, DecodeError>> {
         let len = match self.collect(byte)? {
             Ok(len) => len,
             Err(e) => return Some(Err(e)),
         };
-        Some(self.finish(len, parse_frame, |f| f.seq))
+        let seq = |f: &Frame| (f.message.kind() != super::Kind::Command).then_some(f.seq);
+        Some(self.finish(len, parse_frame, seq, true))
     }
 
     /// [`Decoder::push`] for a receiver of commands only (the device): the
@@ -172,7 +184,7 @@ impl<const N: usize> Decoder<N> {
             Ok(len) => len,
             Err(e) => return Some(Err(e)),
         };
-        Some(self.finish(len, parse_command_frame, |f| f.0))
+        Some(self.finish(len, parse_command_frame, |f| Some(f.0), false))
     }
 
     /// The framing state machine: `Some(Ok(len))` when `byte` ends a frame
@@ -224,19 +236,26 @@ impl<const N: usize> Decoder<N> {
         e
     }
 
-    /// Decode the `len` collected bytes with `parse`.
+    /// Decode the `len` collected bytes with `parse`; `seq` gives the
+    /// number to check (`None`: the other direction's, not checked);
+    /// `drop_duplicates`: a duplicate is dropped, not delivered.
     fn finish<F>(
         &mut self,
         len: usize,
         parse: fn(&[u8]) -> Result<F, DecodeError>,
-        seq: fn(&F) -> u32,
+        seq: fn(&F) -> Option<u32>,
+        drop_duplicates: bool,
     ) -> Result<F, DecodeError> {
         let encoded = self.buf.get_mut(..len).ok_or(DecodeError::Oversize);
         let decoded = encoded.and_then(|e| cobs::decode_in_place(e).map_err(|_| DecodeError::Cobs));
         let frame = decoded.and_then(|n| parse(self.buf.get(..n).ok_or(DecodeError::Cobs)?));
         match frame {
             Ok(f) => {
-                self.sequence(seq(&f));
+                if let Some(s) = seq(&f) {
+                    if self.sequence(s) && drop_duplicates {
+                        return Err(DecodeError::Duplicate(s));
+                    }
+                }
                 self.counters.frames_ok = self.counters.frames_ok.saturating_add(1);
                 Ok(f)
             }
@@ -244,18 +263,24 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
-    /// Account for a delivered frame's sequence number.
-    fn sequence(&mut self, seq: u32) {
+    /// Account for a delivered frame's sequence number; true if it is a
+    /// duplicate (counted).
+    fn sequence(&mut self, seq: u32) -> bool {
+        let mut duplicate = false;
         if let Some(last) = self.last_seq {
             let step = seq.wrapping_sub(last);
             let c = &mut self.counters;
             match step {
-                0 => c.duplicates = c.duplicates.saturating_add(1),
+                0 => {
+                    c.duplicates = c.duplicates.saturating_add(1);
+                    duplicate = true;
+                }
                 1..=0x8000_0000 => c.lost = c.lost.saturating_add(u64::from(step - 1)),
                 _ => c.out_of_order = c.out_of_order.saturating_add(1),
             }
         }
         self.last_seq = Some(seq);
+        duplicate
     }
 }
 
@@ -367,19 +392,21 @@ mod tests {
         assert_eq!(n, 15);
         let big = Header::new(Kind::Ack, 1);
         let mut bytes = out[..n].to_vec();
+        bytes.extend(stream(&[0]));
         let m = encode_raw(&big, &[1, 0, 0, 0], &mut out).unwrap();
         assert_eq!(m, 18);
         bytes.extend_from_slice(&out[..m]);
         bytes.extend(stream(&[2]));
         let mut d = Decoder::<16>::new();
         let r = decode_all(&mut d, &bytes);
-        assert_eq!(r.len(), 3);
+        assert_eq!(r.len(), 4);
         assert_eq!(
             r[0].as_ref().unwrap().message,
             Message::Command(Command::Reset)
         );
-        assert_eq!(r[1], Err(DecodeError::Oversize));
-        assert_eq!(r[2].as_ref().unwrap().seq, 2);
+        assert_eq!(r[1].as_ref().unwrap().seq, 0);
+        assert_eq!(r[2], Err(DecodeError::Oversize));
+        assert_eq!(r[3].as_ref().unwrap().seq, 2);
         assert_eq!(d.counters().oversize, 1);
         assert_eq!(d.counters().lost, 1);
     }
@@ -403,15 +430,71 @@ mod tests {
         for &(seqs, lost, dup, ooo) in cases {
             let mut d = Decoder::<MAX_ENCODED_LEN>::new();
             let r = decode_all(&mut d, &stream(seqs));
-            assert!(r.iter().all(Result::is_ok));
+            // Duplicates are dropped, everything else delivered.
+            let dropped: Vec<_> = r.iter().filter_map(|x| x.as_ref().err()).collect();
+            assert_eq!(dropped.len() as u64, dup, "{seqs:?}");
+            assert!(dropped
+                .iter()
+                .all(|e| matches!(e, DecodeError::Duplicate(_))));
             let c = d.counters();
             assert_eq!(
                 (c.lost, c.duplicates, c.out_of_order, c.frames_ok),
-                (lost, dup, ooo, seqs.len() as u64),
+                (lost, dup, ooo, seqs.len() as u64 - dup),
                 "{seqs:?}"
             );
             assert_eq!(d.last_seq(), seqs.last().copied());
         }
+    }
+
+    #[test]
+    fn stream_decoder_drops_duplicates_and_keeps_command_echoes_out_of_the_sequence() {
+        let mut bytes = stream(&[4, 4, 5]);
+        // An echo of a host command (host seq 0) between device frames 5
+        // and 6: delivered, but neither a gap nor a backward step.
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        let n = encode(&Command::Reset, 0, &mut out).unwrap();
+        bytes.extend_from_slice(&out[..n]);
+        bytes.extend(stream(&[6]));
+        let mut d = Decoder::<MAX_ENCODED_LEN>::new();
+        let r = decode_all(&mut d, &bytes);
+        let seqs: Vec<_> = r
+            .iter()
+            .map(|x| x.as_ref().map(|f| f.seq).map_err(|e| *e))
+            .collect();
+        assert_eq!(
+            seqs,
+            [Ok(4), Err(DecodeError::Duplicate(4)), Ok(5), Ok(0), Ok(6)]
+        );
+        let c = d.counters();
+        assert_eq!(
+            (
+                c.frames_ok,
+                c.duplicates,
+                c.lost,
+                c.out_of_order,
+                c.errors()
+            ),
+            (4, 1, 0, 0, 0)
+        );
+    }
+
+    #[test]
+    fn command_decoder_delivers_repeated_and_older_sequence_numbers() {
+        // The device executes every command (PROTOCOL.md §5.4): a repeated
+        // number (a new host session, or a host's re-send) and an older one
+        // are delivered, and only counted.
+        let mut bytes = Vec::new();
+        let mut out = [0u8; MAX_ENCODED_LEN];
+        for seq in [0u32, 0, 1, 0] {
+            let n = encode(&Command::Reset, seq, &mut out).unwrap();
+            bytes.extend_from_slice(&out[..n]);
+        }
+        let mut d = Decoder::<{ super::super::budget::MAX_COMMAND_ENCODED_LEN }>::new();
+        let r: Vec<_> = bytes.iter().filter_map(|&b| d.push_command(b)).collect();
+        let seqs: Vec<_> = r.into_iter().map(|x| x.unwrap().0).collect();
+        assert_eq!(seqs, [0, 0, 1, 0]);
+        let c = d.counters();
+        assert_eq!((c.frames_ok, c.duplicates, c.out_of_order), (4, 1, 1));
     }
 
     #[test]
@@ -450,7 +533,7 @@ mod tests {
         for (h, p) in [
             (
                 Header {
-                    version: 2,
+                    version: 1,
                     ..Header::new(Kind::Ack, 0)
                 },
                 &[0u8, 0][..],
@@ -477,7 +560,7 @@ mod tests {
         assert_eq!(
             r[0],
             Err(DecodeError::VersionMismatch {
-                got: 2,
+                got: 1,
                 expected: super::super::VERSION
             })
         );

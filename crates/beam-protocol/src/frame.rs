@@ -112,9 +112,14 @@ pub enum DecodeError {
     /// CRC, magic and version good, but an unknown kind byte.
     UnknownKind(u8),
     /// The payload does not decode as its kind's message (bad varint,
-    /// unknown enum tag, too long a vector, trailing bytes, or a broken
-    /// structural rule).
+    /// unknown enum tag, too long a vector, trailing bytes, a varint not in
+    /// its shortest form, or a broken structural rule).
     Payload,
+    /// An intact frame with the same sequence number as the frame
+    /// delivered before it (the sender numbers every frame once, so it is a
+    /// copy made on the way): dropped, not delivered again. Only the
+    /// stream decoder ([`Decoder::push`](super::Decoder::push)) reports it.
+    Duplicate(u32),
 }
 
 impl fmt::Display for DecodeError {
@@ -131,6 +136,10 @@ impl fmt::Display for DecodeError {
             ),
             Self::UnknownKind(k) => write!(f, "unknown message kind {k:#04x}"),
             Self::Payload => f.write_str("payload does not decode"),
+            Self::Duplicate(seq) => write!(
+                f,
+                "duplicate frame (seq {seq} again, same as the previous frame): dropped"
+            ),
         }
     }
 }
@@ -406,11 +415,45 @@ pub fn parse_command_frame(raw: &[u8]) -> Result<(u32, Command), DecodeError> {
     }
 }
 
-/// Deserialize a whole payload as `T`: every byte used, rules kept.
+/// Deserialize a whole payload as `T`: every byte used, rules kept, and
+/// the bytes exactly the encoder's (so a varint in a longer form than the
+/// shortest, which postcard itself would accept, is refused).
 fn payload_as<T: Payload + serde::de::DeserializeOwned>(payload: &[u8]) -> Result<T, DecodeError> {
     match postcard::take_from_bytes::<T>(payload) {
-        Ok((m, [])) if m.is_well_formed() => Ok(m),
+        Ok((m, [])) if m.is_well_formed() && is_canonical(&m, payload) => Ok(m),
         _ => Err(DecodeError::Payload),
+    }
+}
+
+/// `payload` is the encoding of `m` byte for byte. Every value has one
+/// encoding in this protocol (bool, Option tags and f32 bit patterns are
+/// exact), except that postcard's decoder accepts non-shortest varints;
+/// re-encoding without a buffer, against the received bytes, finds those.
+fn is_canonical<T: Serialize>(m: &T, payload: &[u8]) -> bool {
+    let same = postcard::serialize_with_flavor(m, Compare { rest: payload });
+    matches!(same, Ok(rest) if rest.is_empty())
+}
+
+/// A postcard flavor that checks each byte against the expected ones.
+struct Compare<'a> {
+    rest: &'a [u8],
+}
+
+impl<'a> postcard::ser_flavors::Flavor for Compare<'a> {
+    type Output = &'a [u8];
+
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        match self.rest.split_first() {
+            Some((&b, rest)) if b == data => {
+                self.rest = rest;
+                Ok(())
+            }
+            _ => Err(postcard::Error::SerializeBufferFull),
+        }
+    }
+
+    fn finalize(self) -> postcard::Result<Self::Output> {
+        Ok(self.rest)
     }
 }
 
@@ -445,6 +488,7 @@ mod tests {
             estimator: EstimatorKind::Robust,
             flags: StatusFlags(u16::MAX),
             modes: (0..modes).map(|_| ModeEstimate::default()).collect(),
+            lambda_rad_s: 100.0,
             theta: (0..4 * modes - 1).map(|i| i as f32).collect(),
             excitation_level: Some(1.0),
         }
@@ -499,6 +543,7 @@ mod tests {
                 raw_decimation: u16::MAX,
                 ..TelemetryRates::default()
             },
+            lambda_automatic: true,
         }
     }
 
@@ -642,27 +687,92 @@ mod tests {
             parse_frame(&frame(&other, &[9, 0])),
             Err(DecodeError::BadMagic(0x1234))
         );
-        let v2 = Header { version: 2, ..h };
-        assert_eq!(
-            parse_frame(&frame(&v2, &[])),
-            Err(DecodeError::VersionMismatch {
-                got: 2,
-                expected: VERSION
-            })
-        );
+        for v in [1, 3] {
+            let other = Header { version: v, ..h };
+            assert_eq!(
+                parse_frame(&frame(&other, &[])),
+                Err(DecodeError::VersionMismatch {
+                    got: v,
+                    expected: VERSION
+                })
+            );
+        }
         let k = Header { kind: 0x7F, ..h };
         assert_eq!(
             parse_frame(&frame(&k, &[])),
             Err(DecodeError::UnknownKind(0x7F))
         );
-        // Trailing byte, truncated payload, undefined result code.
-        for p in [&[9u8, 0, 0][..], &[9], &[9, 16]] {
+        // Trailing byte, truncated payload, undefined result code (15 and
+        // up), the command seq 9 as a non-shortest varint (`89 00`, `89 80
+        // 00`): malformed.
+        for p in [
+            &[9u8, 0, 0][..],
+            &[9],
+            &[9, 15],
+            &[9, 0xFF],
+            &[0x89, 0x00, 0],
+            &[0x89, 0x80, 0x00, 0],
+        ] {
             assert_eq!(
                 parse_frame(&frame(&h, p)),
                 Err(DecodeError::Payload),
                 "{p:?}"
             );
         }
+        // The same in a command: Freeze's variant index 4 as `84 00`;
+        // an undefined variant index (7) or waveform index (5); an Option
+        // tag or bool byte other than 00/01.
+        let c = Header::new(Kind::Command, 1);
+        assert_eq!(
+            parse_frame(&frame(&c, &[4])).unwrap().message,
+            Message::Command(Command::Freeze)
+        );
+        let mut settings = [0u8; 24];
+        let n = postcard::to_slice(
+            &Command::SetEstimator(EstimatorSettings::default()),
+            &mut settings,
+        )
+        .unwrap()
+        .len();
+        let mut bad_option = settings[..n].to_vec();
+        *bad_option.last_mut().unwrap() = 2;
+        let mut bad_bool = worst_status_payload();
+        let frozen_at = bad_bool.len() - worst_status_tail() - 1;
+        bad_bool[frozen_at] = 2;
+        for p in [
+            vec![0x84, 0x00],
+            vec![7],
+            vec![0, 5, 0, 0, 0, 0, 0, 0, 0, 0],
+            bad_option,
+        ] {
+            assert_eq!(
+                parse_frame(&frame(&c, &p)),
+                Err(DecodeError::Payload),
+                "{p:?}"
+            );
+        }
+        let st = Header::new(Kind::Status, 1);
+        assert!(parse_frame(&frame(&st, &worst_status_payload())).is_ok());
+        assert_eq!(
+            parse_frame(&frame(&st, &bad_bool)),
+            Err(DecodeError::Payload)
+        );
+    }
+
+    /// The worst status's payload bytes.
+    fn worst_status_payload() -> Vec<u8> {
+        let mut out = [0u8; MAX_PAYLOAD_LEN];
+        postcard::to_slice(&worst_status(), &mut out)
+            .unwrap()
+            .to_vec()
+    }
+
+    /// Bytes after `adaptation_frozen` in [`worst_status_payload`]: the
+    /// excitation (chirp: tag 1 + waveform tag 1 + 3 f32, amplitude,
+    /// offset), the estimator settings (kind 1, 4 f32, Some(λ) 5), the
+    /// rates (f32, u16 max 3, f32) and lambda_automatic (1).
+    fn worst_status_tail() -> usize {
+        (1 + 12 + 8) + (1 + 16 + 5) + (4 + 3 + 4) + 1
     }
 
     #[test]

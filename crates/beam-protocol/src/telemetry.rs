@@ -24,7 +24,8 @@ impl MaxSize for StatusFlags {
 }
 
 impl StatusFlags {
-    /// λmin(P) is above the firmware's excitation threshold (Lemma 1).
+    /// The excitation level ([`Estimate::excitation_level`]) is at least
+    /// the device's threshold and INPUT_GONE is clear (Lemma 1).
     pub const EXCITED: Self = Self(1 << 0);
     /// Adaptation is frozen by a [`Command::Freeze`](super::Command::Freeze).
     pub const FROZEN_BY_COMMAND: Self = Self(1 << 1);
@@ -108,15 +109,20 @@ pub struct Estimate {
     pub estimator: EstimatorKind,
     /// Status bits.
     pub flags: StatusFlags,
-    /// ω̂, ζ̂, b̂̄ per mode, ascending ω; empty when recovery failed, else as
-    /// many modes as the model has (Θ has 4·modes − 1 entries).
+    /// ω̂, ζ̂, b̂̄ per mode, ascending ω; empty when recovery failed or the
+    /// law has not updated yet, else as many modes as the model has (Θ has
+    /// 4·modes − 1 entries).
     pub modes: Vec<ModeEstimate, MAX_MODES>,
+    /// λ of the filter Λ(s) = (s + λ)^{2n} that `theta` belongs to (rad/s),
+    /// finite and > 0: with it Θ̂ alone gives the transfer function.
+    pub lambda_rad_s: f32,
     /// Θ̂ of eq. 29 in physical units, 4n − 1 entries for n modes (3, 7 or
     /// 11): [b_{2n−2}, …, b_0, k_{2n−1} − a_{2n−1}, …, k_0 − a_0], with k_j
-    /// the coefficients of Λ(s) = (s + λ)^{2n} (λ as in [`Status`]).
+    /// the coefficients of Λ(s) = (s + λ)^{2n} (λ = `lambda_rad_s`).
     pub theta: Vec<f32, MAX_THETA>,
-    /// The excitation level λmin(P) of the scaled information matrix
-    /// (Lemma 1); `None` for laws that keep no P.
+    /// The excitation level λmin(P)/tr(P) of the scaled information matrix
+    /// (Lemma 1), the quantity EXCITED is tested against; in [0, 1], never
+    /// negative. `None` when not measured (a law without P, or not yet).
     pub excitation_level: Option<f32>,
 }
 
@@ -125,6 +131,7 @@ impl MaxSize for Estimate {
         + EstimatorKind::MAX_SIZE
         + StatusFlags::MAX_SIZE
         + Vec::<ModeEstimate, MAX_MODES>::MAX_SIZE
+        + f32::MAX_SIZE
         + Vec::<f32, MAX_THETA>::MAX_SIZE
         + Option::<f32>::MAX_SIZE;
 }
@@ -136,11 +143,19 @@ impl Estimate {
         (n >= 1 && 4 * n - 1 == self.theta.len()).then_some(n)
     }
 
-    /// Θ has 4n − 1 entries (n = 1..=3) and the mode list is empty or has n
-    /// entries. The encoder refuses, and the decoder rejects, any other.
+    /// Θ has 4n − 1 entries (n = 1..=3), the mode list is empty or has n
+    /// entries, λ is finite and > 0, and the excitation level (if any) is
+    /// in [0, 1]. The encoder refuses, and the decoder rejects, any other.
     pub fn is_consistent(&self) -> bool {
-        self.model_modes()
-            .is_some_and(|n| self.modes.is_empty() || self.modes.len() == n)
+        let lambda_ok = self.lambda_rad_s.is_finite() && self.lambda_rad_s > 0.0;
+        let level_ok = self
+            .excitation_level
+            .is_none_or(|l| (0.0..=1.0).contains(&l));
+        lambda_ok
+            && level_ok
+            && self
+                .model_modes()
+                .is_some_and(|n| self.modes.is_empty() || self.modes.len() == n)
     }
 }
 
@@ -254,7 +269,9 @@ impl DeviceCounters {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
-    /// Samples since start-up (same count as [`Estimate::sample_index`]).
+    /// Samples taken since start-up: the index the next sample will get,
+    /// so the newest sample at the time of this Status has index
+    /// `uptime_samples − 1` (same count as [`Estimate::sample_index`]).
     pub uptime_samples: u64,
     /// The sample rate (Hz), e.g. 10,000.
     pub sample_rate_hz: f32,
@@ -268,10 +285,14 @@ pub struct Status {
     pub adaptation_frozen: bool,
     /// The excitation in force.
     pub excitation: Excitation,
-    /// The estimator settings in force.
+    /// The estimator settings in force; `lambda_rad_s` is the λ in use
+    /// (`None` only before the automatic rule has chosen one).
     pub estimator: EstimatorSettings,
     /// The telemetry rates in force.
     pub telemetry: TelemetryRates,
+    /// λ is chosen by the device's automatic rule (it may change without a
+    /// command); false: λ is fixed by a `SetEstimator` with `Some(λ)`.
+    pub lambda_automatic: bool,
 }
 
 impl MaxSize for Status {
@@ -283,7 +304,8 @@ impl MaxSize for Status {
         + bool::MAX_SIZE
         + Excitation::MAX_SIZE
         + EstimatorSettings::MAX_SIZE
-        + TelemetryRates::MAX_SIZE;
+        + TelemetryRates::MAX_SIZE
+        + bool::MAX_SIZE;
 }
 
 /// The outcome of a command. On the wire a single byte: 0 = accepted,
@@ -376,8 +398,36 @@ mod tests {
             estimator: EstimatorKind::Adaptive,
             flags: StatusFlags::default(),
             modes: (0..modes).map(|_| ModeEstimate::default()).collect(),
+            lambda_rad_s: 100.0,
             theta: (0..theta_len).map(|i| i as f32).collect(),
             excitation_level: None,
+        }
+    }
+
+    #[test]
+    fn estimate_lambda_and_level_rules() {
+        let ok = estimate(7, 2);
+        assert!(ok.is_consistent());
+        for l in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let e = Estimate {
+                lambda_rad_s: l,
+                ..ok.clone()
+            };
+            assert!(!e.is_consistent(), "λ {l}");
+        }
+        for (level, good) in [
+            (0.0, true),
+            (1e-7, true),
+            (1.0, true),
+            (-1e-9, false),
+            (1.5, false),
+            (f32::NAN, false),
+        ] {
+            let e = Estimate {
+                excitation_level: Some(level),
+                ..ok.clone()
+            };
+            assert_eq!(e.is_consistent(), good, "level {level}");
         }
     }
 

@@ -339,7 +339,23 @@ fn excitation_levels(x: Option<Excitation>) -> Levels {
             }
             host.drain(&mut tx);
         }
-        let flags = estimates(host.messages())
+        let all = estimates(host.messages());
+        // EXCITED is checkable from each frame (PROTOCOL.md §4.1, §9.3):
+        // excitation_level ≥ 1e-7 and INPUT_GONE clear; the level is never
+        // negative.
+        let rho = beamest::link::FlagRules::default().excitation_rel_threshold;
+        for e in &all {
+            let level = e.excitation_level.expect("the adaptive law has P");
+            assert!((0.0..=1.0).contains(&level), "{level}");
+            assert_eq!(
+                e.flags.contains(StatusFlags::EXCITED),
+                level >= rho && !e.flags.contains(StatusFlags::INPUT_GONE),
+                "sample {}: level {level}, flags {:#x}",
+                e.sample_index,
+                e.flags.0
+            );
+        }
+        let flags = all
             .iter()
             .map(|e| (e.sample_index, e.flags.contains(StatusFlags::EXCITED)))
             .collect();

@@ -20,7 +20,7 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::Index;
 
-use strategies::{command, message};
+use strategies::{command, device_message, message};
 
 type Dec = Decoder<MAX_ENCODED_LEN>;
 
@@ -205,7 +205,7 @@ proptest! {
     /// Replace random bytes of a captured stream of many frames.
     #[test]
     fn corrupted_bytes_are_detected_and_cost_only_their_frames(
-        msgs in vec(message(), 3..24),
+        msgs in vec(device_message(), 3..24),
         hits in vec((any::<Index>(), 1u8..=255), 1..6),
     ) {
         let (mut bytes, spans) = capture(&msgs);
@@ -226,7 +226,7 @@ proptest! {
     /// counted exactly.
     #[test]
     fn dropped_bytes_are_detected_and_cost_only_their_frames(
-        msgs in vec(message(), 3..24),
+        msgs in vec(device_message(), 3..24),
         at in any::<Index>(),
         len in 1usize..200,
     ) {
@@ -251,7 +251,7 @@ proptest! {
     /// not land in still arrive, and nothing wrong is ever delivered.
     #[test]
     fn garbage_never_costs_other_frames(
-        msgs in vec(message(), 2..16),
+        msgs in vec(device_message(), 2..16),
         at in any::<Index>(),
         garbage in vec(any::<u8>(), 1..300),
     ) {

@@ -47,12 +47,20 @@ pub fn estimate() -> impl Strategy<Value = Estimate> {
                 any::<u16>(),
                 any::<bool>(),
                 vec(mode(), n),
-                vec(f32_bits(), 4 * n - 1),
-                option::of(f32_bits()),
+                (1e-3f32..1e5, vec(f32_bits(), 4 * n - 1)),
+                option::of(0.0f32..=1.0),
             )
         })
         .prop_map(
-            |(sample_index, estimator, flags, with_modes, modes, theta, excitation_level)| {
+            |(
+                sample_index,
+                estimator,
+                flags,
+                with_modes,
+                modes,
+                (lambda_rad_s, theta),
+                excitation_level,
+            )| {
                 Estimate {
                     sample_index,
                     estimator,
@@ -62,6 +70,7 @@ pub fn estimate() -> impl Strategy<Value = Estimate> {
                     } else {
                         Default::default()
                     },
+                    lambda_rad_s,
                     theta: theta.into_iter().collect(),
                     excitation_level,
                 }
@@ -155,10 +164,17 @@ pub fn status() -> impl Strategy<Value = Status> {
         any::<bool>(),
         excitation(),
         estimator_settings(),
-        telemetry_rates(),
+        (telemetry_rates(), any::<bool>()),
     )
         .prop_map(
-            |((uptime_samples, sample_rate_hz, fw, modes), c, frozen, excitation, est, tel)| {
+            |(
+                (uptime_samples, sample_rate_hz, fw, modes),
+                c,
+                frozen,
+                excitation,
+                est,
+                (tel, auto),
+            )| {
                 Status {
                     uptime_samples,
                     sample_rate_hz,
@@ -185,6 +201,7 @@ pub fn status() -> impl Strategy<Value = Status> {
                     excitation,
                     estimator: est,
                     telemetry: tel,
+                    lambda_automatic: auto,
                 }
             },
         )
@@ -210,6 +227,17 @@ pub fn command() -> impl Strategy<Value = Command> {
         Just(Command::Freeze),
         Just(Command::Resume),
         Just(Command::RequestStatus),
+    ]
+}
+
+/// A frame of the device → host stream (what a host's decoder counts in
+/// one sequence).
+pub fn device_message() -> impl Strategy<Value = Message> {
+    prop_oneof![
+        estimate().prop_map(Message::Estimate),
+        raw_samples().prop_map(Message::RawSamples),
+        status().prop_map(Message::Status),
+        ack().prop_map(Message::Ack),
     ]
 }
 

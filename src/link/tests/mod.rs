@@ -472,10 +472,21 @@ fn freeze_during_start_up_survives_the_start() {
     assert!(l.status(0, &Counters::default()).adaptation_frozen);
 }
 
+/// Θ̂ of a two-mode plant at λ = 100 rad/s (an estimate, not the initial
+/// Θ̂ = 0, which is never sent with modes).
+fn plant_theta() -> [f32; 7] {
+    let tf = crate::model::ModalParams::new(&[40.0, 250.0], &[0.02, 0.13], &[10.0, 15.0], None)
+        .unwrap()
+        .transfer_function();
+    let mut theta = [0.0f64; 7];
+    tf.to_theta(100.0, &mut theta).unwrap();
+    theta.map(|v| v as f32)
+}
+
 fn record(index: u64, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
     TelemetryRecord {
         sample_index: index,
-        theta: [0.0; 7],
+        theta: plant_theta(),
         information: [0.0; 28],
         has_information: false,
         lambda_rad_s: 100.0,
@@ -483,6 +494,7 @@ fn record(index: u64, counters: Counters) -> TelemetryRecord<f32, 7, 28> {
         y: 0.0,
         flags: beam_protocol::StatusFlags::default(),
         supervised: false,
+        lemma1_ratio: None,
         steps: StepCounts::default(),
         counters,
     }
@@ -523,11 +535,16 @@ fn estimates_and_status_follow_the_record_clock() {
     let e = estimates(&msgs);
     assert_eq!(e.len(), 200);
     assert_eq!(e[0].sample_index, 599);
-    // Θ = 0: the denominator is Λ(s) itself, four real poles at −λ.
+    // The law has not updated (the records' step counts are 0): no modes,
+    // not valid; λ travels with Θ̂.
     assert!(e.iter().all(|e| e.is_consistent()
+        && e.modes.is_empty()
+        && e.lambda_rad_s == 100.0
         && !e
             .flags
             .contains(beam_protocol::StatusFlags::PHYSICALLY_VALID)));
+    // A periodic Status rides the record of sample k: uptime_samples =
+    // k + 1, the samples taken (PROTOCOL.md §4.3).
     let s = statuses(&msgs);
     assert_eq!(
         s.iter().map(|s| s.uptime_samples).collect::<Vec<_>>(),
@@ -595,7 +612,7 @@ fn no_modes_before_the_laws_first_update() {
         let e = estimates(&h.drain(rx));
         modes.push(e[0].modes.len());
     };
-    // Held (no update), then updates: Θ̂ = 0 gives Λ's poles as "modes".
+    // Held (no update), then updates.
     feed(&mut l, rec(599, 0), &mut tx, &mut h, &mut rx);
     feed(&mut l, rec(699, 100), &mut tx, &mut h, &mut rx);
     // A Reset at sample 750: the record at 799 spans it, its updates may
@@ -672,6 +689,39 @@ fn wrong_direction_and_broken_frames_are_counted_not_answered() {
     let s = statuses(&msgs);
     assert_eq!(s[0].counters.rx_frame_errors, 3);
     assert!(d.p.calls.is_empty());
+}
+
+/// PROTOCOL.md §5.4: the device executes every command it decodes, and
+/// answers each with the command's own number, whatever that number: a
+/// repeated one (a host re-sending, or a new host session counting from 0
+/// again) and an older one are executed like any other.
+#[test]
+fn repeated_and_older_command_numbers_are_executed_and_answered() {
+    let mut q: Queue<u8, 2048> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let (mut l, mut d, mut h) = (link(), device(), Host::new());
+    start(&mut l, &mut d);
+    d.p.calls.clear();
+    let reset = h.command(Command::Reset);
+    let mut bytes = reset.clone();
+    bytes.extend(reset.clone());
+    bytes.extend(h.command(Command::Freeze));
+    bytes.extend(reset);
+    l.receive(bytes, &mut d, &mut tx);
+    let msgs = h.drain(&mut rx);
+    assert_eq!(
+        acks(&msgs),
+        [
+            (0, AckResult::Accepted),
+            (0, AckResult::Accepted),
+            (1, AckResult::Accepted),
+            (0, AckResult::Accepted)
+        ]
+    );
+    assert_eq!(d.p.calls, ["reset", "reset", "freeze", "reset"]);
+    assert_eq!(l.commands(), (4, 0));
+    // The Acks are device frames numbered in turn: none is a duplicate.
+    assert_eq!(h.dec.counters().duplicates, 0);
 }
 
 #[test]

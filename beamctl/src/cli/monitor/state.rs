@@ -128,7 +128,8 @@ impl State {
 }
 
 /// One line per estimate (plain output): sample index, device time,
-/// sequence number, law, ω̂, ζ̂, b̂̄ per mode, λmin(P) and the flags.
+/// sequence number, law, ω̂, ζ̂, b̂̄ per mode, the λ of its Θ̂, the
+/// excitation level λmin(P)/tr(P) and the flags.
 /// Values are the f32 the device sent, printed exactly (shortest form);
 /// `-` where there is none, `?` for a time before the sample rate is known.
 pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
@@ -150,12 +151,64 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
         .excitation_level
         .map_or_else(|| "-".to_string(), |l| l.to_string());
     format!(
-        "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_min={level} flags={}",
+        "sample={} t_s={t} seq={seq} law={} omega_rad_s={} zeta={} bbar={} lambda_rad_s={} excitation_level={level} flags={}",
         e.sample_index,
         e.estimator.name(),
         list(&|m| m.omega_rad_s),
         list(&|m| m.zeta),
         list(&|m| m.b_bar),
+        e.lambda_rad_s,
         text::flags_text(e.flags, "|"),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use beam_protocol::{EstimatorKind, ModeEstimate, StatusFlags};
+
+    fn estimate(modes: &[(f32, f32, f32)], flags: StatusFlags, level: Option<f32>) -> Estimate {
+        Estimate {
+            sample_index: 2_099,
+            estimator: EstimatorKind::Adaptive,
+            flags,
+            modes: modes
+                .iter()
+                .map(|&(omega_rad_s, zeta, b_bar)| ModeEstimate {
+                    omega_rad_s,
+                    zeta,
+                    b_bar,
+                })
+                .collect(),
+            lambda_rad_s: 92.5,
+            theta: [0.0; 7].into_iter().collect(),
+            excitation_level: level,
+        }
+    }
+
+    /// An estimate before the law's first update (no modes, no validity:
+    /// PROTOCOL.md §4.1) shows `-` for ω, ζ, b̄ and no PHYSICALLY_VALID;
+    /// λ and the level are shown as sent.
+    #[test]
+    fn estimate_lines_show_missing_modes_lambda_and_level() {
+        let host = Host::new(false);
+        let e = estimate(&[], StatusFlags::FROZEN_AUTO, Some(0.0));
+        assert_eq!(
+            estimate_line(&e, 43, &host),
+            "sample=2099 t_s=? seq=43 law=adaptive omega_rad_s=- zeta=- bbar=- \
+             lambda_rad_s=92.5 excitation_level=0 flags=FROZEN_AUTO"
+        );
+        let e = estimate(
+            &[(39.15, 0.0207, 9.63), (245.4, 0.13, 16.15)],
+            StatusFlags::EXCITED.with(StatusFlags::PHYSICALLY_VALID),
+            Some(3.5e-7),
+        );
+        assert_eq!(
+            estimate_line(&e, 44, &host),
+            "sample=2099 t_s=? seq=44 law=adaptive omega_rad_s=39.15,245.4 zeta=0.0207,0.13 \
+             bbar=9.63,16.15 lambda_rad_s=92.5 excitation_level=0.00000035 flags=EXCITED|PHYSICALLY_VALID"
+        );
+        let e = estimate(&[], StatusFlags::default(), None);
+        assert!(estimate_line(&e, 45, &host).contains("excitation_level=- flags=-"));
+    }
 }

@@ -222,7 +222,8 @@ fn estimate_pane(st: &State, now: Instant, modes: usize) -> Paragraph<'static> {
         .excitation_level
         .map_or_else(|| "-".to_string(), |l| format!("{l:.3e}"));
     lines.push(Line::from(format!(
-        "λmin(P) {level}   law {}   {t}   ({:.1} s ago)",
+        "λ {} rad/s   λmin(P)/tr(P) {level}   law {}   {t}   ({:.1} s ago)",
+        e.lambda_rad_s,
         e.estimator.name(),
         now.duration_since(*at).as_secs_f64()
     )));
