@@ -228,6 +228,65 @@ fn crlb_takes_the_plant_flags() {
     assert_eq!(arr(&r["zeta"]["rel"]).len(), 3);
 }
 
+/// `crlb` describes the user's own experiment: with simulate's drive and
+/// sample-interval flags it gives the bound `simulate` reports for that
+/// run, and a bound that depends on them.
+#[test]
+fn crlb_takes_the_drive_and_the_sample_interval() {
+    let experiment = [
+        "--snr-db",
+        "40",
+        "--duration",
+        "4",
+        "--ts",
+        "2e-4",
+        "--wave",
+        "prbs",
+        "--bit-rate",
+        "1000",
+        "--bits",
+        "11",
+        "--amplitude",
+        "0.1",
+    ];
+    let bound = json(&beamctl(&[&["crlb", "--json"][..], &experiment].concat()));
+    assert_eq!(bound["ts_s"], 2e-4);
+    assert_eq!(bound["samples"], 20_000);
+    assert!(
+        bound["drive"].as_str().unwrap().contains("prbs"),
+        "{}",
+        bound["drive"]
+    );
+    assert!(bound.get("u_freq_hz").is_none());
+    let sim = json(&beamctl(
+        &[&["simulate", "--json"][..], &experiment].concat(),
+    ));
+    // The same bound (the σ of the SNR is summed in another order).
+    for k in ["omega", "zeta", "bbar"] {
+        for (a, b) in arr(&sim["crlb"][k]["rel"]).iter().zip(arr(&bound[k]["rel"])) {
+            assert!((a / b - 1.0).abs() < 1e-12, "{k}: {a} vs {b}");
+        }
+    }
+    let square = json(&beamctl(&[
+        "crlb",
+        "--json",
+        "--snr-db",
+        "40",
+        "--duration",
+        "4",
+        "--ts",
+        "2e-4",
+    ]));
+    assert_ne!(square["zeta"]["rel"], bound["zeta"]["rel"]);
+    let bad = beamctl(&["crlb", "--snr-db", "40", "--wave", "prbs"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(
+        stderr(&bad).starts_with("error: --wave:"),
+        "{}",
+        stderr(&bad)
+    );
+}
+
 /// Replay with the robust estimator: a recorded file replays to the
 /// simulation's estimate, and `--crlb` bounds it at the estimate with the
 /// estimator's own noise estimate.

@@ -413,7 +413,16 @@ pub struct CrlbArgs {
     #[command(flatten)]
     pub plant: PlantArgs,
 
-    /// Length of the experiment in seconds (> 0; sampled at Ts = 0.1 ms).
+    /// Sample interval Ts in seconds (> 0), as `simulate --ts`.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 1e-4,
+        allow_negative_numbers = true
+    )]
+    pub ts: f64,
+
+    /// Length of the experiment in seconds (> 0).
     #[arg(
         long,
         value_name = "SECONDS",
@@ -440,4 +449,12 @@ pub struct CrlbArgs {
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
+
+    /// The firmware's generators instead of the paper's square wave, as
+    /// `simulate`'s drive flags.
+    #[command(
+        flatten,
+        next_help_heading = "Drive: the firmware's generators instead of the paper's square wave (flags of `send excitation`; what is not given is the paper's 0.1 V square at 7 Hz, offset 0)"
+    )]
+    pub excitation: crate::link::grammar::ExcitationArgs,
 }

@@ -3,7 +3,9 @@
 //! is run.
 
 use crate::cli::args::CrlbArgs;
-use crate::cli::simulate::plan::{check_duration, check_noise};
+use crate::cli::simulate::plan::{
+    check_duration, check_noise, check_ts, drive_excitation, drive_text,
+};
 use crate::error::write_stdout;
 use crate::error::CliError;
 use crate::io::report;
@@ -32,14 +34,16 @@ pub fn output_with(
     args: &CrlbArgs,
     interrupt: Option<&mut dyn FnMut() -> bool>,
 ) -> Result<String, CliError> {
-    let base = RunConfig::default();
-    check_duration(args.duration, base.ts_s)?;
+    check_ts(args.ts)?;
+    check_duration(args.duration, args.ts)?;
     check_noise(args.snr_db, args.noise_sd)?;
-    let (plant, modes, label) = crate::cli::plant_flags::resolve(&args.plant, base.ts_s)?;
+    let (plant, modes, label) = crate::cli::plant_flags::resolve(&args.plant, args.ts)?;
     let cfg = RunConfig {
         plant,
         duration_s: args.duration,
-        ..base
+        ts_s: args.ts,
+        excitation: drive_excitation(&args.excitation)?,
+        ..RunConfig::default()
     };
     let noise = match (args.snr_db, args.noise_sd) {
         (_, Some(sd)) => NoiseLevel::Sd(sd),
@@ -49,7 +53,7 @@ pub fn output_with(
     };
     let set = args.model_set.set();
     let truth = cfg.plant.truth();
-    let u = drive(&cfg).map_err(|e| CliError::failure(format!("crlb: {e}")))?;
+    let u = drive(&cfg).map_err(|e| CliError::usage("--wave", e))?;
     let n = samples(&cfg);
     let mut interrupt = Interrupt::new(interrupt);
     let bound = crate::judge::bound::experiment_bound(
@@ -69,16 +73,24 @@ pub fn output_with(
         struct Doc<'a> {
             plant: &'a str,
             duration_s: f64,
-            u_amplitude: f64,
-            u_freq_hz: f64,
+            /// The drive, in words (the "experiment:" line's).
+            drive: String,
+            /// The paper's square wave's amplitude and frequency, when it
+            /// is the drive.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            u_amplitude: Option<f64>,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            u_freq_hz: Option<f64>,
             #[serde(flatten)]
             bound: &'a ExperimentBound,
         }
+        let square = cfg.excitation.is_none();
         report::to_json(&[Doc {
             plant: &label,
             duration_s: n as f64 * cfg.ts_s,
-            u_amplitude: cfg.u_amplitude,
-            u_freq_hz: cfg.u_freq_hz,
+            drive: drive_text(&cfg),
+            u_amplitude: square.then_some(cfg.u_amplitude),
+            u_freq_hz: square.then_some(cfg.u_freq_hz),
             bound: &bound,
         }])?
     } else {
@@ -100,12 +112,11 @@ fn render(
         if n == 1 { "" } else { "s" }
     );
     out.push_str(&format!(
-        "experiment: {} s at Ts = {} ms ({} samples), u = {}·square({} Hz) from rest, white noise on y: σ = {} (SNR {:.2} dB over the noise-free y's RMS {})\n",
+        "experiment: {} s at Ts = {} ms ({} samples), u = {} from rest, white noise on y: σ = {} (SNR {:.2} dB over the noise-free y's RMS {})\n",
         b.samples as f64 * cfg.ts_s,
         cfg.ts_s * 1e3,
         b.samples,
-        cfg.u_amplitude,
-        cfg.u_freq_hz,
+        drive_text(cfg),
         sig(b.sigma, 4),
         b.snr_db,
         sig(b.rms_y, 4),

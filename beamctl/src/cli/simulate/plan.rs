@@ -83,16 +83,22 @@ pub fn check_noise(snr_db: Option<f64>, noise_sd: Option<f64>) -> Result<(), Cli
     Ok(())
 }
 
-/// Validate the flags.
-pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
-    let base_default = RunConfig::default();
-    let ts = args.ts;
+/// `--ts`: a finite number of seconds > 0.
+pub(crate) fn check_ts(ts: f64) -> Result<(), CliError> {
     if !(ts.is_finite() && ts > 0.0) {
         return Err(CliError::usage(
             "--ts",
             format!("the sample interval must be a finite number of seconds > 0 (got {ts})"),
         ));
     }
+    Ok(())
+}
+
+/// Validate the flags.
+pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
+    let base_default = RunConfig::default();
+    let ts = args.ts;
+    check_ts(ts)?;
 
     check_duration(args.duration, ts)?;
     check_noise(args.snr_db, args.noise_sd)?;
@@ -182,7 +188,9 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
 /// The firmware's excitation the drive flags describe (None without any:
 /// the paper's square wave), what is not given taken from the paper's
 /// 0.1 V square wave at 7 Hz ([`protocol::Excitation::default`]).
-fn drive_excitation(args: &ExcitationArgs) -> Result<Option<protocol::Excitation>, CliError> {
+pub(crate) fn drive_excitation(
+    args: &ExcitationArgs,
+) -> Result<Option<protocol::Excitation>, CliError> {
     if !args.is_given() {
         return Ok(None);
     }
@@ -192,7 +200,7 @@ fn drive_excitation(args: &ExcitationArgs) -> Result<Option<protocol::Excitation
 }
 
 /// The drive part of the "run:" line.
-fn drive_text(cfg: &RunConfig) -> String {
+pub(crate) fn drive_text(cfg: &RunConfig) -> String {
     match &cfg.excitation {
         None => format!("{}·square({} Hz)", cfg.u_amplitude, cfg.u_freq_hz),
         Some(e) => {
