@@ -402,6 +402,12 @@ mod tests {
         model.borrow_mut().inject_bus_errors(1);
         let e = convert_and_read(&mut adc, &model, v).unwrap_err();
         assert_eq!(e.kind(), FaultKind::Bus);
+        // The failed frame did not clock the data out: the conversion is
+        // still queued, and reading one frame per conversion from here on
+        // would lag one conversion. Drain to DRDY high, as after any pause.
+        assert!(model.borrow().drdy_low());
+        let d = adc.drain(|| model.borrow().drdy_low()).unwrap();
+        assert_eq!((d.frames, d.drdy_high), (1, true));
         // Stuck data (the driver's check, limit 4 frames): flagged stuck
         // from the 4th identical frame (the last good frame the driver saw
         // was the saturated one, so the run starts at the first stuck one).

@@ -92,6 +92,24 @@ pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;
 /// next frame, in µs (§6.7 Switching Characteristics: 5 µs).
 pub const T_REGACQ_US: u32 = 5;
 
+/// Most frames [`Ads131m02::drain`] clocks: the two conversions the output
+/// FIFO holds after a pause, one more completing during the drain, and one
+/// spare. A frame at 10 MHz SCLK takes about 10 µs of the 100 µs period, so
+/// a working device is drained in two or three.
+pub const DRAIN_MAX_FRAMES: u8 = 4;
+
+/// What [`Ads131m02::drain`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Drained {
+    /// NULL frames clocked (their data discarded).
+    pub frames: u8,
+    /// DRDY was high at the end: nothing left unread. `false` after
+    /// [`DRAIN_MAX_FRAMES`] frames with DRDY still low (frames not reaching
+    /// the device, or DRDY miswired).
+    pub drdy_high: bool,
+}
+
 /// Which end of the ADC's range a code sits at (Table 8-10: the output
 /// clips at 7FFFFFh and 800000h).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -386,6 +404,45 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         Ok(Frame {
             status,
             channels: [Conversion::new(c0, g0, wl), Conversion::new(c1, g1, wl)],
+        })
+    }
+
+    /// Empty the output FIFO after a pause in reading: clock NULL frames
+    /// (data discarded) while `drdy_low()` — the application's DRDY pin —
+    /// says a conversion is unread, at most [`DRAIN_MAX_FRAMES`].
+    ///
+    /// The device queues conversions it was not asked for in a two-deep
+    /// FIFO and a frame outputs the oldest ("Collecting Data for the First
+    /// Time or After a Pause in Data Collection" in the ADS131M0x data
+    /// sheets). After any pause of two or more conversion periods (reset
+    /// and configuration, start-up work with the sample interrupt off, a
+    /// re-initialisation) a host that reads one frame per DRDY falling edge
+    /// would therefore stay one conversion behind for good. Call this after
+    /// every pause, then arm the DRDY interrupt: from the next falling edge
+    /// on, each frame carries the conversion that edge announced.
+    ///
+    /// Frame errors (CRC, STATUS) are returned: the frame was clocked, but
+    /// the device or the bus needs attention; [`Error::NoNewData`] cannot
+    /// occur (the data are not checked here).
+    pub fn drain(
+        &mut self,
+        mut drdy_low: impl FnMut() -> bool,
+    ) -> Result<Drained, Error<SPI::Error>> {
+        let mut frames = 0u8;
+        while drdy_low() {
+            if frames >= DRAIN_MAX_FRAMES {
+                return Ok(Drained {
+                    frames,
+                    drdy_high: false,
+                });
+            }
+            self.command(Command::Null, &[])?;
+            frames += 1;
+        }
+        self.repeats = 0;
+        Ok(Drained {
+            frames,
+            drdy_high: true,
         })
     }
 
