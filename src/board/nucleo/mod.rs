@@ -94,12 +94,78 @@ pub const WAKE_HZ: u32 = 100;
 pub type SpiDev =
     ExclusiveDevice<Spi<'static, Blocking, spi::mode::Master>, Output<'static>, CycleDelay>;
 
+/// The AD5761R's bus: SPI4 + CS at [`clocks::DAC_SCLK_HZ`] for write-only
+/// frames (the sample path), slowed to [`clocks::DAC_READBACK_SCLK_HZ`] for
+/// any frame that reads SDO (the read-back at boot) and restored after it.
+pub struct DacSpi {
+    dev: SpiDev,
+    write: spi::Config,
+    readback: spi::Config,
+}
+
+/// An error of [`DacSpi`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DacBusError {
+    /// The SPI transaction failed.
+    Bus(<SpiDev as embedded_hal::spi::ErrorType>::Error),
+    /// The HAL refused to change SPI4's clock.
+    Clock,
+}
+
+impl defmt::Format for DacBusError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            Self::Bus(e) => defmt::write!(f, "SPI4: {}", defmt::Debug2Format(e)),
+            Self::Clock => defmt::write!(f, "SPI4 clock change refused"),
+        }
+    }
+}
+
+impl embedded_hal::spi::Error for DacBusError {
+    fn kind(&self) -> embedded_hal::spi::ErrorKind {
+        match self {
+            Self::Bus(e) => embedded_hal::spi::Error::kind(e),
+            Self::Clock => embedded_hal::spi::ErrorKind::Other,
+        }
+    }
+}
+
+impl embedded_hal::spi::ErrorType for DacSpi {
+    type Error = DacBusError;
+}
+
+impl embedded_hal::spi::SpiDevice for DacSpi {
+    fn transaction(
+        &mut self,
+        operations: &mut [embedded_hal::spi::Operation<'_, u8>],
+    ) -> Result<(), DacBusError> {
+        use embedded_hal::spi::Operation;
+        let reads = operations.iter().any(|op| {
+            matches!(
+                op,
+                Operation::Read(_) | Operation::Transfer(..) | Operation::TransferInPlace(_)
+            )
+        });
+        if !reads {
+            return self.dev.transaction(operations).map_err(DacBusError::Bus);
+        }
+        self.dev
+            .bus_mut()
+            .set_config(&self.readback)
+            .map_err(|()| DacBusError::Clock)?;
+        let result = self.dev.transaction(operations).map_err(DacBusError::Bus);
+        let restored = self.dev.bus_mut().set_config(&self.write);
+        result?;
+        restored.map_err(|()| DacBusError::Clock)
+    }
+}
+
 /// Everything the firmware uses, initialised.
 pub struct Board {
     /// SPI1 + CS (PD14): the ADS131M02.
     pub adc_spi: SpiDev,
     /// SPI4 + CS (PE4): the AD5761R.
-    pub dac_spi: SpiDev,
+    pub dac_spi: DacSpi,
     /// The sample tick (DRDY on PF3, EXTI3).
     pub drdy: drdy::Drdy,
     /// USART3, configured, not yet split.
@@ -200,11 +266,34 @@ impl Board {
         let p = embassy_stm32::init(clocks::hal_config());
         let mut delay = CycleDelay::new(clocks::CPU_HZ);
 
-        // The DAC first: held in reset (output at its power-on level) and
-        // not cleared, until its driver configures it.
+        // Both converters held in reset (the DAC's output at its power-on
+        // level, not cleared) until their chip selects are driven high and
+        // their buses configured, so neither sees a frame start or stray
+        // clocks when it leaves reset.
         let mut dac_reset = Output::new(p.PG14, Level::Low, Speed::Low);
         let dac_clear = Output::new(p.PE13, Level::High, Speed::Low);
         let mut adc_sync_reset = Output::new(p.PG12, Level::Low, Speed::Low);
+        let adc_cs = Output::new(p.PD14, Level::High, Speed::High);
+        let dac_cs = Output::new(p.PE4, Level::High, Speed::High);
+
+        let adc_bus = Spi::new_blocking(
+            p.SPI1,
+            p.PA5,
+            p.PB5,
+            p.PA6,
+            spi_config(ads131m02::SPI_MODE, clocks::ADC_SCLK_HZ),
+        );
+        let adc_spi =
+            ExclusiveDevice::new(adc_bus, adc_cs, delay).map_err(|_| BoardError::ChipSelect)?;
+
+        let dac_write = spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ);
+        let dac_bus = Spi::new_blocking(p.SPI4, p.PE2, p.PE6, p.PE5, dac_write);
+        let dac_spi = DacSpi {
+            dev: ExclusiveDevice::new(dac_bus, dac_cs, delay)
+                .map_err(|_| BoardError::ChipSelect)?,
+            write: dac_write,
+            readback: spi_config(ad5761r::SPI_MODE, clocks::DAC_READBACK_SCLK_HZ),
+        };
 
         // CLKIN must run before the ADC leaves reset.
         let mut mco = McoConfig::default();
@@ -217,28 +306,6 @@ impl Board {
         delay.delay_us(DAC_RESET_US);
         dac_reset.set_high();
         delay.delay_us(DAC_RESET_US);
-
-        let adc_bus = Spi::new_blocking(
-            p.SPI1,
-            p.PA5,
-            p.PB5,
-            p.PA6,
-            spi_config(ads131m02::SPI_MODE, clocks::ADC_SCLK_HZ),
-        );
-        let adc_cs = Output::new(p.PD14, Level::High, Speed::High);
-        let adc_spi =
-            ExclusiveDevice::new(adc_bus, adc_cs, delay).map_err(|_| BoardError::ChipSelect)?;
-
-        let dac_bus = Spi::new_blocking(
-            p.SPI4,
-            p.PE2,
-            p.PE6,
-            p.PE5,
-            spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ),
-        );
-        let dac_cs = Output::new(p.PE4, Level::High, Speed::High);
-        let dac_spi =
-            ExclusiveDevice::new(dac_bus, dac_cs, delay).map_err(|_| BoardError::ChipSelect)?;
 
         let drdy = drdy::Drdy::new(p.PF3);
 
@@ -277,13 +344,20 @@ pub fn enable_serial_interrupt() {
     unsafe { interrupt::USART3.enable() };
 }
 
-/// Unmask the sample interrupt (after the pipeline is in place). A DRDY
-/// edge from before is discarded: the first tick is the next conversion.
+/// Unmask the sample interrupt (after the pipeline is in place and
+/// [`converters::resync`] has drained the ADC and cleared older DRDY
+/// edges). An edge pending now announces a conversion that came after the
+/// drain, so it is kept: the first tick reads that conversion.
 pub fn enable_sample_interrupt() {
-    drdy::clear_pending();
-    interrupt::EXTI3.unpend();
     // SAFETY: as for `enable_serial_interrupt`.
     unsafe { interrupt::EXTI3.enable() };
+}
+
+/// Clear a DRDY edge the sample interrupt must not see (its conversion
+/// was read, or drained, in thread mode): the EXTI flag and the NVIC's.
+pub fn discard_sample_edge() {
+    drdy::clear_pending();
+    interrupt::EXTI3.unpend();
 }
 
 /// Mask the sample interrupt (before stopping the converters).
