@@ -25,14 +25,19 @@
 //!   wakes it even then).
 //!
 //! # Start-up
-//! 1. Board: clocks, CLKIN, pins, buses; converters reset by their pins.
-//! 2. AD5761R: software reset, ±10 V, output at mid-scale (0 V).
+//! 1. Board (after a boot log line): clocks, CLKIN, pins, buses (chip
+//!    selects high first); converters reset by their pins.
+//! 2. AD5761R: software reset, ±10 V, output at mid-scale (0 V); the
+//!    control register read back at 1.5625 MHz.
 //! 3. ADS131M02: software reset (reply and ID checked), configuration read
 //!    back: OSR 256, high resolution → 10 kSPS from the 5.12 MHz CLKIN.
-//! 4. Bridge null offset: the mean of [`rig::NULL_SAMPLES`] conversions,
-//!    read by polling DRDY, with the DAC at 0 V (the paper's "bridge offset
-//!    nulling").
-//! 5. The pipeline starts in the sample interrupt with the excitation on
+//! 4. Bridge null offset: the ADC's output FIFO drained (configuration was
+//!    a pause in reading: [`resync`]), then the mean of
+//!    [`rig::NULL_SAMPLES`] conversions, read by polling DRDY, with the DAC
+//!    at 0 V (the paper's "bridge offset nulling").
+//! 5. The FIFO drained again (the pipeline and the link took milliseconds
+//!    to build), the DRDY interrupt enabled.
+//! 6. The pipeline starts in the sample interrupt with the excitation on
 //!    and adaptation frozen; while the tuning rule's start-up window is
 //!    open (0.2 s) the interrupt copies the fed (u, y) pairs into blocks
 //!    for thread mode ([`beamest::link::StartupCollector`]); thread mode
@@ -71,7 +76,7 @@ use ad5761r::Ad5761r;
 use beamest::board::nucleo::converters::{resync, Adc};
 use beamest::board::nucleo::cycles::{self, Spans};
 use beamest::board::nucleo::shared::Shared;
-use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, DacSpi, SpiDev};
+use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
 use beamest::estimator::Adaptive2;
 use beamest::link::{BuildKind, DeviceLink, StartupCollector, Tuned};
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};
@@ -123,7 +128,7 @@ pub(crate) type RigPipeline = Pipeline<
     f64,
     Adaptive2<f64>,
     Adc<SpiDev>,
-    Ad5761r<DacSpi>,
+    Ad5761r<SpiDev>,
     Producer<'static, Record>,
     Producer<'static, RawBlock<f64>>,
     NP,
@@ -237,6 +242,9 @@ fn main() -> ! {
         Err(e) => fatal("AD5761R init", Debug2Format(&e)),
     };
     info!("AD5761R: control read back {}", readback);
+    if let Err(e) = board::dac_write_clock(dac.spi_mut()) {
+        fatal("AD5761R write clock", Debug2Format(&e));
+    }
 
     let mut adc = match Adc::new(b.adc_spi, rig::adc_config(), &mut b.delay) {
         Ok(a) => a,
@@ -368,7 +376,7 @@ fn build_pipeline(
     null_offset_v: f64,
     link: &DeviceLink,
     adc: Adc<SpiDev>,
-    dac: Ad5761r<DacSpi>,
+    dac: Ad5761r<SpiDev>,
     telemetry: Producer<'static, Record>,
     raw: Producer<'static, RawBlock<f64>>,
 ) -> Result<RigPipeline, &'static str> {

@@ -151,19 +151,20 @@ pub const ADC_SCLK_HZ: u32 = SPI1_KERNEL_HZ / 16;
 /// DAC SCLK (Hz) for writes (the sample path): SPI4 kernel /8 (the
 /// AD5761R's write clock is specified well above this; 3 bytes take 1.9 µs).
 pub const DAC_SCLK_HZ: u32 = SPI4_KERNEL_HZ / 8;
-/// DAC SCLK (Hz) for read-back frames (boot only: the control register
-/// check of `Ad5761r::init`): SPI4 kernel /64 = 1.5625 MHz, 320 ns per half
-/// period. In SPI mode 1 the AD5761R changes SDO on one SCLK edge and the
-/// STM32 samples MISO on the next, half a period later; at 12.5 MHz that
-/// is 40 ns, which must cover the DAC's SDO-valid delay, the wires and the
-/// STM32H743's MISO set-up. The AD5761R data sheet's read-back timing
-/// (its SCLK limit with SDO in use and the SDO-valid delay) could not be
-/// read here, and ADI's serial DACs commonly allow SDO to lag SCLK by
-/// 25–40 ns (e.g. the AD5686R data sheet, Table 5: t10 ≤ 25 ns, SCLK cycle
-/// ≥ 40 ns in daisy-chain and read-back), so 12.5 MHz is not shown to be
-/// safe; 1.5625 MHz leaves 280 ns for them. Two read-back frames at boot
-/// cost 31 µs more; writes stay at [`DAC_SCLK_HZ`]
-/// (`board::nucleo::DacSpi`). Not verified on hardware.
+/// DAC SCLK (Hz) during `Ad5761r::init` (software reset, control write
+/// and its read-back: five 24-bit frames, 77 µs at boot): SPI4 kernel /64
+/// = 1.5625 MHz, 320 ns per half period. In SPI mode 1 the AD5761R changes
+/// SDO on one SCLK edge and the STM32 samples MISO on the next, half a
+/// period later; at 12.5 MHz that is 40 ns, which must cover the DAC's
+/// SDO-valid delay, the wires and the STM32H743's MISO set-up. The AD5761R
+/// data sheet's read-back timing (its SCLK limit with SDO in use and the
+/// SDO-valid delay) could not be read here, and ADI's serial DACs commonly
+/// let SDO lag SCLK by 25–40 ns (e.g. the AD5686R data sheet, Table 5:
+/// t10 ≤ 25 ns and SCLK cycle ≥ 40 ns for daisy-chain and read-back), so
+/// 12.5 MHz is not shown to be safe for read-back; 320 ns is eight times
+/// the 40 ns. The sample path's writes run at [`DAC_SCLK_HZ`]
+/// (`board::nucleo::dac_write_clock`, called after the read-back). Not
+/// verified on hardware.
 pub const DAC_READBACK_SCLK_HZ: u32 = SPI4_KERNEL_HZ / 64;
 
 /// USART3 kernel clock (Hz): pll3_q.

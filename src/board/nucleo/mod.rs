@@ -29,8 +29,8 @@
 //! | ADC CS | PD14 | D10 | GPIO out |
 //! | ADC DRDY | PF3 | D8 | EXTI3, falling edge |
 //! | ADC SYNC/RESET | PG12 | D7 | GPIO out, high = run |
-//! | ADC CLKIN | PC9 | D44 | MCO2 (AF0), 5.12 MHz |
-//! | DAC SCLK | PE2 | D56 | SPI4_SCK (AF5) |
+//! | ADC CLKIN | PC9 | D44 (Zio CN8 only) | MCO2 (AF0), 5.12 MHz |
+//! | DAC SCLK | PE2 | D56 | SPI4_SCK (AF5), [`dac_write_clock`] |
 //! | DAC SDO → MCU | PE5 | D58 | SPI4_MISO (AF5) |
 //! | DAC SDI ← MCU | PE6 | D59 | SPI4_MOSI (AF5) |
 //! | DAC SYNC (CS) | PE4 | D57 | GPIO out |
@@ -94,78 +94,14 @@ pub const WAKE_HZ: u32 = 100;
 pub type SpiDev =
     ExclusiveDevice<Spi<'static, Blocking, spi::mode::Master>, Output<'static>, CycleDelay>;
 
-/// The AD5761R's bus: SPI4 + CS at [`clocks::DAC_SCLK_HZ`] for write-only
-/// frames (the sample path), slowed to [`clocks::DAC_READBACK_SCLK_HZ`] for
-/// any frame that reads SDO (the read-back at boot) and restored after it.
-pub struct DacSpi {
-    dev: SpiDev,
-    write: spi::Config,
-    readback: spi::Config,
-}
-
-/// An error of [`DacSpi`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DacBusError {
-    /// The SPI transaction failed.
-    Bus(<SpiDev as embedded_hal::spi::ErrorType>::Error),
-    /// The HAL refused to change SPI4's clock.
-    Clock,
-}
-
-impl defmt::Format for DacBusError {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        match self {
-            Self::Bus(e) => defmt::write!(f, "SPI4: {}", defmt::Debug2Format(e)),
-            Self::Clock => defmt::write!(f, "SPI4 clock change refused"),
-        }
-    }
-}
-
-impl embedded_hal::spi::Error for DacBusError {
-    fn kind(&self) -> embedded_hal::spi::ErrorKind {
-        match self {
-            Self::Bus(e) => embedded_hal::spi::Error::kind(e),
-            Self::Clock => embedded_hal::spi::ErrorKind::Other,
-        }
-    }
-}
-
-impl embedded_hal::spi::ErrorType for DacSpi {
-    type Error = DacBusError;
-}
-
-impl embedded_hal::spi::SpiDevice for DacSpi {
-    fn transaction(
-        &mut self,
-        operations: &mut [embedded_hal::spi::Operation<'_, u8>],
-    ) -> Result<(), DacBusError> {
-        use embedded_hal::spi::Operation;
-        let reads = operations.iter().any(|op| {
-            matches!(
-                op,
-                Operation::Read(_) | Operation::Transfer(..) | Operation::TransferInPlace(_)
-            )
-        });
-        if !reads {
-            return self.dev.transaction(operations).map_err(DacBusError::Bus);
-        }
-        self.dev
-            .bus_mut()
-            .set_config(&self.readback)
-            .map_err(|()| DacBusError::Clock)?;
-        let result = self.dev.transaction(operations).map_err(DacBusError::Bus);
-        let restored = self.dev.bus_mut().set_config(&self.write);
-        result?;
-        restored.map_err(|()| DacBusError::Clock)
-    }
-}
-
 /// Everything the firmware uses, initialised.
 pub struct Board {
     /// SPI1 + CS (PD14): the ADS131M02.
     pub adc_spi: SpiDev,
-    /// SPI4 + CS (PE4): the AD5761R.
-    pub dac_spi: DacSpi,
+    /// SPI4 + CS (PE4): the AD5761R, at [`clocks::DAC_READBACK_SCLK_HZ`]
+    /// for `Ad5761r::init` (its read-back); [`dac_write_clock`] switches it
+    /// to [`clocks::DAC_SCLK_HZ`] for the sample path.
+    pub dac_spi: SpiDev,
     /// The sample tick (DRDY on PF3, EXTI3).
     pub drdy: drdy::Drdy,
     /// USART3, configured, not yet split.
@@ -195,6 +131,8 @@ pub enum BoardError {
     Usart,
     /// A chip-select pin could not be driven.
     ChipSelect,
+    /// The HAL refused an SPI clock change.
+    SpiClock,
 }
 
 impl core::fmt::Display for BoardError {
@@ -203,6 +141,7 @@ impl core::fmt::Display for BoardError {
             Self::CorePeripheralsTaken => "core peripherals already taken",
             Self::Usart => "USART3 configuration refused",
             Self::ChipSelect => "chip-select pin error",
+            Self::SpiClock => "SPI clock change refused",
         })
     }
 }
@@ -286,14 +225,15 @@ impl Board {
         let adc_spi =
             ExclusiveDevice::new(adc_bus, adc_cs, delay).map_err(|_| BoardError::ChipSelect)?;
 
-        let dac_write = spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ);
-        let dac_bus = Spi::new_blocking(p.SPI4, p.PE2, p.PE6, p.PE5, dac_write);
-        let dac_spi = DacSpi {
-            dev: ExclusiveDevice::new(dac_bus, dac_cs, delay)
-                .map_err(|_| BoardError::ChipSelect)?,
-            write: dac_write,
-            readback: spi_config(ad5761r::SPI_MODE, clocks::DAC_READBACK_SCLK_HZ),
-        };
+        let dac_bus = Spi::new_blocking(
+            p.SPI4,
+            p.PE2,
+            p.PE6,
+            p.PE5,
+            spi_config(ad5761r::SPI_MODE, clocks::DAC_READBACK_SCLK_HZ),
+        );
+        let dac_spi =
+            ExclusiveDevice::new(dac_bus, dac_cs, delay).map_err(|_| BoardError::ChipSelect)?;
 
         // CLKIN must run before the ADC leaves reset.
         let mut mco = McoConfig::default();
@@ -334,6 +274,19 @@ impl Board {
             _clkin: clkin,
         })
     }
+}
+
+/// Switch the AD5761R's bus from the read-back clock
+/// ([`clocks::DAC_READBACK_SCLK_HZ`], set by [`Board::init`]) to the write
+/// clock of the sample path ([`clocks::DAC_SCLK_HZ`]): call once
+/// `Ad5761r::init` has read the control register back. Frames that read
+/// SDO after this would run at the write clock: none do (the sample path
+/// only writes).
+pub fn dac_write_clock(dac_spi: &mut SpiDev) -> Result<(), BoardError> {
+    dac_spi
+        .bus_mut()
+        .set_config(&spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ))
+        .map_err(|()| BoardError::SpiClock)
 }
 
 /// Unmask the USART3 interrupt (after its handler's state is in place).
