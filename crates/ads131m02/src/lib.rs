@@ -35,7 +35,8 @@
 //! The driver owns only the SPI device ([`Ads131m02::new`] takes it,
 //! [`Ads131m02::destroy`] gives it back). DRDY is the application's sample
 //! interrupt, so it stays with the application, which calls
-//! [`Ads131m02::read_frame`] from that interrupt. The SYNC/RESET pin must
+//! [`Ads131m02::read_frame`] from that interrupt, and hands its level to
+//! [`Ads131m02::drain`] after any pause in reading. The SYNC/RESET pin must
 //! be held high; the software RESET command does what a pin reset does and
 //! is the only reset that is acknowledged (FF22h), so the driver uses it.
 //! If the MCU restarts while the ADC runs with a non-default word length,
@@ -263,6 +264,9 @@ pub struct Ads131m02<SPI> {
     stuck_limit: u16,
     last_codes: [i32; 2],
     repeats: u16,
+    /// A data frame may have been missed (it failed on the bus, or the
+    /// application said so): the next [`Ads131m02::read_frame`] catches up.
+    behind: bool,
 }
 
 impl<SPI: SpiDevice> Ads131m02<SPI> {
@@ -281,6 +285,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             stuck_limit: 0,
             last_codes: [0; 2],
             repeats: 0,
+            behind: false,
         }
     }
 
@@ -321,6 +326,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         self.configured = false;
         self.locked = false;
         self.repeats = 0;
+        self.behind = false;
         delay.delay_us(T_REGACQ_US);
         self.command(Command::Null, &[])?;
         let id = self.read_register(Register::Id)?;
@@ -374,9 +380,58 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// [`Error::OwedResponse`]; the next frame is normal again.
     /// After [`Error::UnexpectedReset`] or a failed [`Ads131m02::configure`],
     /// call [`Ads131m02::reset`] and [`Ads131m02::configure`] again.
+    ///
+    /// Catching up: the device queues unread conversions two deep and a
+    /// frame outputs the oldest ([`Ads131m02::drain`]). After a data frame
+    /// failed on the bus ([`Error::Spi`]: its conversion may still be
+    /// queued) or [`Ads131m02::note_pause`], the next call reads one more
+    /// frame and returns the newer conversion if that frame has one
+    /// (STATUS.DRDY set), the first otherwise, so one lost frame does not
+    /// leave every later read one conversion behind. That costs one extra
+    /// frame, once.
     pub fn read_frame(&mut self) -> Result<Frame, Error<SPI::Error>> {
+        let first = self.read_one();
+        if !self.behind {
+            return first;
+        }
+        match first {
+            // Still nothing through: still behind.
+            Err(e @ Error::Spi(_)) => Err(e),
+            Err(e) => {
+                self.behind = false;
+                Err(e)
+            }
+            Ok(frame) => {
+                self.behind = false;
+                match self.read_one() {
+                    Ok(newer) => Ok(newer),
+                    // Nothing was queued behind it (or the extra frame
+                    // failed: it is not this sample's): the first stands.
+                    Err(_) => Ok(frame),
+                }
+            }
+        }
+    }
+
+    /// The application missed at least one DRDY (e.g. its sample interrupt
+    /// came two periods late): the next [`Ads131m02::read_frame`] catches
+    /// up (see there).
+    pub fn note_pause(&mut self) {
+        self.behind = true;
+    }
+
+    /// One data frame, checked.
+    fn read_one(&mut self) -> Result<Frame, Error<SPI::Error>> {
         let answered = self.pending;
-        let (response, codes) = self.command(Command::Null, &[])?;
+        let (response, codes) = match self.command(Command::Null, &[]) {
+            Ok(r) => r,
+            Err(e) => {
+                if matches!(e, Error::Spi(_)) {
+                    self.behind = true;
+                }
+                return Err(e);
+            }
+        };
         let Response::Status(status) = response else {
             return Err(Error::OwedResponse { command: answered });
         };
@@ -440,6 +495,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             frames += 1;
         }
         self.repeats = 0;
+        self.behind = false;
         Ok(Drained {
             frames,
             drdy_high: true,

@@ -173,6 +173,9 @@ fn EXTI3() {
             let missed = cycles::missed_periods(gap, clocks::CYCLES_PER_SAMPLE);
             if missed > 0 {
                 task.pipeline.note_overrun(missed);
+                // The missed conversions may still be queued in the ADC's
+                // FIFO: this tick's read catches up (one extra frame).
+                task.pipeline.converters_mut().0.driver().note_pause();
             }
         }
         task.last_entry = Some(entry);
@@ -587,7 +590,10 @@ fn wait_drdy() -> Result<(), NullError> {
 /// interrupt; started right after a tick, a frame (a few µs) ends long
 /// before the next conversion, so it delays no sample (the late-sample
 /// counter of the status line would count one that did). Call before
-/// every log line once the sample interrupt runs.
+/// every log line once the sample interrupt runs. With probe-rs attached,
+/// defmt-rtt blocks (still masked) while its 1 KiB buffer is full: at the
+/// status report's three lines a second it is far from full unless the
+/// host stops reading (then logging, and the samples with it, stall).
 fn between_samples() {
     let seen = TICKS.load(Ordering::Acquire);
     let start = cycles::now();

@@ -21,7 +21,7 @@
 //! * [`Ads131m02Model::convert`] is one DRDY period: each enabled channel's
 //!   input voltage is quantised ideally (Table 8-10): code =
 //!   round(V·gain/1.2 V·2²³), clipped to 800000h…7FFFFFh.
-//! * Output buffer: conversions queue in a two-deep FIFO ([`FIFO_DEPTH`];
+//! * Output buffer: conversions queue in a two-deep FIFO (`FIFO_DEPTH`;
 //!   the ADS131M0x data sheets' "Collecting Data for the First Time or
 //!   After a Pause in Data Collection"). A data frame outputs the **oldest**
 //!   queued conversion and removes it; a conversion that finds the FIFO
@@ -42,7 +42,9 @@
 //! model the filtered voltages. Not modelled at all: the filter's settling
 //! after a reset, a channel enable or a gain change, phase calibration,
 //! offset/gain calibration registers (stored, not applied), global chop,
-//! current detection, the register-map CRC, noise and offset, the DRDY pin itself, the SPI timeout
+//! current detection, the register-map CRC, noise and offset, the DRDY pin's edges and pulses (its level is
+//! [`Ads131m02Model::drdy_low`]), a frame cut short (it still removes the
+//! conversion it started to output), the SPI timeout
 //! and SYNC/RESET pin timing, turbo mode. The framing helpers (word packing,
 //! CRC) are the driver's own [`FrameFormat`] methods, which the driver tests
 //! check byte for byte against the data sheet; the behaviour above is
@@ -247,7 +249,7 @@ impl Ads131m02Model {
         self.queued > 0
     }
 
-    /// Conversions queued in the output FIFO (0…[`FIFO_DEPTH`]).
+    /// Conversions queued in the output FIFO (0, 1 or 2).
     pub fn queued(&self) -> usize {
         self.queued
     }
@@ -673,5 +675,57 @@ mod tests {
         let drained = adc.drain(|| true).unwrap();
         assert_eq!(drained.frames, ads131m02::DRAIN_MAX_FRAMES);
         assert!(!drained.drdy_high);
+    }
+
+    /// A data frame lost on the bus leaves its conversion queued; the
+    /// driver's next read catches up (one extra frame) instead of staying
+    /// one conversion behind.
+    #[test]
+    fn a_frame_lost_on_the_bus_does_not_leave_the_reads_behind() {
+        use super::super::Shared;
+        use ads131m02::{Ads131m02, Config, Error};
+        use core::cell::RefCell;
+        use embedded_hal::delay::DelayNs;
+
+        struct NoDelay;
+        impl DelayNs for NoDelay {
+            fn delay_ns(&mut self, _ns: u32) {}
+        }
+        let volts = |k: u32| 1e-3 * f64::from(k);
+        let model = RefCell::new(Ads131m02Model::new());
+        let convert = |k: u32| {
+            let mut m = model.borrow_mut();
+            m.set_inputs([volts(k), 0.0]);
+            m.convert();
+        };
+        let mut adc = Ads131m02::new(Shared(&model));
+        adc.reset(&mut NoDelay).unwrap();
+        adc.configure(&Config::default()).unwrap();
+        for k in 0..10 {
+            convert(k);
+            if k == 3 || k == 6 {
+                model
+                    .borrow_mut()
+                    .inject_bus_errors(if k == 3 { 1 } else { 2 });
+            }
+            match adc.read_frame() {
+                Ok(frame) => {
+                    assert_eq!(frame.channels[0].code(), quantize(volts(k), 1), "{k}");
+                }
+                // Two failures from k = 6: the reads at 6 and 7.
+                Err(Error::Spi(_)) => assert!(matches!(k, 3 | 6 | 7), "{k}"),
+                Err(e) => panic!("{k}: {e:?}"),
+            }
+        }
+        // After two lost in a row (FIFO full: 7 and 8 queued), k = 8 read
+        // its own conversion and nothing is left queued.
+        assert!(!model.borrow().drdy_low());
+        // A pause the application reports (a late tick): caught up too.
+        convert(10);
+        convert(11);
+        adc.note_pause();
+        let frame = adc.read_frame().unwrap();
+        assert_eq!(frame.channels[0].code(), quantize(volts(11), 1));
+        assert!(!model.borrow().drdy_low());
     }
 }
