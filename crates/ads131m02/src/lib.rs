@@ -389,12 +389,19 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// (STATUS.DRDY set), the first otherwise, so one lost frame does not
     /// leave every later read one conversion behind. That costs one extra
     /// frame, once.
+    #[inline]
     pub fn read_frame(&mut self) -> Result<Frame, Error<SPI::Error>> {
-        let first = self.read_one();
-        if !self.behind {
-            return first;
+        if self.behind {
+            return self.catch_up();
         }
-        match first {
+        self.read_one()
+    }
+
+    /// [`Ads131m02::read_frame`] when a frame may have been missed.
+    #[cold]
+    #[inline(never)]
+    fn catch_up(&mut self) -> Result<Frame, Error<SPI::Error>> {
+        match self.read_one() {
             // Still nothing through: still behind.
             Err(e @ Error::Spi(_)) => Err(e),
             Err(e) => {
@@ -421,6 +428,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     }
 
     /// One data frame, checked.
+    #[inline(always)]
     fn read_one(&mut self) -> Result<Frame, Error<SPI::Error>> {
         let answered = self.pending;
         let (response, codes) = match self.command(Command::Null, &[]) {
