@@ -475,9 +475,11 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// says a conversion is unread, at most [`DRAIN_MAX_FRAMES`].
     ///
     /// The device queues conversions it was not asked for in a two-deep
-    /// FIFO and a frame outputs the oldest ("Collecting Data for the First
-    /// Time or After a Pause in Data Collection" in the ADS131M0x data
-    /// sheets). After any pause of two or more conversion periods (reset
+    /// FIFO and a frame outputs the oldest (the section "Collecting Data
+    /// for the First Time or After a Pause in Data Collection" of the
+    /// ADS131M0x data sheets, whose text could not be read for this crate:
+    /// the behaviour is as that section is summarised by drivers that cite
+    /// it; confirm on hardware). After any pause of two or more conversion periods (reset
     /// and configuration, start-up work with the sample interrupt off, a
     /// re-initialisation) a host that reads one frame per DRDY falling edge
     /// would therefore stay one conversion behind for good. Call this after

@@ -32,7 +32,14 @@
 //!   (reads until DRDY is high). Which entry a full FIFO discards could not
 //!   be read in the data sheet; either choice leaves the one-frame-per-DRDY
 //!   reader one conversion behind. With the FIFO empty a frame repeats the
-//!   last data with the DRDY bits clear.
+//!   last data with the DRDY bits clear. Sources: the data sheets point to
+//!   that section for reading "after a pause from when the ADCs were last
+//!   enabled" and say a low DRDY means the latest data are unread (the
+//!   ADS131M0x/ADS131B0x DRDY sections); the section's own text could not
+//!   be read here, so the depth and the oldest-first output are from the
+//!   pre-flash review that asked for this model and from third-party
+//!   drivers that read two frames after a pause citing it — check on the
+//!   chip.
 //!
 //! # What it does not model
 //! The digital filter itself: it converts the voltages it is given. The
