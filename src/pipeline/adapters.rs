@@ -402,13 +402,22 @@ mod tests {
         model.borrow_mut().inject_bus_errors(1);
         let e = convert_and_read(&mut adc, &model, v).unwrap_err();
         assert_eq!(e.kind(), FaultKind::Bus);
+        // The failed frame did not clock the data out: the conversion is
+        // still queued. The next read catches up (the driver reads the
+        // newer one too), so nothing is left queued after it.
+        assert!(model.borrow().drdy_low());
+        let w = [2e-3, 0.2];
+        let r = convert_and_read(&mut adc, &model, w).unwrap();
+        assert_eq!(r.bridge, quantize(w[0], 128));
+        assert!(!model.borrow().drdy_low());
         // Stuck data (the driver's check, limit 4 frames): flagged stuck
-        // from the 4th identical frame (the last good frame the driver saw
-        // was the saturated one, so the run starts at the first stuck one).
+        // from the 4th identical frame (the stuck conversions repeat the
+        // last good frame's codes, `w`'s, so that frame is the run's first
+        // and the third stuck frame its 4th).
         model.borrow_mut().set_stuck(true);
         let flags: [bool; 5] =
             core::array::from_fn(|_| convert_and_read(&mut adc, &model, v).unwrap().flags.stuck);
-        assert_eq!(flags, [false, false, false, true, true]);
+        assert_eq!(flags, [false, false, true, true, true]);
         model.borrow_mut().set_stuck(false);
         assert!(
             !convert_and_read(&mut adc, &model, [1e-3, 0.0])

@@ -193,6 +193,13 @@ impl<SPI: SpiDevice> Ad5761r<SPI> {
         self.spi
     }
 
+    /// The SPI device, borrowed: e.g. to change the bus clock once
+    /// [`Ad5761r::init`] has read the control register back (a read-back
+    /// may need a slower SCLK than writes), keeping the configuration.
+    pub fn spi_mut(&mut self) -> &mut SPI {
+        &mut self.spi
+    }
+
     /// The configuration written by [`Ad5761r::init`], if any.
     pub fn config(&self) -> Option<&Config> {
         self.config.as_ref().map(|(c, _)| c)

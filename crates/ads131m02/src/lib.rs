@@ -35,7 +35,8 @@
 //! The driver owns only the SPI device ([`Ads131m02::new`] takes it,
 //! [`Ads131m02::destroy`] gives it back). DRDY is the application's sample
 //! interrupt, so it stays with the application, which calls
-//! [`Ads131m02::read_frame`] from that interrupt. The SYNC/RESET pin must
+//! [`Ads131m02::read_frame`] from that interrupt, and hands its level to
+//! [`Ads131m02::drain`] after any pause in reading. The SYNC/RESET pin must
 //! be held high; the software RESET command does what a pin reset does and
 //! is the only reset that is acknowledged (FF22h), so the driver uses it.
 //! If the MCU restarts while the ADC runs with a non-default word length,
@@ -91,6 +92,24 @@ pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;
 /// t_REGACQ, register default acquisition time after a reset before the
 /// next frame, in µs (§6.7 Switching Characteristics: 5 µs).
 pub const T_REGACQ_US: u32 = 5;
+
+/// Most frames [`Ads131m02::drain`] clocks: the two conversions the output
+/// FIFO holds after a pause, one more completing during the drain, and one
+/// spare. A frame at 10 MHz SCLK takes about 10 µs of the 100 µs period, so
+/// a working device is drained in two or three.
+pub const DRAIN_MAX_FRAMES: u8 = 4;
+
+/// What [`Ads131m02::drain`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Drained {
+    /// NULL frames clocked (their data discarded).
+    pub frames: u8,
+    /// DRDY was high at the end: nothing left unread. `false` after
+    /// [`DRAIN_MAX_FRAMES`] frames with DRDY still low (frames not reaching
+    /// the device, or DRDY miswired).
+    pub drdy_high: bool,
+}
 
 /// Which end of the ADC's range a code sits at (Table 8-10: the output
 /// clips at 7FFFFFh and 800000h).
@@ -245,6 +264,9 @@ pub struct Ads131m02<SPI> {
     stuck_limit: u16,
     last_codes: [i32; 2],
     repeats: u16,
+    /// A data frame may have been missed (it failed on the bus, or the
+    /// application said so): the next [`Ads131m02::read_frame`] catches up.
+    behind: bool,
 }
 
 impl<SPI: SpiDevice> Ads131m02<SPI> {
@@ -263,6 +285,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             stuck_limit: 0,
             last_codes: [0; 2],
             repeats: 0,
+            behind: false,
         }
     }
 
@@ -303,6 +326,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         self.configured = false;
         self.locked = false;
         self.repeats = 0;
+        self.behind = false;
         delay.delay_us(T_REGACQ_US);
         self.command(Command::Null, &[])?;
         let id = self.read_register(Register::Id)?;
@@ -356,9 +380,66 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
     /// [`Error::OwedResponse`]; the next frame is normal again.
     /// After [`Error::UnexpectedReset`] or a failed [`Ads131m02::configure`],
     /// call [`Ads131m02::reset`] and [`Ads131m02::configure`] again.
+    ///
+    /// Catching up: the device queues unread conversions two deep and a
+    /// frame outputs the oldest ([`Ads131m02::drain`]). After a data frame
+    /// failed on the bus ([`Error::Spi`]: its conversion may still be
+    /// queued) or [`Ads131m02::note_pause`], the next call reads one more
+    /// frame and returns the newer conversion if that frame has one
+    /// (STATUS.DRDY set), the first otherwise, so one lost frame does not
+    /// leave every later read one conversion behind. That costs one extra
+    /// frame, once.
+    #[inline]
     pub fn read_frame(&mut self) -> Result<Frame, Error<SPI::Error>> {
+        if self.behind {
+            return self.catch_up();
+        }
+        self.read_one()
+    }
+
+    /// [`Ads131m02::read_frame`] when a frame may have been missed.
+    #[cold]
+    #[inline(never)]
+    fn catch_up(&mut self) -> Result<Frame, Error<SPI::Error>> {
+        match self.read_one() {
+            // Still nothing through: still behind.
+            Err(e @ Error::Spi(_)) => Err(e),
+            Err(e) => {
+                self.behind = false;
+                Err(e)
+            }
+            Ok(frame) => {
+                self.behind = false;
+                match self.read_one() {
+                    Ok(newer) => Ok(newer),
+                    // Nothing was queued behind it (or the extra frame
+                    // failed: it is not this sample's): the first stands.
+                    Err(_) => Ok(frame),
+                }
+            }
+        }
+    }
+
+    /// The application missed at least one DRDY (e.g. its sample interrupt
+    /// came two periods late): the next [`Ads131m02::read_frame`] catches
+    /// up (see there).
+    pub fn note_pause(&mut self) {
+        self.behind = true;
+    }
+
+    /// One data frame, checked.
+    #[inline(always)]
+    fn read_one(&mut self) -> Result<Frame, Error<SPI::Error>> {
         let answered = self.pending;
-        let (response, codes) = self.command(Command::Null, &[])?;
+        let (response, codes) = match self.command(Command::Null, &[]) {
+            Ok(r) => r,
+            Err(e) => {
+                if matches!(e, Error::Spi(_)) {
+                    self.behind = true;
+                }
+                return Err(e);
+            }
+        };
         let Response::Status(status) = response else {
             return Err(Error::OwedResponse { command: answered });
         };
@@ -386,6 +467,48 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         Ok(Frame {
             status,
             channels: [Conversion::new(c0, g0, wl), Conversion::new(c1, g1, wl)],
+        })
+    }
+
+    /// Empty the output FIFO after a pause in reading: clock NULL frames
+    /// (data discarded) while `drdy_low()` — the application's DRDY pin —
+    /// says a conversion is unread, at most [`DRAIN_MAX_FRAMES`].
+    ///
+    /// The device queues conversions it was not asked for in a two-deep
+    /// FIFO and a frame outputs the oldest (the section "Collecting Data
+    /// for the First Time or After a Pause in Data Collection" of the
+    /// ADS131M0x data sheets, whose text could not be read for this crate:
+    /// the behaviour is as that section is summarised by drivers that cite
+    /// it; confirm on hardware). After any pause of two or more conversion periods (reset
+    /// and configuration, start-up work with the sample interrupt off, a
+    /// re-initialisation) a host that reads one frame per DRDY falling edge
+    /// would therefore stay one conversion behind for good. Call this after
+    /// every pause, then arm the DRDY interrupt: from the next falling edge
+    /// on, each frame carries the conversion that edge announced.
+    ///
+    /// Frame errors (CRC, STATUS) are returned: the frame was clocked, but
+    /// the device or the bus needs attention; [`Error::NoNewData`] cannot
+    /// occur (the data are not checked here).
+    pub fn drain(
+        &mut self,
+        mut drdy_low: impl FnMut() -> bool,
+    ) -> Result<Drained, Error<SPI::Error>> {
+        let mut frames = 0u8;
+        while drdy_low() {
+            if frames >= DRAIN_MAX_FRAMES {
+                return Ok(Drained {
+                    frames,
+                    drdy_high: false,
+                });
+            }
+            self.command(Command::Null, &[])?;
+            frames += 1;
+        }
+        self.repeats = 0;
+        self.behind = false;
+        Ok(Drained {
+            frames,
+            drdy_high: true,
         })
     }
 

@@ -25,14 +25,19 @@
 //!   wakes it even then).
 //!
 //! # Start-up
-//! 1. Board: clocks, CLKIN, pins, buses; converters reset by their pins.
-//! 2. AD5761R: software reset, ±10 V, output at mid-scale (0 V).
+//! 1. Board (after a boot log line): clocks, CLKIN, pins, buses (chip
+//!    selects high first); converters reset by their pins.
+//! 2. AD5761R: software reset, ±10 V, output at mid-scale (0 V); the
+//!    control register read back at 1.5625 MHz.
 //! 3. ADS131M02: software reset (reply and ID checked), configuration read
 //!    back: OSR 256, high resolution → 10 kSPS from the 5.12 MHz CLKIN.
-//! 4. Bridge null offset: the mean of [`rig::NULL_SAMPLES`] conversions,
-//!    read by polling DRDY, with the DAC at 0 V (the paper's "bridge offset
-//!    nulling").
-//! 5. The pipeline starts in the sample interrupt with the excitation on
+//! 4. Bridge null offset: the ADC's output FIFO drained (configuration was
+//!    a pause in reading: [`resync`]), then the mean of
+//!    [`rig::NULL_SAMPLES`] conversions, read by polling DRDY, with the DAC
+//!    at 0 V (the paper's "bridge offset nulling").
+//! 5. The FIFO drained again (the pipeline and the link took milliseconds
+//!    to build), the DRDY interrupt enabled.
+//! 6. The pipeline starts in the sample interrupt with the excitation on
 //!    and adaptation frozen; while the tuning rule's start-up window is
 //!    open (0.2 s) the interrupt copies the fed (u, y) pairs into blocks
 //!    for thread mode ([`beamest::link::StartupCollector`]); thread mode
@@ -68,14 +73,14 @@ mod link;
 mod rig;
 
 use ad5761r::Ad5761r;
-use beamest::board::nucleo::converters::Adc;
+use beamest::board::nucleo::converters::{resync, Adc};
 use beamest::board::nucleo::cycles::{self, Spans};
 use beamest::board::nucleo::shared::Shared;
 use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
 use beamest::estimator::Adaptive2;
 use beamest::link::{BuildKind, DeviceLink, StartupCollector, Tuned};
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt::{error, info, warn, Debug2Format};
 use defmt_rtt as _;
@@ -95,8 +100,20 @@ const TELEMETRY_QUEUE: usize = 8;
 const RAW_QUEUE: usize = 8;
 /// Start-up pair queue (holds 7 blocks of 32 pairs: 22 ms).
 const STARTUP_QUEUE: usize = 8;
-/// Polling DRDY at start-up gives up after this many sample periods.
-const DRDY_TIMEOUT_PERIODS: u32 = 3;
+/// Polling DRDY at start-up gives up after this long (µs). The longest
+/// wait is the first, right after `Ads131m02::configure`: a conversion
+/// still running at the reset-default OSR 1024 takes up to
+/// 2·1024/5.12 MHz = 400 µs (CLOCK reset value 030Eh, ADS131M02 data sheet
+/// Table 8-12; f_DATA = f_CLKIN/(2·OSR), §8.3.7), and if the CLOCK write
+/// restarts the filter the sinc3 needs three periods at OSR 256 to fill,
+/// 3·100 µs (§8.3.7.1; whether the write restarts it is not stated in what
+/// could be read): 700 µs at worst, so 2 ms leaves a margin of 2.8. The
+/// timeout only ever ends a boot that has no DRDY at all (no CLKIN, no
+/// ADC), so a long one costs nothing.
+const DRDY_TIMEOUT_US: u32 = 2_000;
+/// The longest thread mode waits for a sample tick before a log frame
+/// ([`between_samples`]): two sample periods (cycles).
+const LOG_WAIT_CYCLES: u32 = 2 * clocks::CYCLES_PER_SAMPLE;
 /// Records per status log line (1 s at 100 Hz).
 const LOG_EVERY_RECORDS: u32 = 100;
 /// No telemetry record for this long (cycles, 0.5 s): DRDY has stopped.
@@ -142,6 +159,9 @@ pub(crate) static SAMPLE: Shared<&'static mut SampleTask> = Shared::new();
 static SERIAL: Shared<SerialIsr> = Shared::new();
 /// Thread mode's tuning rule still wants start-up pairs.
 static COLLECTING: AtomicBool = AtomicBool::new(true);
+/// Sample ticks completed (wraps): thread mode's cue that a sample period
+/// has just begun and the sample interrupt is done with it.
+static TICKS: AtomicU32 = AtomicU32::new(0);
 
 #[interrupt]
 fn EXTI3() {
@@ -153,6 +173,9 @@ fn EXTI3() {
             let missed = cycles::missed_periods(gap, clocks::CYCLES_PER_SAMPLE);
             if missed > 0 {
                 task.pipeline.note_overrun(missed);
+                // The missed conversions may still be queued in the ADC's
+                // FIFO: this tick's read catches up (one extra frame).
+                task.pipeline.converters_mut().0.driver().note_pause();
             }
         }
         task.last_entry = Some(entry);
@@ -168,6 +191,7 @@ fn EXTI3() {
         }
         task.isr.add(cycles::between(entry, cycles::now()));
     });
+    TICKS.fetch_add(1, Ordering::Release);
 }
 
 #[interrupt]
@@ -194,6 +218,9 @@ unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
 
 #[entry]
 fn main() -> ! {
+    // Before the clock set-up: Board::init waits for the HSE, the ST-LINK's
+    // 8 MHz MCO on PH0, without a timeout; this line shows it got that far.
+    info!("beamest nucleo-rig: boot; clock set-up next (HSE = ST-LINK MCO, 8 MHz on PH0)");
     let mut b = match Board::init() {
         Ok(b) => b,
         Err(e) => fatal("board", Debug2Format(&e)),
@@ -218,6 +245,9 @@ fn main() -> ! {
         Err(e) => fatal("AD5761R init", Debug2Format(&e)),
     };
     info!("AD5761R: control read back {}", readback);
+    if let Err(e) = board::dac_write_clock(dac.spi_mut()) {
+        fatal("AD5761R write clock", Debug2Format(&e));
+    }
 
     let mut adc = match Adc::new(b.adc_spi, rig::adc_config(), &mut b.delay) {
         Ok(a) => a,
@@ -225,7 +255,7 @@ fn main() -> ! {
     };
     info!("ADS131M02: reset, configured {}", rig::adc_config());
 
-    let null_offset_v = match measure_null(&mut adc) {
+    let null_offset_v = match measure_null(&mut adc, &b.drdy) {
         Ok(v) => v,
         Err(e) => fatal("bridge null offset", e),
     };
@@ -273,7 +303,20 @@ fn main() -> ! {
     }
     let mut device = NucleoDevice;
     board::enable_serial_interrupt();
+    // Milliseconds have passed since the null measurement's last read: the
+    // ADC's FIFO is full. Drain it and drop the old DRDY edges right before
+    // the sample interrupt starts, or every tick would read the conversion
+    // before the one it was raised for.
+    match SAMPLE.with(|t| resync(t.pipeline.converters_mut().0.driver(), &b.drdy)) {
+        Some(Ok(_)) => {}
+        Some(Err(e)) => fatal(
+            "ADS131M02 drain before the sample interrupt",
+            Debug2Format(&e),
+        ),
+        None => fatal("sample task", "not placed"),
+    }
     board::enable_sample_interrupt();
+    between_samples();
     info!(
         "sample interrupt running; serial link on USART3 at {} Bd, protocol version {}; \
          tuning rule's start-up window {} s",
@@ -301,7 +344,7 @@ fn main() -> ! {
                 if record.counters != Counters::default() {
                     b.led_fault.set_high();
                 }
-                service_adc(&mut b.delay);
+                service_adc(&mut b.delay, &b.drdy);
             }
         }
         while let Some(block) = raw_rx.dequeue() {
@@ -309,7 +352,10 @@ fn main() -> ! {
         }
         link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
         match link.poll(&mut device) {
-            Ok(Some(t)) => log_build(&t, &link),
+            Ok(Some(t)) => {
+                between_samples();
+                log_build(&t, &link);
+            }
             Ok(None) => {}
             Err(e) => fatal("estimator start", e),
         }
@@ -317,6 +363,7 @@ fn main() -> ! {
             // Re-armed every 0.5 s, so the difference never wraps.
             last_record = cycles::now();
             b.led_fault.set_high();
+            between_samples();
             warn!("no sample for 0.5 s: DRDY stopped (CLKIN, ADC supply, wiring?)");
         }
         // Woken by the next interrupt (DRDY every 100 µs, SysTick every 10 ms).
@@ -381,6 +428,7 @@ fn log_build(t: &Tuned, link: &DeviceLink) {
 fn report(record: &Record, recovered: Option<Recovered<f64>>, link: &DeviceLink) {
     let r = recovered.unwrap_or_else(|| recover(record, &rig::OUTPUT_WEIGHT));
     let t_s = record.sample_index as f64 * rig::TS_S;
+    between_samples();
     match r.modal {
         Ok(m) => {
             let [w1, w2, ..] = m.omega_rad_s;
@@ -398,6 +446,7 @@ fn report(record: &Record, recovered: Option<Recovered<f64>>, link: &DeviceLink)
         s
     });
     if let Some((isr, late)) = stats {
+        between_samples();
         info!(
             "sample isr: mean {} max {} cycles of {} ({} late); counters {}",
             isr.mean(),
@@ -409,6 +458,7 @@ fn report(record: &Record, recovered: Option<Recovered<f64>>, link: &DeviceLink)
     }
     let (accepted, rejected) = link.commands();
     let tx = link.tx_stats();
+    between_samples();
     info!(
         "link: {} frames ({} bytes) sent, {} dropped; uart {}; received {} frames, {} bad; \
          commands {} accepted, {} rejected; lambda {} rad/s",
@@ -426,17 +476,24 @@ fn report(record: &Record, recovered: Option<Recovered<f64>>, link: &DeviceLink)
 
 /// Re-initialise the ADC between samples if it reset itself (at most once
 /// per status line). The interrupt is locked out for about ten frames; the
-/// conversions it misses are counted as an overrun by the next tick.
-fn service_adc(delay: &mut board::cycles::CycleDelay) {
+/// conversions it misses are counted as an overrun by the next tick. The
+/// pause leaves conversions in the ADC's FIFO: [`resync`] drains them in
+/// the same lock, so the next tick reads its own conversion.
+fn service_adc(delay: &mut board::cycles::CycleDelay, drdy: &drdy::Drdy) {
     let needed = SAMPLE
         .with(|t| t.pipeline.converters_mut().0.needs_reinit())
         .unwrap_or(false);
     if !needed {
         return;
     }
+    between_samples();
     warn!("ADS131M02 lost its settings: re-initialising");
-    let result = SAMPLE.with(|t| t.pipeline.converters_mut().0.reinit(delay).is_ok());
+    let result = SAMPLE.with(|t| {
+        let adc = &mut t.pipeline.converters_mut().0;
+        adc.reinit(delay).is_ok() && resync(adc.driver(), drdy).is_ok()
+    });
     if result != Some(true) {
+        between_samples();
         error!("ADS131M02 re-initialisation failed; retrying in 1 s");
     }
 }
@@ -450,11 +507,16 @@ enum NullError {
     Frames,
     /// The configured scale is invalid.
     Scale,
+    /// Draining the ADC's FIFO after configuration failed (the logged
+    /// error line before says why).
+    Drain,
 }
 
 /// Mean bridge voltage over [`rig::NULL_SAMPLES`] conversions, each read
 /// after a DRDY edge (polled: the sample interrupt is not enabled yet).
-fn measure_null(adc: &mut Adc<SpiDev>) -> Result<f64, NullError> {
+/// Configuration was a pause in reading: the ADC's FIFO is drained first,
+/// so each frame carries the conversion its edge announced.
+fn measure_null(adc: &mut Adc<SpiDev>, drdy: &drdy::Drdy) -> Result<f64, NullError> {
     let volts_per_code = rig::conversion(0.0)
         .bridge_adc
         .volts_per_code()
@@ -463,7 +525,10 @@ fn measure_null(adc: &mut Adc<SpiDev>) -> Result<f64, NullError> {
     let mut monitor: i64 = 0;
     let mut n: u32 = 0;
     let mut bad: u32 = 0;
-    drdy::clear_pending();
+    if let Err(e) = resync(adc.driver(), drdy) {
+        error!("ADS131M02 drain after configuration: {}", Debug2Format(&e));
+        return Err(NullError::Drain);
+    }
     for _ in 0..SETTLE_FRAMES {
         wait_drdy()?;
         // Only to advance the converter; a failed frame is as good here.
@@ -505,10 +570,10 @@ fn measure_null(adc: &mut Adc<SpiDev>) -> Result<f64, NullError> {
 }
 
 /// Wait for DRDY's next falling edge (the EXTI pending flag, set with the
-/// NVIC line still off), for at most [`DRDY_TIMEOUT_PERIODS`]; clear it.
+/// NVIC line still off), for at most [`DRDY_TIMEOUT_US`]; clear it.
 fn wait_drdy() -> Result<(), NullError> {
     let start = cycles::now();
-    let limit = DRDY_TIMEOUT_PERIODS * clocks::CYCLES_PER_SAMPLE;
+    let limit = DRDY_TIMEOUT_US * (clocks::CPU_HZ / 1_000_000);
     while !drdy::is_pending() {
         if cycles::between(start, cycles::now()) > limit {
             return Err(NullError::NoDrdy);
@@ -516,6 +581,27 @@ fn wait_drdy() -> Result<(), NullError> {
     }
     drdy::clear_pending();
     Ok(())
+}
+
+/// Wait until the sample interrupt has just finished a tick (or two sample
+/// periods have passed: DRDY stopped), so that the defmt log frame thread
+/// mode writes next runs in the idle rest of a sample period. defmt-rtt
+/// writes each frame inside a critical section that masks the DRDY
+/// interrupt; started right after a tick, a frame (a few µs) ends long
+/// before the next conversion, so it delays no sample (the late-sample
+/// counter of the status line would count one that did). Call before
+/// every log line once the sample interrupt runs. With probe-rs attached,
+/// defmt-rtt blocks (still masked) while its 1 KiB buffer is full: at the
+/// status report's three lines a second it is far from full unless the
+/// host stops reading (then logging, and the samples with it, stall).
+fn between_samples() {
+    let seen = TICKS.load(Ordering::Acquire);
+    let start = cycles::now();
+    while TICKS.load(Ordering::Acquire) == seen {
+        if cycles::between(start, cycles::now()) > LOG_WAIT_CYCLES {
+            return;
+        }
+    }
 }
 
 /// Start-up failure: piezo to 0 V, LD3 on, say why, stop.

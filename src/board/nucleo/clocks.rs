@@ -148,9 +148,24 @@ pub const SPI4_KERNEL_HZ: u32 = APB_HZ;
 /// (t_c(SC) ≥ 40 ns, data sheet §6.6); 10 MHz leaves margin for jumper
 /// wires and clocks a 12-byte frame in 9.6 µs.
 pub const ADC_SCLK_HZ: u32 = SPI1_KERNEL_HZ / 16;
-/// DAC SCLK (Hz): SPI4 kernel /8 (the AD5761R's write clock is specified
-/// well above this; 3 bytes take 1.9 µs).
+/// DAC SCLK (Hz) for writes (the sample path): SPI4 kernel /8 (the
+/// AD5761R's write clock is specified well above this; 3 bytes take 1.9 µs).
 pub const DAC_SCLK_HZ: u32 = SPI4_KERNEL_HZ / 8;
+/// DAC SCLK (Hz) during `Ad5761r::init` (software reset, control write
+/// and its read-back: five 24-bit frames, 77 µs at boot): SPI4 kernel /64
+/// = 1.5625 MHz, 320 ns per half period. In SPI mode 1 the AD5761R changes
+/// SDO on one SCLK edge and the STM32 samples MISO on the next, half a
+/// period later; at 12.5 MHz that is 40 ns, which must cover the DAC's
+/// SDO-valid delay, the wires and the STM32H743's MISO set-up. The AD5761R
+/// data sheet's read-back timing (its SCLK limit with SDO in use and the
+/// SDO-valid delay) could not be read here, and ADI's serial DACs commonly
+/// let SDO lag SCLK by 25–40 ns (e.g. the AD5686R data sheet, Table 5:
+/// t10 ≤ 25 ns and SCLK cycle ≥ 40 ns for daisy-chain and read-back), so
+/// 12.5 MHz is not shown to be safe for read-back; 320 ns is eight times
+/// the 40 ns. The sample path's writes run at [`DAC_SCLK_HZ`]
+/// (`board::nucleo::dac_write_clock`, called after the read-back). Not
+/// verified on hardware.
+pub const DAC_READBACK_SCLK_HZ: u32 = SPI4_KERNEL_HZ / 64;
 
 /// USART3 kernel clock (Hz): pll3_q.
 pub const USART3_KERNEL_HZ: u32 = PLL3.q_hz();
@@ -174,6 +189,8 @@ const _: () = assert!(CLKIN_HZ >= 300_000 && CLKIN_HZ <= 8_400_000);
 const _: () = assert!(ADC_SCLK_HZ == 10_000_000 && SPI1_KERNEL_HZ % ADC_SCLK_HZ == 0);
 const _: () = assert!(ADC_SCLK_HZ <= 25_000_000);
 const _: () = assert!(DAC_SCLK_HZ == 12_500_000 && SPI4_KERNEL_HZ % DAC_SCLK_HZ == 0);
+const _: () =
+    assert!(DAC_READBACK_SCLK_HZ == 1_562_500 && SPI4_KERNEL_HZ % DAC_READBACK_SCLK_HZ == 0);
 // 921,600 Bd with no rounding: BRR ≥ 16 with 16× oversampling (RM0433,
 // USART_BRR) and exact.
 const _: () = assert!(USART3_KERNEL_HZ % BAUD == 0 && USART3_BRR >= 16);

@@ -29,8 +29,8 @@
 //! | ADC CS | PD14 | D10 | GPIO out |
 //! | ADC DRDY | PF3 | D8 | EXTI3, falling edge |
 //! | ADC SYNC/RESET | PG12 | D7 | GPIO out, high = run |
-//! | ADC CLKIN | PC9 | D44 | MCO2 (AF0), 5.12 MHz |
-//! | DAC SCLK | PE2 | D56 | SPI4_SCK (AF5) |
+//! | ADC CLKIN | PC9 | D44 (Zio CN8 only) | MCO2 (AF0), 5.12 MHz |
+//! | DAC SCLK | PE2 | D56 | SPI4_SCK (AF5), [`dac_write_clock`] |
 //! | DAC SDO → MCU | PE5 | D58 | SPI4_MISO (AF5) |
 //! | DAC SDI ← MCU | PE6 | D59 | SPI4_MOSI (AF5) |
 //! | DAC SYNC (CS) | PE4 | D57 | GPIO out |
@@ -98,7 +98,9 @@ pub type SpiDev =
 pub struct Board {
     /// SPI1 + CS (PD14): the ADS131M02.
     pub adc_spi: SpiDev,
-    /// SPI4 + CS (PE4): the AD5761R.
+    /// SPI4 + CS (PE4): the AD5761R, at [`clocks::DAC_READBACK_SCLK_HZ`]
+    /// for `Ad5761r::init` (its read-back); [`dac_write_clock`] switches it
+    /// to [`clocks::DAC_SCLK_HZ`] for the sample path.
     pub dac_spi: SpiDev,
     /// The sample tick (DRDY on PF3, EXTI3).
     pub drdy: drdy::Drdy,
@@ -129,6 +131,8 @@ pub enum BoardError {
     Usart,
     /// A chip-select pin could not be driven.
     ChipSelect,
+    /// The HAL refused an SPI clock change.
+    SpiClock,
 }
 
 impl core::fmt::Display for BoardError {
@@ -137,6 +141,7 @@ impl core::fmt::Display for BoardError {
             Self::CorePeripheralsTaken => "core peripherals already taken",
             Self::Usart => "USART3 configuration refused",
             Self::ChipSelect => "chip-select pin error",
+            Self::SpiClock => "SPI clock change refused",
         })
     }
 }
@@ -200,11 +205,35 @@ impl Board {
         let p = embassy_stm32::init(clocks::hal_config());
         let mut delay = CycleDelay::new(clocks::CPU_HZ);
 
-        // The DAC first: held in reset (output at its power-on level) and
-        // not cleared, until its driver configures it.
+        // Both converters held in reset (the DAC's output at its power-on
+        // level, not cleared) until their chip selects are driven high and
+        // their buses configured, so neither sees a frame start or stray
+        // clocks when it leaves reset.
         let mut dac_reset = Output::new(p.PG14, Level::Low, Speed::Low);
         let dac_clear = Output::new(p.PE13, Level::High, Speed::Low);
         let mut adc_sync_reset = Output::new(p.PG12, Level::Low, Speed::Low);
+        let adc_cs = Output::new(p.PD14, Level::High, Speed::High);
+        let dac_cs = Output::new(p.PE4, Level::High, Speed::High);
+
+        let adc_bus = Spi::new_blocking(
+            p.SPI1,
+            p.PA5,
+            p.PB5,
+            p.PA6,
+            spi_config(ads131m02::SPI_MODE, clocks::ADC_SCLK_HZ),
+        );
+        let adc_spi =
+            ExclusiveDevice::new(adc_bus, adc_cs, delay).map_err(|_| BoardError::ChipSelect)?;
+
+        let dac_bus = Spi::new_blocking(
+            p.SPI4,
+            p.PE2,
+            p.PE6,
+            p.PE5,
+            spi_config(ad5761r::SPI_MODE, clocks::DAC_READBACK_SCLK_HZ),
+        );
+        let dac_spi =
+            ExclusiveDevice::new(dac_bus, dac_cs, delay).map_err(|_| BoardError::ChipSelect)?;
 
         // CLKIN must run before the ADC leaves reset.
         let mut mco = McoConfig::default();
@@ -217,28 +246,6 @@ impl Board {
         delay.delay_us(DAC_RESET_US);
         dac_reset.set_high();
         delay.delay_us(DAC_RESET_US);
-
-        let adc_bus = Spi::new_blocking(
-            p.SPI1,
-            p.PA5,
-            p.PB5,
-            p.PA6,
-            spi_config(ads131m02::SPI_MODE, clocks::ADC_SCLK_HZ),
-        );
-        let adc_cs = Output::new(p.PD14, Level::High, Speed::High);
-        let adc_spi =
-            ExclusiveDevice::new(adc_bus, adc_cs, delay).map_err(|_| BoardError::ChipSelect)?;
-
-        let dac_bus = Spi::new_blocking(
-            p.SPI4,
-            p.PE2,
-            p.PE6,
-            p.PE5,
-            spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ),
-        );
-        let dac_cs = Output::new(p.PE4, Level::High, Speed::High);
-        let dac_spi =
-            ExclusiveDevice::new(dac_bus, dac_cs, delay).map_err(|_| BoardError::ChipSelect)?;
 
         let drdy = drdy::Drdy::new(p.PF3);
 
@@ -269,6 +276,19 @@ impl Board {
     }
 }
 
+/// Switch the AD5761R's bus from the read-back clock
+/// ([`clocks::DAC_READBACK_SCLK_HZ`], set by [`Board::init`]) to the write
+/// clock of the sample path ([`clocks::DAC_SCLK_HZ`]): call once
+/// `Ad5761r::init` has read the control register back. Frames that read
+/// SDO after this would run at the write clock: none do (the sample path
+/// only writes).
+pub fn dac_write_clock(dac_spi: &mut SpiDev) -> Result<(), BoardError> {
+    dac_spi
+        .bus_mut()
+        .set_config(&spi_config(ad5761r::SPI_MODE, clocks::DAC_SCLK_HZ))
+        .map_err(|()| BoardError::SpiClock)
+}
+
 /// Unmask the USART3 interrupt (after its handler's state is in place).
 pub fn enable_serial_interrupt() {
     interrupt::USART3.unpend();
@@ -277,13 +297,20 @@ pub fn enable_serial_interrupt() {
     unsafe { interrupt::USART3.enable() };
 }
 
-/// Unmask the sample interrupt (after the pipeline is in place). A DRDY
-/// edge from before is discarded: the first tick is the next conversion.
+/// Unmask the sample interrupt (after the pipeline is in place and
+/// [`converters::resync`] has drained the ADC and cleared older DRDY
+/// edges). An edge pending now announces a conversion that came after the
+/// drain, so it is kept: the first tick reads that conversion.
 pub fn enable_sample_interrupt() {
-    drdy::clear_pending();
-    interrupt::EXTI3.unpend();
     // SAFETY: as for `enable_serial_interrupt`.
     unsafe { interrupt::EXTI3.enable() };
+}
+
+/// Clear a DRDY edge the sample interrupt must not see (its conversion
+/// was read, or drained, in thread mode): the EXTI flag and the NVIC's.
+pub fn discard_sample_edge() {
+    drdy::clear_pending();
+    interrupt::EXTI3.unpend();
 }
 
 /// Mask the sample interrupt (before stopping the converters).

@@ -20,8 +20,26 @@
 //!   conversions until WAKEUP.
 //! * [`Ads131m02Model::convert`] is one DRDY period: each enabled channel's
 //!   input voltage is quantised ideally (Table 8-10): code =
-//!   round(V·gain/1.2 V·2²³), clipped to 800000h…7FFFFFh; DRDY bits set.
-//!   Outputting the data in a frame clears them.
+//!   round(V·gain/1.2 V·2²³), clipped to 800000h…7FFFFFh.
+//! * Output buffer: conversions queue in a two-deep FIFO (`FIFO_DEPTH`;
+//!   the ADS131M0x data sheets' "Collecting Data for the First Time or
+//!   After a Pause in Data Collection"). A data frame outputs the **oldest**
+//!   queued conversion and removes it; a conversion that finds the FIFO
+//!   full discards the oldest entry. STATUS.DRDYn and the DRDY pin
+//!   ([`Ads131m02Model::drdy_low`]) show whether anything is queued. So a
+//!   host that lets two conversions pile up (a pause) and then reads one
+//!   frame per DRDY stays one conversion behind until it drains the FIFO
+//!   (reads until DRDY is high). Which entry a full FIFO discards could not
+//!   be read in the data sheet; either choice leaves the one-frame-per-DRDY
+//!   reader one conversion behind. With the FIFO empty a frame repeats the
+//!   last data with the DRDY bits clear. Sources: the data sheets point to
+//!   that section for reading "after a pause from when the ADCs were last
+//!   enabled" and say a low DRDY means the latest data are unread (the
+//!   ADS131M0x/ADS131B0x DRDY sections); the section's own text could not
+//!   be read here, so the depth and the oldest-first output are from the
+//!   pre-flash review that asked for this model and from third-party
+//!   drivers that read two frames after a pause citing it — check on the
+//!   chip.
 //!
 //! # What it does not model
 //! The digital filter itself: it converts the voltages it is given. The
@@ -31,7 +49,9 @@
 //! model the filtered voltages. Not modelled at all: the filter's settling
 //! after a reset, a channel enable or a gain change, phase calibration,
 //! offset/gain calibration registers (stored, not applied), global chop,
-//! current detection, the register-map CRC, noise and offset, the DRDY pin itself, the SPI timeout
+//! current detection, the register-map CRC, noise and offset, the DRDY pin's edges and pulses (its level is
+//! [`Ads131m02Model::drdy_low`]), a frame cut short (it still removes the
+//! conversion it started to output), the SPI timeout
 //! and SYNC/RESET pin timing, turbo mode. The framing helpers (word packing,
 //! CRC) are the driver's own [`FrameFormat`] methods, which the driver tests
 //! check byte for byte against the data sheet; the behaviour above is
@@ -52,6 +72,8 @@ use super::{clock_operations, ModelBusError};
 const MAX_REGISTERS: usize = 64;
 /// Bytes of the longest frame the model answers (ack, 64 registers, CRC).
 const BUF_BYTES: usize = (MAX_REGISTERS + 2) * MAX_WORD_BYTES;
+/// Depth of the conversion-data FIFO (see the module docs).
+pub const FIFO_DEPTH: usize = 2;
 /// Writable bits of MODE, CLOCK, GAIN1 (Table 8-12).
 const MODE_MASK: u16 = 0x3F1F;
 const CLOCK_MASK: u16 = 0x033F;
@@ -84,8 +106,15 @@ pub struct Ads131m02Model {
     id: u16,
     regs: [u16; 64],
     inputs_volts: [f64; 2],
+    /// The latest conversion's codes.
     codes: [i32; 2],
-    drdy: [bool; 2],
+    /// Queued conversions, oldest first: codes and the channels that
+    /// were enabled (their DRDYn bits).
+    fifo: [([i32; 2], [bool; 2]); FIFO_DEPTH],
+    queued: usize,
+    /// The data the last data frame output (repeated while the FIFO is
+    /// empty).
+    output: [i32; 2],
     answer: Answer,
     crc_error: bool,
     standby: bool,
@@ -123,7 +152,9 @@ impl Ads131m02Model {
             regs: [0; 64],
             inputs_volts: [0.0; 2],
             codes: [0; 2],
-            drdy: [false; 2],
+            fifo: [([0; 2], [false; 2]); FIFO_DEPTH],
+            queued: 0,
+            output: [0; 2],
             answer: Answer::Status,
             crc_error: false,
             standby: false,
@@ -148,7 +179,8 @@ impl Ads131m02Model {
             }
         }
         self.codes = [0; 2];
-        self.drdy = [false; 2];
+        self.queued = 0;
+        self.output = [0; 2];
         self.crc_error = false;
         self.standby = false;
         self.locked = false;
@@ -175,9 +207,9 @@ impl Ads131m02Model {
         self.inputs_volts
     }
 
-    /// One DRDY period: quantise the inputs into the data the next frame
-    /// returns and set DRDY. Nothing happens in standby or while a dropped
-    /// conversion is injected.
+    /// One DRDY period: quantise the inputs and queue the conversion in the
+    /// output FIFO (discarding the oldest entry if it is full). Nothing
+    /// happens in standby or while a dropped conversion is injected.
     pub fn convert(&mut self) {
         if self.standby {
             return;
@@ -188,6 +220,7 @@ impl Ads131m02Model {
         }
         let clock = self.reg(Register::Clock);
         let gains = Gain::from_bits(self.reg(Register::Gain)).pga;
+        let mut ready = [false; 2];
         for (ch, gain) in gains.into_iter().enumerate() {
             let enabled = clock & (1 << (8 + ch)) != 0;
             let g = gain.factor();
@@ -202,14 +235,54 @@ impl Ads131m02Model {
             if let Some(c) = self.codes.get_mut(ch) {
                 *c = code;
             }
-            if let Some(d) = self.drdy.get_mut(ch) {
+            if let Some(d) = ready.get_mut(ch) {
                 *d = enabled;
             }
+        }
+        if self.queued == FIFO_DEPTH {
+            self.fifo.rotate_left(1);
+            self.queued -= 1;
+        }
+        if let Some(slot) = self.fifo.get_mut(self.queued) {
+            *slot = (self.codes, ready);
+            self.queued += 1;
         }
         self.stats.conversions += 1;
     }
 
-    /// The codes of the latest conversion (24-bit scale).
+    /// The DRDY pin is low (DRDY_FMT = 0, a logic level): at least one
+    /// conversion is queued and unread.
+    pub fn drdy_low(&self) -> bool {
+        self.queued > 0
+    }
+
+    /// Conversions queued in the output FIFO (0, 1 or 2).
+    pub fn queued(&self) -> usize {
+        self.queued
+    }
+
+    /// STATUS.DRDYn: the oldest queued conversion's channels.
+    fn drdy(&self) -> [bool; 2] {
+        match self.fifo.first() {
+            Some((_, ready)) if self.queued > 0 => *ready,
+            _ => [false; 2],
+        }
+    }
+
+    /// Output the oldest queued conversion (removing it), or repeat the
+    /// last output if none is queued.
+    fn pop(&mut self) -> [i32; 2] {
+        if self.queued > 0 {
+            if let Some((codes, _)) = self.fifo.first() {
+                self.output = *codes;
+            }
+            self.fifo.rotate_left(1);
+            self.queued -= 1;
+        }
+        self.output
+    }
+
+    /// The codes of the latest conversion (24-bit scale), queued or read.
     pub fn codes(&self) -> [i32; 2] {
         self.codes
     }
@@ -293,7 +366,7 @@ impl Ads131m02Model {
             crc_type: f.crc_type,
             reset: self.reg(Register::Mode) & (1 << 10) != 0,
             word_length: f.word_length,
-            drdy: self.drdy,
+            drdy: self.drdy(),
         }
     }
 
@@ -349,11 +422,11 @@ impl Ads131m02Model {
                     }
                 };
                 f.put_word16(out, 0, first);
-                let [c0, c1] = self.codes;
+                // The data are read: the oldest queued conversion leaves
+                // the FIFO.
+                let [c0, c1] = self.pop();
                 f.put_data(out, 1, c0);
                 f.put_data(out, 2, c1);
-                // The data have been read.
-                self.drdy = [false; 2];
                 4
             }
         };
@@ -476,7 +549,7 @@ impl SpiDevice for Ads131m02Model {
 }
 
 #[cfg(test)]
-#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used, clippy::panic)]
 mod tests {
     use super::*;
 
@@ -510,5 +583,156 @@ mod tests {
         assert_eq!(m.register(Register::Id), 0x2203);
         m.write_addr(Register::Gain.addr(), 0xFFFF);
         assert_eq!(m.register(Register::Gain), 0x0077);
+    }
+
+    #[test]
+    fn conversions_queue_two_deep_and_frames_output_the_oldest() {
+        let mut m = Ads131m02Model::new();
+        assert!(!m.drdy_low());
+        for k in 1..=3 {
+            m.set_inputs([f64::from(k) * 0.1, 0.0]);
+            m.convert();
+        }
+        // Three conversions, two kept: the second and the third.
+        assert_eq!(m.queued(), FIFO_DEPTH);
+        assert!(m.drdy_low());
+        assert_eq!(m.register(Register::Status) & 0b11, 0b11);
+        let f = m.format();
+        let mut out = [0u8; BUF_BYTES];
+        m.begin_frame(f, &mut out);
+        assert_eq!(f.data(&out, 1), quantize(0.2, 1));
+        assert!(m.drdy_low());
+        m.begin_frame(f, &mut out);
+        assert_eq!(f.data(&out, 1), quantize(0.3, 1));
+        assert!(!m.drdy_low());
+        assert_eq!(m.register(Register::Status) & 0b11, 0);
+        // Empty: the last data again, DRDY bits clear.
+        m.begin_frame(f, &mut out);
+        assert_eq!(f.data(&out, 1), quantize(0.3, 1));
+        assert_eq!(f.word16(&out, 0) & 0b11, 0);
+        m.convert();
+        m.brown_out();
+        assert_eq!(m.queued(), 0);
+    }
+
+    /// The pause the reference board has between configuring the ADC and
+    /// arming the DRDY interrupt, with the driver: reading one frame per
+    /// conversion afterwards lags one conversion for as long as it goes
+    /// on; after [`ads131m02::Ads131m02::drain`] it does not lag.
+    #[test]
+    fn after_a_pause_one_frame_per_drdy_lags_until_drained() {
+        use super::super::Shared;
+        use ads131m02::{Ads131m02, Config};
+        use core::cell::RefCell;
+        use embedded_hal::delay::DelayNs;
+
+        struct NoDelay;
+        impl DelayNs for NoDelay {
+            fn delay_ns(&mut self, _ns: u32) {}
+        }
+        let volts = |k: u32| 1e-3 * f64::from(k);
+        let model = RefCell::new(Ads131m02Model::new());
+        let convert = |k: u32| {
+            let mut m = model.borrow_mut();
+            m.set_inputs([volts(k), -volts(k)]);
+            m.convert();
+        };
+        let mut adc = Ads131m02::new(Shared(&model));
+        adc.reset(&mut NoDelay).unwrap();
+        adc.configure(&Config::default()).unwrap();
+        // The pause: conversions nobody reads.
+        let mut k = 0;
+        for _ in 0..5 {
+            convert(k);
+            k += 1;
+        }
+        // One frame per conversion, as the sample interrupt does: the
+        // frame carries the conversion before the one just announced.
+        for _ in 0..20 {
+            convert(k);
+            let frame = adc.read_frame().unwrap();
+            assert_eq!(frame.channels[0].code(), quantize(volts(k - 1), 1));
+            assert_eq!(frame.channels[1].code(), quantize(-volts(k - 1), 1));
+            assert!(model.borrow().drdy_low());
+            k += 1;
+        }
+        // Drain to DRDY high: the conversion each read left queued goes.
+        let drained = adc.drain(|| model.borrow().drdy_low()).unwrap();
+        assert_eq!(drained.frames, 1);
+        assert!(drained.drdy_high);
+        // From the next conversion on, no lag.
+        for _ in 0..20 {
+            convert(k);
+            let frame = adc.read_frame().unwrap();
+            assert_eq!(frame.channels[0].code(), quantize(volts(k), 1));
+            assert!(!model.borrow().drdy_low());
+            k += 1;
+        }
+        // A drain with nothing queued clocks nothing; right after a pause
+        // it clocks the FIFO's two.
+        let drained = adc.drain(|| model.borrow().drdy_low()).unwrap();
+        assert_eq!(drained.frames, 0);
+        for _ in 0..3 {
+            convert(k);
+            k += 1;
+        }
+        let drained = adc.drain(|| model.borrow().drdy_low()).unwrap();
+        assert_eq!(drained.frames, 2);
+        // DRDY that never goes high stops after DRAIN_MAX_FRAMES.
+        let drained = adc.drain(|| true).unwrap();
+        assert_eq!(drained.frames, ads131m02::DRAIN_MAX_FRAMES);
+        assert!(!drained.drdy_high);
+    }
+
+    /// A data frame lost on the bus leaves its conversion queued; the
+    /// driver's next read catches up (one extra frame) instead of staying
+    /// one conversion behind.
+    #[test]
+    fn a_frame_lost_on_the_bus_does_not_leave_the_reads_behind() {
+        use super::super::Shared;
+        use ads131m02::{Ads131m02, Config, Error};
+        use core::cell::RefCell;
+        use embedded_hal::delay::DelayNs;
+
+        struct NoDelay;
+        impl DelayNs for NoDelay {
+            fn delay_ns(&mut self, _ns: u32) {}
+        }
+        let volts = |k: u32| 1e-3 * f64::from(k);
+        let model = RefCell::new(Ads131m02Model::new());
+        let convert = |k: u32| {
+            let mut m = model.borrow_mut();
+            m.set_inputs([volts(k), 0.0]);
+            m.convert();
+        };
+        let mut adc = Ads131m02::new(Shared(&model));
+        adc.reset(&mut NoDelay).unwrap();
+        adc.configure(&Config::default()).unwrap();
+        for k in 0..10 {
+            convert(k);
+            if k == 3 || k == 6 {
+                model
+                    .borrow_mut()
+                    .inject_bus_errors(if k == 3 { 1 } else { 2 });
+            }
+            match adc.read_frame() {
+                Ok(frame) => {
+                    assert_eq!(frame.channels[0].code(), quantize(volts(k), 1), "{k}");
+                }
+                // Two failures from k = 6: the reads at 6 and 7.
+                Err(Error::Spi(_)) => assert!(matches!(k, 3 | 6 | 7), "{k}"),
+                Err(e) => panic!("{k}: {e:?}"),
+            }
+        }
+        // After two lost in a row (FIFO full: 7 and 8 queued), k = 8 read
+        // its own conversion and nothing is left queued.
+        assert!(!model.borrow().drdy_low());
+        // A pause the application reports (a late tick): caught up too.
+        convert(10);
+        convert(11);
+        adc.note_pause();
+        let frame = adc.read_frame().unwrap();
+        assert_eq!(frame.channels[0].code(), quantize(volts(11), 1));
+        assert!(!model.borrow().drdy_low());
     }
 }

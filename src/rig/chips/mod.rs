@@ -6,7 +6,8 @@
 //!
 //! * [`Ads131m02Model`] — the ADC: register file, previous-command
 //!   responses, CRC, and one quantised conversion per [`Ads131m02Model::convert`]
-//!   of the voltages set with [`Ads131m02Model::set_inputs`]; injectable
+//!   of the voltages set with [`Ads131m02Model::set_inputs`], queued in a
+//!   two-deep output FIFO like the chip's (DRDY level: [`Ads131m02Model::drdy_low`]); injectable
 //!   faults (bad CRC, stuck data, saturation, dropped conversions, bus
 //!   errors, a brown-out reset).
 //! * [`Ad5761rModel`] — the DAC: decodes writes and readbacks and holds the
