@@ -263,7 +263,10 @@ fn crlb_takes_the_drive_and_the_sample_interval() {
     ));
     // The same bound (the σ of the SNR is summed in another order).
     for k in ["omega", "zeta", "bbar"] {
-        for (a, b) in arr(&sim["crlb"][k]["rel"]).iter().zip(arr(&bound[k]["rel"])) {
+        for (a, b) in arr(&sim["crlb"][k]["rel"])
+            .iter()
+            .zip(arr(&bound[k]["rel"]))
+        {
             assert!((a / b - 1.0).abs() < 1e-12, "{k}: {a} vs {b}");
         }
     }

@@ -193,3 +193,79 @@ fn seeds_run_with_a_scenario() {
         );
     }
 }
+
+/// `--hum` and `--noise-colour` put a lab's disturbances on y: reported in
+/// the JSON, no Cramér–Rao bound with them, refused where they make no
+/// sense; the CSV's y carries the line.
+#[test]
+fn hum_and_coloured_noise_are_simulated_and_reported() {
+    let csv = scratch("hum.csv");
+    let clean_csv = scratch("clean.csv");
+    let base = ["simulate", "--json", "--duration", "2", "--snr-db", "60"];
+    let hum = json(&beamctl(
+        &[
+            &base[..],
+            &["--hum", "50:0.03,150:0.01", "--csv", csv.to_str().unwrap()],
+        ]
+        .concat(),
+    ));
+    let clean = json(&beamctl(
+        &[&base[..], &["--csv", clean_csv.to_str().unwrap()]].concat(),
+    ));
+    assert_eq!(hum["hum"][0]["freq_hz"], 50.0);
+    assert_eq!(hum["hum"][1]["level"], 0.01);
+    assert!(hum["crlb"].is_null() && !clean["crlb"].is_null());
+    assert_ne!(hum["estimate"], clean["estimate"]);
+    // y − y_clean (same noise seed) is the two lines: RMS √(0.03² + 0.01²)
+    // of the noise-free y's RMS, which 60 dB of noise barely moves.
+    let column = |p: &PathBuf| -> Vec<f64> {
+        let text = std::fs::read_to_string(p).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let y = header.iter().position(|h| *h == "y").expect("y column");
+        lines
+            .map(|l| l.split(',').nth(y).unwrap().parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (column(&csv), column(&clean_csv));
+    let rms = |v: &mut dyn Iterator<Item = f64>| {
+        let (s, n) = v.fold((0.0, 0), |(s, n), x| (s + x * x, n + 1));
+        (s / n as f64).sqrt()
+    };
+    let line_rms = rms(&mut a.iter().zip(&b).map(|(a, b)| a - b));
+    let y_rms = rms(&mut b.iter().copied());
+    let expected = (0.03f64.powi(2) + 0.01f64.powi(2)).sqrt();
+    assert!(
+        (line_rms / y_rms / expected - 1.0).abs() < 0.02,
+        "{line_rms} / {y_rms}"
+    );
+    let coloured = json(&beamctl(
+        &[&base[..], &["--noise-colour", "lowpass:50"]].concat(),
+    ));
+    assert_eq!(coloured["noise_colour"]["low_pass"]["corner_hz"], 50.0);
+    assert!(coloured["crlb"].is_null());
+    for (args, flag) in [
+        (
+            vec!["simulate", "--noise-colour", "lowpass:50"],
+            "--noise-colour",
+        ),
+        (vec!["simulate", "--hum", "6000:0.1"], "--hum"),
+        (vec!["simulate", "--hum", "50"], "--hum"),
+        (
+            vec![
+                "simulate",
+                "--snr-db",
+                "40",
+                "--hum",
+                "50:0.03",
+                "--model-set",
+                "tf",
+            ],
+            "--model-set",
+        ),
+    ] {
+        let o = beamctl(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr(&o).contains(flag), "{args:?}: {}", stderr(&o));
+    }
+}

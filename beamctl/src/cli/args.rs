@@ -97,6 +97,53 @@ fn parse_seeds(s: &str) -> Result<SeedList, String> {
     Ok(SeedList(seeds))
 }
 
+/// `--hum HZ:LEVEL,...`: lines in y.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HumList(pub Vec<crate::run::disturbance::HumLine>);
+
+fn parse_hum(s: &str) -> Result<HumList, String> {
+    s.split(',')
+        .map(|item| {
+            let (f, l) = item
+                .split_once(':')
+                .ok_or_else(|| format!("'{item}': write HZ:LEVEL (e.g. 50:0.03)"))?;
+            let freq_hz: f64 = f
+                .trim()
+                .parse()
+                .map_err(|_| format!("'{f}' is not a frequency in Hz"))?;
+            let level: f64 = l.trim().parse().map_err(|_| {
+                format!("'{l}' is not a level (the line's RMS ÷ the noise-free y's)")
+            })?;
+            if !(freq_hz.is_finite() && freq_hz > 0.0) {
+                return Err(format!("the frequency must be > 0 Hz (got {f})"));
+            }
+            if !(level.is_finite() && level >= 0.0) {
+                return Err(format!("the level must be a finite number ≥ 0 (got {l})"));
+            }
+            Ok(crate::run::disturbance::HumLine { freq_hz, level })
+        })
+        .collect::<Result<_, _>>()
+        .map(HumList)
+}
+
+/// `--noise-colour white|lowpass:HZ`.
+fn parse_colour(s: &str) -> Result<crate::run::disturbance::NoiseColour, String> {
+    use crate::run::disturbance::NoiseColour;
+    if s == "white" {
+        return Ok(NoiseColour::White);
+    }
+    let hz = s
+        .strip_prefix("lowpass:")
+        .ok_or_else(|| format!("'{s}': write white or lowpass:HZ"))?;
+    let corner_hz: f64 = hz
+        .parse()
+        .map_err(|_| format!("'{hz}' is not a corner frequency in Hz"))?;
+    if !(corner_hz.is_finite() && corner_hz > 0.0) {
+        return Err(format!("the corner must be > 0 Hz (got {hz})"));
+    }
+    Ok(NoiseColour::LowPass { corner_hz })
+}
+
 /// Floating-point type of the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum PrecisionChoice {
@@ -258,6 +305,19 @@ pub struct SimulateArgs {
         conflicts_with = "snr_db"
     )]
     pub noise_sd: Option<f64>,
+
+    /// Lines in y that u does not drive (mains hum): HZ:LEVEL,..., LEVEL the
+    /// line's RMS ÷ the noise-free y's RMS (e.g. 50:0.03,150:0.01); their
+    /// phases come from --seed. No Cramér–Rao bound is computed with them.
+    #[arg(long, value_name = "HZ:LEVEL,...", value_parser = parse_hum)]
+    pub hum: Option<HumList>,
+
+    /// Spectrum of the measurement noise: white, or lowpass:HZ (the white
+    /// noise through a first-order low-pass at HZ with unit power gain:
+    /// same σ, flat below HZ, −20 dB/decade above). Needs --snr-db or
+    /// --noise-sd; no Cramér–Rao bound is computed with a coloured noise.
+    #[arg(long, value_name = "SPECTRUM", value_parser = parse_colour)]
+    pub noise_colour: Option<crate::run::disturbance::NoiseColour>,
 
     /// Seed of the measurement noise (used with --snr-db/--noise-sd).
     #[arg(

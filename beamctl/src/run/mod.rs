@@ -17,6 +17,7 @@
 //! module (the simulated rig of a run and the run loop) and [`seeds`] (one
 //! configuration over several noise seeds).
 
+pub mod disturbance;
 pub mod drive;
 pub mod error;
 pub mod estimator;
@@ -48,6 +49,7 @@ use beamest::model::ModalParams;
 use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
+use disturbance::{DisturbedRig, HumLine, NoiseColour};
 use serde::Serialize;
 
 /// Floating-point type of the estimator.
@@ -112,6 +114,10 @@ pub struct RunConfig {
     pub level_correction: bool,
     /// The guard's residual monitor ([`crate::run::session::Session::with_monitor`]).
     pub residual_monitor: bool,
+    /// Lines in y that u does not drive ([`disturbance`]).
+    pub hum: Vec<HumLine>,
+    /// The measurement noise's spectrum ([`disturbance`]).
+    pub noise_colour: NoiseColour,
 }
 
 impl Default for RunConfig {
@@ -141,6 +147,8 @@ impl Default for RunConfig {
             range: None,
             level_correction: false,
             residual_monitor: false,
+            hum: Vec::new(),
+            noise_colour: NoiseColour::White,
         }
     }
 }
@@ -249,6 +257,11 @@ pub struct RunReport {
     pub guard: crate::run::session::GuardReport,
     /// Whether the estimate can be trusted ([`session::Outcome::verdict`]).
     pub verdict: crate::judge::verdict::Verdict,
+    /// The lines in y ([`RunConfig::hum`]; absent when none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub hum: Vec<HumLine>,
+    /// The measurement noise's spectrum ([`RunConfig::noise_colour`]).
+    pub noise_colour: NoiseColour,
     /// With events: what they did (tracking time, fault latency).
     pub scenario: Option<ScenarioReport>,
 }
@@ -398,6 +411,11 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
     let Some(snr) = cfg.snr_db else {
         return Ok(None);
     };
+    Ok(Some(noise_sd_for_snr(clean_rms_y(cfg)?, snr)))
+}
+
+/// RMS of the noise-free y over the whole run (the beam as it moves).
+fn clean_rms_y(cfg: &RunConfig) -> Result<f64, RunError> {
     let mut probe = events_rig(cfg, false)?;
     let n = samples(cfg).max(1);
     let mut acc = 0.0;
@@ -405,21 +423,39 @@ pub fn noise_sd(cfg: &RunConfig) -> Result<Option<f64>, RunError> {
         let y = probe.tick().y;
         acc += y * y;
     }
-    Ok(Some(noise_sd_for_snr((acc / n as f64).sqrt(), snr)))
+    Ok((acc / n as f64).sqrt())
 }
 
-/// The simulated rig of a run with its events ([`RunConfig::events`]) and
-/// (with an SNR or a σ) white noise on y of σ = [`noise_sd`].
-pub fn scenario_rig(cfg: &RunConfig) -> Result<ScenarioRig<f64, Drive>, RunError> {
+/// The simulated rig of a run with its events ([`RunConfig::events`]),
+/// (with an SNR or a σ) noise on y of σ = [`noise_sd`], white or coloured
+/// ([`RunConfig::noise_colour`]), and the lines of [`RunConfig::hum`].
+pub fn scenario_rig(cfg: &RunConfig) -> Result<DisturbedRig, RunError> {
     let rig = events_rig(cfg, true)?;
-    Ok(match noise_sd(cfg)? {
-        Some(sd) => {
+    let sd = noise_sd(cfg)?;
+    let white = cfg.noise_colour == NoiseColour::White;
+    let rig = match sd {
+        Some(sd) if white => {
             let noise = GaussianNoise::new(sd, cfg.seed)
                 .map_err(|_| RunError::Setup(format!("invalid noise level (σ = {sd})")))?;
             rig.with_noise(noise)
         }
-        None => rig,
-    })
+        _ => rig,
+    };
+    let rms_y = if cfg.hum.is_empty() {
+        0.0
+    } else {
+        clean_rms_y(cfg)?
+    };
+    DisturbedRig::new(
+        rig,
+        &cfg.hum,
+        rms_y,
+        cfg.noise_colour,
+        sd,
+        cfg.ts_s,
+        cfg.seed,
+    )
+    .map_err(RunError::Setup)
 }
 
 /// The simulated rig of a run without its events: plant, drive and (with
@@ -721,6 +757,8 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
             validity: o.validity,
             guard: o.guard,
             verdict: o.verdict,
+            hum: cfg.hum.clone(),
+            noise_colour: cfg.noise_colour,
             scenario,
         });
     }

@@ -288,11 +288,19 @@ pub fn model_of(a: &[f64], b: &[f64], ts_s: f64) -> Option<Model> {
 }
 
 fn noise_label(cfg: &RunConfig) -> String {
-    match (cfg.snr_db, cfg.noise_sd) {
+    use crate::run::disturbance::NoiseColour;
+    let mut out = match (cfg.snr_db, cfg.noise_sd) {
         (_, Some(sd)) => format!(", noise σ = {sd} (seed {})", cfg.seed),
         (Some(snr), None) => format!(", SNR {snr} dB (seed {})", cfg.seed),
         (None, None) => String::new(),
+    };
+    if let NoiseColour::LowPass { corner_hz } = cfg.noise_colour {
+        out.push_str(&format!(", noise low-passed at {corner_hz} Hz"));
     }
+    if !cfg.hum.is_empty() {
+        out.push_str(&format!(", {} line(s) in y", cfg.hum.len()));
+    }
+    out
 }
 
 /// The JSON document: one object, or an array for several estimators.

@@ -117,6 +117,31 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
             ));
         }
     }
+    let hum = args.hum.as_ref().map(|h| h.0.clone()).unwrap_or_default();
+    let colour = args.noise_colour.unwrap_or_default();
+    let nyquist = 0.5 / ts;
+    if let Some(l) = hum.iter().find(|l| l.freq_hz >= nyquist) {
+        return Err(CliError::usage(
+            "--hum",
+            format!(
+                "{} Hz is at or above the Nyquist frequency {nyquist} Hz of --ts",
+                l.freq_hz
+            ),
+        ));
+    }
+    if colour != crate::run::disturbance::NoiseColour::White && !noisy {
+        return Err(CliError::usage(
+            "--noise-colour",
+            "needs measurement noise (--snr-db or --noise-sd) to colour",
+        ));
+    }
+    let white_only = hum.is_empty() && colour == crate::run::disturbance::NoiseColour::White;
+    if !white_only && args.model_set.is_some() {
+        return Err(CliError::usage(
+            "--model-set",
+            "the Cramér–Rao bound is computed for white noise only, not with --hum or a coloured --noise-colour",
+        ));
+    }
     if let Some(seeds) = &args.seeds {
         if seeds.0.is_empty() {
             return Err(CliError::usage("--seeds", "no seed given"));
@@ -152,7 +177,7 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         lambda: est.lambda,
         snr_db: args.snr_db,
         noise_sd: args.noise_sd,
-        crlb: (noisy && events.is_empty()).then(|| {
+        crlb: (noisy && events.is_empty() && white_only).then(|| {
             args.model_set
                 .unwrap_or(crate::cli::args::ModelSetChoice::Tf)
                 .set()
@@ -170,6 +195,8 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         range,
         level_correction: args.guard.level_correction,
         residual_monitor: args.guard.residual_monitor,
+        hum,
+        noise_colour: colour,
         ..base_default
     };
     if base.excitation.is_some() {
@@ -253,11 +280,26 @@ pub fn noise_text(cfg: &RunConfig, sigma: Option<f64>, seed: Option<u64>) -> Str
         format!("σ = {}", crate::io::table::sig(s, 4))
     });
     let seed = seed.map_or(String::new(), |s| format!(", seed {s}"));
-    match (cfg.snr_db, cfg.noise_sd) {
-        (_, Some(_)) => format!("white, {sigma}{seed}"),
-        (Some(snr), None) => format!("white, SNR {snr} dB ({sigma}){seed}"),
+    let colour = match cfg.noise_colour {
+        crate::run::disturbance::NoiseColour::White => "white".to_string(),
+        crate::run::disturbance::NoiseColour::LowPass { corner_hz } => {
+            format!("low-passed at {corner_hz} Hz")
+        }
+    };
+    let mut text = match (cfg.snr_db, cfg.noise_sd) {
+        (_, Some(_)) => format!("{colour}, {sigma}{seed}"),
+        (Some(snr), None) => format!("{colour}, SNR {snr} dB ({sigma}){seed}"),
         (None, None) => "none".to_string(),
+    };
+    if !cfg.hum.is_empty() {
+        let lines: Vec<String> = cfg
+            .hum
+            .iter()
+            .map(|l| format!("{} Hz at {}", l.freq_hz, l.level))
+            .collect();
+        text.push_str(&format!("; lines in y (RMS ÷ y's): {}", lines.join(", ")));
     }
+    text
 }
 
 /// The line naming the bound's model set, σ and SNR.
