@@ -131,9 +131,9 @@ impl Verdict {
                     code: "residual_structured",
                     detail: format!(
                         "the residual y − ŷ is not white: its own past predicts {:.0}% of its power, \
-                         {} of y's RMS (unmodelled dynamics, an offset or drift, a line, or coloured noise)",
+                         {:.2e} of y's RMS (unmodelled dynamics, an offset or drift, a line, or coloured noise)",
                         100.0 * (1.0 - 1.0 / g),
-                        crate::io::table::sig(s, 2)
+                        s
                     ),
                 });
             }
@@ -147,8 +147,8 @@ impl Verdict {
             reasons.push(Reason {
                 code: "drifting",
                 detail: format!(
-                    "the estimate moved by {} over the last 10% of the record",
-                    crate::io::table::sig(d, 2)
+                    "the estimate moved by {:.2e} over the last 10% of the record",
+                    d
                 ),
             });
         }
@@ -168,13 +168,13 @@ impl Verdict {
                     reasons.push(Reason {
                         code: "mode_not_excited",
                         detail: format!(
-                            "mode {} ({} Hz): the input has {} of its power within an octave of it \
-                             and the initial motion does not reveal it (free response {} of y's energy); \
+                            "mode {} ({:.4} Hz): the input has {:.1e} of its power within an octave of it \
+                             and the initial motion does not reveal it (free response {:.1e} of y's energy); \
                              not identifiable from this record",
                             i + 1,
-                            crate::io::table::sig(f_hz, 4),
-                            crate::io::table::sig(share, 2),
-                            crate::io::table::sig(free_share, 2)
+                            f_hz,
+                            share,
+                            free_share
                         ),
                     });
                 }
