@@ -32,7 +32,8 @@ use crate::io::plot::{self, FrfPanel, OutputPanel, Recorder};
 use crate::io::report::{self, Column};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
-use crate::judge::frf::InputSpectrum;
+use crate::judge::frf::PowerSpectrum;
+use crate::judge::verdict::{residual_spectrum, RecordEvidence};
 use crate::run::estimator::EstimatorKind;
 use crate::run::session::Outcome;
 use crate::run::session::{drift_every, guard_config, Session};
@@ -748,11 +749,23 @@ where
     });
     let keep = n.saturating_sub((0.5 / ts).round() as u64)..n;
     let mut frf_models: Vec<FrfEntry> = Vec::new();
-    let input = InputSpectrum::of(record().map(|(u, _)| u), n as usize, ts);
+    let input = PowerSpectrum::of(record().map(|(u, _)| u), n as usize, ts);
     for i in 0..session.len() {
         let model = session.model(i, ts);
         let f = model.as_ref().and_then(|m| fit::fit(m, &record));
-        let outcome = session.outcome(i, end_s, f.as_ref(), input.as_ref());
+        let residual = model
+            .as_ref()
+            .zip(f.as_ref())
+            .and_then(|(m, f)| residual_spectrum(m, f, record(), n as usize, ts));
+        let outcome = session.outcome(
+            i,
+            end_s,
+            &RecordEvidence {
+                fit: f.as_ref(),
+                input: input.as_ref(),
+                residual: residual.as_ref(),
+            },
+        );
         let (crlb, crlb_sigma_source) = match plan.crlb {
             Some((set, given)) => {
                 let sigma = match (given, outcome.robust.and_then(|r| r.noise_rms)) {
@@ -895,16 +908,19 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
     fn reports(&self, plan: &Plan, label: &str, record: Option<Record<'_>>) -> Vec<ReplayReport> {
         let n = self.k;
         let end_s = n.saturating_sub(1) as f64 * self.ts;
-        let input = record.and_then(|r| InputSpectrum::of(r.u.iter().copied(), r.u.len(), self.ts));
+        let input = record.and_then(|r| PowerSpectrum::of(r.u.iter().copied(), r.u.len(), self.ts));
         (0..self.session.len())
             .map(|i| {
-                let fit = record.and_then(|r| {
+                let judged = record.and_then(|r| {
                     let model = self.session.model(i, self.ts)?;
-                    fit::fit(&model, || r.u.iter().copied().zip(r.y.iter().copied()))
+                    let samples = || r.u.iter().copied().zip(r.y.iter().copied());
+                    let fit = fit::fit(&model, samples)?;
+                    let residual = residual_spectrum(&model, &fit, samples(), r.u.len(), self.ts);
+                    Some((fit, residual))
                 });
-                (i, fit)
+                (i, judged)
             })
-            .map(|(i, fit)| ReplayReport {
+            .map(|(i, judged)| ReplayReport {
                 file: label.to_string(),
                 estimator: self.session.kind(i),
                 precision: match std::mem::size_of::<T>() {
@@ -916,7 +932,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                 ts_s: self.ts,
                 samples: n,
                 duration_s: n as f64 * self.ts,
-                outcome: self.session.outcome(i, end_s, fit.as_ref(), input.as_ref()),
+                outcome: self.session.outcome(
+                    i,
+                    end_s,
+                    &RecordEvidence {
+                        fit: judged.as_ref().map(|j| &j.0),
+                        input: input.as_ref(),
+                        residual: judged.as_ref().and_then(|j| j.1.as_ref()),
+                    },
+                ),
                 crlb: None,
                 crlb_sigma_source: None,
             })

@@ -409,6 +409,31 @@ fn free_energies(model: &Model, c: &[f64]) -> Vec<(f64, f64)> {
     out
 }
 
+/// The residual y_k − ŷ_k (ŷ with the fitted initial state) of every
+/// sample, in order (NaN where y is not finite).
+pub fn residuals<'a, I: IntoIterator<Item = (f64, f64)> + 'a>(
+    model: &'a Model,
+    fit: &'a Fit,
+    samples: I,
+) -> impl Iterator<Item = f64> + 'a {
+    let mut pass = Pass::new(model);
+    let mut b = vec![0.0; model.basis];
+    let sections = model.sections.len();
+    let mut live = true;
+    (0u64..).zip(samples).map(move |(k, (u, y))| {
+        if live && k % 1024 == 0 {
+            live = pass.z[..sections].iter().any(|z| z.norm() > 1e-30);
+        }
+        if live {
+            let yf = pass.step(u, &mut b);
+            let free: f64 = fit.initial.iter().zip(&b).map(|(c, b)| c * b).sum();
+            y - yf - free
+        } else {
+            y - pass.step_forced(u)
+        }
+    })
+}
+
 /// The model output ŷ_k (with the fitted initial state) for the samples
 /// with index in `keep`, as (index, y, ŷ).
 pub fn model_output(

@@ -38,6 +38,10 @@ pub struct H1 {
     pub segment_s: f64,
 }
 
+/// Bins either side of a bin whose median is a line's background
+/// ([`PowerSpectrum::lines`]).
+pub const LINE_NEIGHBOURHOOD: usize = 16;
+
 /// Fewest samples a segment may have.
 pub const MIN_SEGMENT: usize = 16;
 
@@ -141,18 +145,19 @@ impl Welch {
     }
 }
 
-/// The power spectrum of an input (Welch, the segmenting of [`h1`]),
+/// The power spectrum of a signal (Welch, the segmenting of [`h1`]),
 /// accumulated from a stream of samples, to ask what share of its power
-/// lies in a band.
+/// lies in a band (the input's, for the verdict) and which narrow lines
+/// stand out of it (the residual's).
 #[derive(Debug, Clone)]
-pub struct InputSpectrum {
+pub struct PowerSpectrum {
     /// Bin spacing (Hz).
     df: f64,
     /// Summed |U_k|² of bins 0..=len/2.
     guu: Vec<f64>,
 }
 
-impl InputSpectrum {
+impl PowerSpectrum {
     /// The spectrum of the `n` samples `u` yields (its first `n`); `None`
     /// for fewer than [`MIN_SEGMENT`] samples.
     pub fn of(u: impl IntoIterator<Item = f64>, n: usize, ts_s: f64) -> Option<Self> {
@@ -178,6 +183,58 @@ impl InputSpectrum {
             df: 1.0 / (len as f64 * ts_s),
             guu,
         })
+    }
+
+    /// Bin spacing (Hz).
+    pub fn bin_hz(&self) -> f64 {
+        self.df
+    }
+
+    /// Whether a bin within one of `freq_hz` is a line by the test of
+    /// [`PowerSpectrum::lines`] (`ratio` times its neighbourhood's median).
+    pub fn has_line_at(&self, freq_hz: f64, ratio: f64) -> bool {
+        let g = &self.guu;
+        let k = (freq_hz / self.df).round() as usize;
+        (k.saturating_sub(1).max(1)..=(k + 1).min(g.len() - 1)).any(|j| {
+            let lo = j.saturating_sub(LINE_NEIGHBOURHOOD).max(1);
+            let hi = (j + LINE_NEIGHBOURHOOD).min(g.len() - 1);
+            let mut window: Vec<f64> = g[lo..=hi].to_vec();
+            window.sort_by(f64::total_cmp);
+            g[j] > 0.0 && g[j] >= ratio * window[window.len() / 2]
+        })
+    }
+
+    /// Narrow lines: bins whose power is at least `ratio` times the median
+    /// of the bins within ±[`LINE_NEIGHBOURHOOD`] of them and the largest
+    /// of their neighbours (a Hann-windowed line covers about three bins),
+    /// as (frequency of the peak bin, Hz; the share of the power at every
+    /// non-zero frequency in the peak and its two neighbours), strongest
+    /// first.
+    pub fn lines(&self, ratio: f64) -> Vec<(f64, f64)> {
+        let g = &self.guu;
+        let total: f64 = g[1..].iter().sum();
+        if !(total > 0.0 && total.is_finite()) || g.len() < 2 * LINE_NEIGHBOURHOOD + 3 {
+            return Vec::new();
+        }
+        let mut found = Vec::new();
+        let mut window = Vec::with_capacity(2 * LINE_NEIGHBOURHOOD + 1);
+        for k in 2..g.len() - 1 {
+            if !(g[k] >= g[k - 1] && g[k] > g[k + 1]) {
+                continue;
+            }
+            let lo = k.saturating_sub(LINE_NEIGHBOURHOOD).max(1);
+            let hi = (k + LINE_NEIGHBOURHOOD).min(g.len() - 1);
+            window.clear();
+            window.extend_from_slice(&g[lo..=hi]);
+            window.sort_by(f64::total_cmp);
+            let median = window[window.len() / 2];
+            if g[k] >= ratio * median && median >= 0.0 {
+                let power = g[k - 1] + g[k] + g[k + 1];
+                found.push((k as f64 * self.df, power / total));
+            }
+        }
+        found.sort_by(|a, b| b.1.total_cmp(&a.1));
+        found
     }
 
     /// The share of the power at every non-zero frequency that lies in

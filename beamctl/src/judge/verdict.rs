@@ -33,8 +33,21 @@
 //!   information on it; on a real structure that part of the response
 //!   belongs to modes the model does not have.)
 
-use crate::judge::fit::Fit;
-use crate::judge::frf::InputSpectrum;
+//! * **`line_near_mode`**: a narrow line that u does not drive stands out
+//!   of the residual's spectrum within a reported mode's band,
+//!   ω(1 ± max(2ζ, 2Δf/f)) (Δf the spectrum's bin spacing): a mode under it
+//!   cannot be told from it. A line is a residual bin at [`LINE_RATIO`]
+//!   times its neighbourhood's median ([`PowerSpectrum::lines`]), with an
+//!   RMS of at least [`LINE_LEVEL`] of y's, where u has no line of its own
+//!   (a line of u by the same test with at least [`COVERAGE_LIMIT`] of its
+//!   power within two bins: a residual line at one of u's lines is model
+//!   error, which `residual_structured` judges; a broadband u such as a
+//!   chirp through 50 Hz has no line there). Every
+//!   line found is listed (`lines`: frequency, RMS, the mode it lies on),
+//!   near a mode or not.
+
+use crate::judge::fit::{self, Fit, Model};
+use crate::judge::frf::PowerSpectrum;
 use serde::Serialize;
 
 /// `residual_structured` when the residual's prediction gain exceeds this
@@ -44,6 +57,14 @@ pub const RESIDUAL_GAIN_LIMIT: f64 = 1.25;
 pub const RESIDUAL_STRUCTURE_LIMIT: f64 = 1e-2;
 /// `drifting` above this `drift_last_10pct`.
 pub const DRIFT_LIMIT: f64 = 1e-2;
+/// A residual spectrum's bin at this many times its neighbourhood's median
+/// is a line (20 dB; the Welch average of white noise over 2 or more
+/// segments gets there with a probability below 1e-6 per bin).
+pub const LINE_RATIO: f64 = 100.0;
+
+/// A residual line counts from this RMS ÷ y's RMS.
+pub const LINE_LEVEL: f64 = 1e-3;
+
 /// `mode_not_excited` below this share of u's power in [ω/2, 2ω]...
 pub const COVERAGE_LIMIT: f64 = 1e-6;
 /// ...unless the mode's fitted free response holds this share of
@@ -58,6 +79,17 @@ pub struct Reason {
     pub code: &'static str,
     /// The evidence, in words and numbers.
     pub detail: String,
+}
+
+/// A narrow line found in the residual.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LineFound {
+    /// Frequency (Hz) of its spectrum's peak bin.
+    pub freq_hz: f64,
+    /// Its RMS (units of y).
+    pub rms: f64,
+    /// The reported mode (1-based) whose band it lies in, if any.
+    pub near_mode: Option<usize>,
 }
 
 /// The verdict on one estimator's report.
@@ -80,6 +112,8 @@ pub struct Verdict {
     /// RMS of the residual's predictable part ÷ RMS of y about its mean,
     /// if there is a fit.
     pub residual_structure: Option<f64>,
+    /// The narrow lines in the residual, strongest first.
+    pub lines: Vec<LineFound>,
 }
 
 /// What the verdict is formed from.
@@ -87,6 +121,8 @@ pub struct Verdict {
 pub struct Evidence<'a> {
     /// The final estimate's ω_i (rad/s), `None` without an estimate.
     pub omega: Option<&'a [f64]>,
+    /// Its ζ_i.
+    pub zeta: &'a [f64],
     /// Its physical-validity flags (empty: valid).
     pub validity: &'a [&'static str],
     /// The model-output fit over the record.
@@ -94,7 +130,33 @@ pub struct Evidence<'a> {
     /// The report's `drift_last_10pct`.
     pub drift: Option<f64>,
     /// The record's input spectrum.
-    pub input: Option<&'a InputSpectrum>,
+    pub input: Option<&'a PowerSpectrum>,
+    /// The fit's residual spectrum ([`residual_spectrum`]).
+    pub residual: Option<&'a PowerSpectrum>,
+}
+
+/// What a record tells about an estimate: its model-output fit, the
+/// input's spectrum and the fit residual's spectrum.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RecordEvidence<'a> {
+    /// The model-output fit.
+    pub fit: Option<&'a Fit>,
+    /// The input's spectrum.
+    pub input: Option<&'a PowerSpectrum>,
+    /// The fit residual's spectrum ([`residual_spectrum`]).
+    pub residual: Option<&'a PowerSpectrum>,
+}
+
+/// The spectrum of the residual of `fit` (of `model`) over the `n` samples
+/// `samples` yields.
+pub fn residual_spectrum<I: IntoIterator<Item = (f64, f64)>>(
+    model: &Model,
+    fit: &Fit,
+    samples: I,
+    n: usize,
+    ts_s: f64,
+) -> Option<PowerSpectrum> {
+    PowerSpectrum::of(fit::residuals(model, fit, samples), n, ts_s)
 }
 
 impl Verdict {
@@ -180,12 +242,51 @@ impl Verdict {
                 }
             }
         }
+        let mut lines = Vec::new();
+        if let (Some(spectrum), Some(f)) = (e.residual, e.fit) {
+            let df = spectrum.bin_hz();
+            let y_rms = f.residual_rms / (1.0 - f.percent / 100.0).max(f64::MIN_POSITIVE);
+            for (freq_hz, share) in spectrum.lines(LINE_RATIO) {
+                let rms = share.sqrt() * f.residual_rms;
+                let driven = e.input.is_some_and(|u| {
+                    u.share(freq_hz - 2.0 * df, freq_hz + 2.0 * df)
+                        .is_some_and(|s| s >= COVERAGE_LIMIT)
+                        && u.has_line_at(freq_hz, LINE_RATIO)
+                });
+                if driven || rms < LINE_LEVEL * y_rms {
+                    continue;
+                }
+                let near_mode = e.omega.and_then(|omega| {
+                    omega.iter().zip(e.zeta).position(|(&w, &z)| {
+                        let f_mode = w / std::f64::consts::TAU;
+                        let half = f_mode * (2.0 * z.abs()).max(2.0 * df / f_mode);
+                        (freq_hz - f_mode).abs() <= half
+                    })
+                });
+                if let Some(i) = near_mode {
+                    reasons.push(Reason {
+                        code: "line_near_mode",
+                        detail: format!(
+                            "a narrow line at {freq_hz:.4} Hz in the residual, where u has none, lies in mode {}'s band \
+                             (a disturbance such as the mains, or a mode the model gets wrong)",
+                            i + 1
+                        ),
+                    });
+                }
+                lines.push(LineFound {
+                    freq_hz,
+                    rms,
+                    near_mode: near_mode.map(|i| i + 1),
+                });
+            }
+        }
         Self {
             trusted: reasons.is_empty(),
             reasons,
             identifiable,
             input_power_near_mode: near,
             free_response_share: free,
+            lines,
             residual_prediction_gain: gain,
             residual_structure: structure,
         }
@@ -231,7 +332,7 @@ mod tests {
     }
 
     /// A multisine's lines at 400–800 Hz and a PRBS-like flat input.
-    fn spectra() -> (InputSpectrum, InputSpectrum) {
+    fn spectra() -> (PowerSpectrum, PowerSpectrum) {
         let ts = 1e-4;
         let n = 100_000;
         let lines = (0..n).map(|k| {
@@ -252,8 +353,8 @@ mod tests {
             }
         });
         (
-            InputSpectrum::of(lines, n, ts).unwrap(),
-            InputSpectrum::of(flat, n, ts).unwrap(),
+            PowerSpectrum::of(lines, n, ts).unwrap(),
+            PowerSpectrum::of(flat, n, ts).unwrap(),
         )
     }
 
@@ -267,6 +368,8 @@ mod tests {
             fit: Some(&fit(99.0, 1.001)),
             drift: Some(1e-4),
             input: Some(&flat),
+            zeta: &[0.02, 0.02],
+            residual: None,
         });
         assert!(v.trusted, "{v:?}");
         assert_eq!(v.identifiable, vec![true, true]);
@@ -284,6 +387,8 @@ mod tests {
             fit: Some(&fit(99.9, 1.0)),
             drift: Some(0.0),
             input: Some(&lines),
+            zeta: &[0.02; 3],
+            residual: None,
         });
         assert!(!v.trusted);
         assert_eq!(v.identifiable, vec![false, false, true]);
@@ -301,6 +406,8 @@ mod tests {
             fit: Some(&moving),
             drift: Some(0.0),
             input: Some(&lines),
+            zeta: &[0.02; 3],
+            residual: None,
         });
         assert_eq!(v.identifiable, vec![true, false, true]);
     }
@@ -315,6 +422,8 @@ mod tests {
                 fit: Some(&f),
                 drift: None,
                 input: None,
+                zeta: &[0.02],
+                residual: None,
             })
         };
         // A white residual at a low SNR: trusted.
@@ -327,6 +436,61 @@ mod tests {
         assert!((v.residual_structure.unwrap() - 0.3 * (1.0f64 - 1.0 / 50.0).sqrt()).abs() < 1e-12);
     }
 
+    /// White noise of σ 1 with a 50 Hz line of RMS 0.3: found
+    /// at 50 Hz with its RMS; the noise alone has none.
+    #[test]
+    fn a_line_in_the_residual_is_found_and_white_noise_has_none() {
+        let ts = 1e-4;
+        let n = 200_000;
+        let white = || {
+            let mut g = beamest::rig::GaussianNoise::<f64>::new(1.0, 5).unwrap();
+            (0..n).map(move |_| g.sample())
+        };
+        let plain = PowerSpectrum::of(white(), n, ts).unwrap();
+        assert!(
+            plain.lines(LINE_RATIO).is_empty(),
+            "{:?}",
+            plain.lines(LINE_RATIO)
+        );
+        let amp = 0.3 * std::f64::consts::SQRT_2;
+        let hum = white()
+            .enumerate()
+            .map(|(k, w)| w + amp * (std::f64::consts::TAU * 50.0 * k as f64 * ts).sin());
+        let s = PowerSpectrum::of(hum, n, ts).unwrap();
+        let lines = s.lines(LINE_RATIO);
+        assert_eq!(lines.len(), 1, "{lines:?}");
+        assert!((lines[0].0 - 50.0).abs() <= s.bin_hz(), "{lines:?}");
+        // RMS 0.3 of a total RMS √(1 + 0.09): share 0.09/1.09, less the
+        // noise's part of the three bins.
+        assert!((lines[0].1 / (0.09 / 1.09) - 1.0).abs() < 0.05, "{lines:?}");
+        // A mode at 50 Hz under it is named; one at 80 Hz is not.
+        let fit = Fit {
+            percent: 0.0,
+            ..fit(0.0, 1.0)
+        };
+        let v = |w: f64| {
+            Verdict::of(&Evidence {
+                omega: Some(&[w]),
+                zeta: &[0.02],
+                validity: &[],
+                fit: Some(&fit),
+                drift: None,
+                input: None,
+                residual: Some(&s),
+            })
+        };
+        let near = v(std::f64::consts::TAU * 50.0);
+        assert_eq!(near.lines[0].near_mode, Some(1));
+        assert!(near.reasons.iter().any(|r| r.code == "line_near_mode"));
+        let far = v(std::f64::consts::TAU * 80.0);
+        assert_eq!(far.lines[0].near_mode, None);
+        assert!(
+            (far.lines[0].rms / 0.3 - 1.0).abs() < 0.05,
+            "{:?}",
+            far.lines
+        );
+    }
+
     #[test]
     fn no_estimate_invalid_and_drifting_are_reasons() {
         let est = [50.0];
@@ -336,6 +500,8 @@ mod tests {
             fit: None,
             drift: Some(0.05),
             input: None,
+            zeta: &[0.02],
+            residual: None,
         });
         assert_eq!(v.summary(), "no: not_physical, no_fit, drifting");
         let v = Verdict::of(&Evidence {
@@ -344,6 +510,8 @@ mod tests {
             fit: None,
             drift: None,
             input: None,
+            zeta: &[0.02],
+            residual: None,
         });
         assert_eq!(v.summary(), "no: no_estimate");
     }

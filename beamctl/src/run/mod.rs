@@ -31,7 +31,8 @@ pub mod tuned;
 
 use crate::judge::bound::{experiment_bound, BoundRatio, ExperimentBound, NoiseLevel};
 use crate::judge::fit::{self, Model};
-use crate::judge::frf::InputSpectrum;
+use crate::judge::frf::PowerSpectrum;
+use crate::judge::verdict::RecordEvidence;
 use crate::run::drive::{drive, Drive};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
@@ -701,11 +702,24 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let mut reports = Vec::with_capacity(kinds.len());
     let input = input_on_rig(cfg)?;
     for (i, score) in scores.into_iter().enumerate() {
-        let fit = match session.model(i, cfg.ts_s) {
-            Some(model) => fit_on_rig(cfg, &model)?,
+        let model = session.model(i, cfg.ts_s);
+        let fit = match &model {
+            Some(model) => fit_on_rig(cfg, model)?,
             None => None,
         };
-        let o = session.outcome(i, end_s, fit.as_ref(), input.as_ref());
+        let residual = match (&model, &fit) {
+            (Some(m), Some(f)) => residual_on_rig(cfg, m, f)?,
+            _ => None,
+        };
+        let o = session.outcome(
+            i,
+            end_s,
+            &RecordEvidence {
+                fit: fit.as_ref(),
+                input: input.as_ref(),
+                residual: residual.as_ref(),
+            },
+        );
         let modal = o.estimate.is_valid().then(|| {
             let mut m = truth.modal;
             let n = m.modes;
@@ -767,11 +781,32 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
 
 /// The input spectrum of the run's samples (for the verdict; the rig is
 /// replayed, as for [`fit_on_rig`]).
-fn input_on_rig(cfg: &RunConfig) -> Result<Option<InputSpectrum>, RunError> {
+fn input_on_rig(cfg: &RunConfig) -> Result<Option<PowerSpectrum>, RunError> {
     let mut rig = scenario_rig(cfg)?;
     let n = samples(cfg);
-    Ok(InputSpectrum::of(
+    Ok(PowerSpectrum::of(
         (0..n).map(move |_| rig.tick().u),
+        usize::try_from(n).unwrap_or(usize::MAX),
+        cfg.ts_s,
+    ))
+}
+
+/// The spectrum of a fit's residual over the run's samples (the rig
+/// replayed, as for [`fit_on_rig`]).
+fn residual_on_rig(
+    cfg: &RunConfig,
+    model: &Model,
+    fit: &fit::Fit,
+) -> Result<Option<PowerSpectrum>, RunError> {
+    let mut rig = scenario_rig(cfg)?;
+    let n = samples(cfg);
+    Ok(crate::judge::verdict::residual_spectrum(
+        model,
+        fit,
+        (0..n).map(move |_| {
+            let s = rig.tick();
+            (s.u, s.y)
+        }),
         usize::try_from(n).unwrap_or(usize::MAX),
         cfg.ts_s,
     ))

@@ -7,9 +7,8 @@
 //! outcome carries its counters, the supervisor's state and the final
 //! estimate's physical validity.
 
-use crate::judge::fit::{Fit, Model};
-use crate::judge::frf::InputSpectrum;
-use crate::judge::verdict::{Evidence, Verdict};
+use crate::judge::fit::Model;
+use crate::judge::verdict::{Evidence, RecordEvidence, Verdict};
 use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::feed::Feed;
@@ -570,16 +569,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
     }
 
     /// The truth-free part of estimator `i`'s report. `end_s` is the time
-    /// of the last sample, `fit` the model-output fit (see
-    /// [`crate::judge::fit::fit`]), `input` the record's input spectrum
-    /// (both for the verdict).
-    pub fn outcome(
-        &self,
-        i: usize,
-        end_s: f64,
-        fit: Option<&Fit>,
-        input: Option<&InputSpectrum>,
-    ) -> Outcome {
+    /// of the last sample, `record` what the record tells about the
+    /// estimate (the model-output fit, [`crate::judge::fit::fit`], and the
+    /// spectra of the verdict).
+    pub fn outcome(&self, i: usize, end_s: f64, record: &RecordEvidence<'_>) -> Outcome {
+        let fit = record.fit;
         let run = &self.runs[i];
         let n = self.weights.len();
         let (estimate, exc, ok, validity, feedthrough) = match run.estimate() {
@@ -609,10 +603,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         let drift = self.history[i].drift(end_s);
         let verdict = Verdict::of(&Evidence {
             omega: estimate.is_valid().then_some(&estimate.omega[..]),
+            zeta: &estimate.zeta,
             validity: &validity,
             fit,
             drift,
-            input,
+            input: record.input,
+            residual: record.residual,
         });
         Outcome {
             estimate,
