@@ -155,6 +155,8 @@ pub struct PowerSpectrum {
     df: f64,
     /// Summed |U_k|² of bins 0..=len/2.
     guu: Vec<f64>,
+    /// The sum of `guu` over the non-zero frequencies.
+    total: f64,
 }
 
 impl PowerSpectrum {
@@ -179,9 +181,11 @@ impl PowerSpectrum {
                 segment.drain(..len / 2);
             }
         }
+        let total = guu[1..].iter().sum();
         Some(Self {
             df: 1.0 / (len as f64 * ts_s),
             guu,
+            total,
         })
     }
 
@@ -212,7 +216,7 @@ impl PowerSpectrum {
     /// first.
     pub fn lines(&self, ratio: f64) -> Vec<(f64, f64)> {
         let g = &self.guu;
-        let total: f64 = g[1..].iter().sum();
+        let total = self.total;
         if !(total > 0.0 && total.is_finite()) || g.len() < 2 * LINE_NEIGHBOURHOOD + 3 {
             return Vec::new();
         }
@@ -240,15 +244,15 @@ impl PowerSpectrum {
     /// The share of the power at every non-zero frequency that lies in
     /// `[lo_hz, hi_hz]`; `None` for an input without power (constant).
     pub fn share(&self, lo_hz: f64, hi_hz: f64) -> Option<f64> {
-        let total: f64 = self.guu[1..].iter().sum();
-        if !(total > 0.0 && total.is_finite()) {
+        if !(self.total > 0.0 && self.total.is_finite()) {
             return None;
         }
-        let in_band: f64 = (1..self.guu.len())
-            .filter(|&k| (lo_hz..=hi_hz).contains(&(k as f64 * self.df)))
-            .map(|k| self.guu[k])
-            .sum();
-        Some(in_band / total)
+        // The bins k with lo ≤ k·Δf ≤ hi (k ≥ 1).
+        let last = self.guu.len() - 1;
+        let first = ((lo_hz / self.df).ceil().max(1.0) as usize).min(last + 1);
+        let end = ((hi_hz / self.df).floor().max(0.0) as usize).min(last);
+        let in_band: f64 = self.guu.get(first..=end).map_or(0.0, |b| b.iter().sum());
+        Some(in_band / self.total)
     }
 }
 

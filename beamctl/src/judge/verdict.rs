@@ -62,6 +62,10 @@ pub const DRIFT_LIMIT: f64 = 1e-2;
 /// segments gets there with a probability below 1e-6 per bin).
 pub const LINE_RATIO: f64 = 100.0;
 
+/// The strongest lines listed in a verdict (a record with many, e.g. one
+/// cut and pasted, lists these and one reason per mode).
+pub const MAX_LINES: usize = 16;
+
 /// A residual line counts from this RMS ÷ y's RMS.
 pub const LINE_LEVEL: f64 = 1e-3;
 
@@ -112,7 +116,8 @@ pub struct Verdict {
     /// RMS of the residual's predictable part ÷ RMS of y about its mean,
     /// if there is a fit.
     pub residual_structure: Option<f64>,
-    /// The narrow lines in the residual, strongest first.
+    /// The narrow lines in the residual, strongest first (at most
+    /// [`MAX_LINES`]).
     pub lines: Vec<LineFound>,
 }
 
@@ -263,7 +268,12 @@ impl Verdict {
                         (freq_hz - f_mode).abs() <= half
                     })
                 });
-                if let Some(i) = near_mode {
+                if lines.len() == MAX_LINES {
+                    break;
+                }
+                let first_on_mode = near_mode
+                    .is_some_and(|i| !lines.iter().any(|l: &LineFound| l.near_mode == Some(i + 1)));
+                if let (Some(i), true) = (near_mode, first_on_mode) {
                     reasons.push(Reason {
                         code: "line_near_mode",
                         detail: format!(
