@@ -615,31 +615,34 @@ mod tests {
         assert_eq!(m.queued(), 0);
     }
 
+    /// The driver, reset and configured with its defaults, on `model`.
+    fn configured(
+        model: &core::cell::RefCell<Ads131m02Model>,
+    ) -> ads131m02::Ads131m02<super::super::Shared<'_, Ads131m02Model>> {
+        struct NoDelay;
+        impl embedded_hal::delay::DelayNs for NoDelay {
+            fn delay_ns(&mut self, _ns: u32) {}
+        }
+        let mut adc = ads131m02::Ads131m02::new(super::super::Shared(model));
+        adc.reset(&mut NoDelay).unwrap();
+        adc.configure(&ads131m02::Config::default()).unwrap();
+        adc
+    }
+
     /// The pause the reference board has between configuring the ADC and
     /// arming the DRDY interrupt, with the driver: reading one frame per
     /// conversion afterwards lags one conversion for as long as it goes
     /// on; after [`ads131m02::Ads131m02::drain`] it does not lag.
     #[test]
     fn after_a_pause_one_frame_per_drdy_lags_until_drained() {
-        use super::super::Shared;
-        use ads131m02::{Ads131m02, Config};
-        use core::cell::RefCell;
-        use embedded_hal::delay::DelayNs;
-
-        struct NoDelay;
-        impl DelayNs for NoDelay {
-            fn delay_ns(&mut self, _ns: u32) {}
-        }
         let volts = |k: u32| 1e-3 * f64::from(k);
-        let model = RefCell::new(Ads131m02Model::new());
+        let model = core::cell::RefCell::new(Ads131m02Model::new());
         let convert = |k: u32| {
             let mut m = model.borrow_mut();
             m.set_inputs([volts(k), -volts(k)]);
             m.convert();
         };
-        let mut adc = Ads131m02::new(Shared(&model));
-        adc.reset(&mut NoDelay).unwrap();
-        adc.configure(&Config::default()).unwrap();
+        let mut adc = configured(&model);
         // The pause: conversions nobody reads.
         let mut k = 0;
         for _ in 0..5 {
@@ -689,25 +692,15 @@ mod tests {
     /// one conversion behind.
     #[test]
     fn a_frame_lost_on_the_bus_does_not_leave_the_reads_behind() {
-        use super::super::Shared;
-        use ads131m02::{Ads131m02, Config, Error};
-        use core::cell::RefCell;
-        use embedded_hal::delay::DelayNs;
-
-        struct NoDelay;
-        impl DelayNs for NoDelay {
-            fn delay_ns(&mut self, _ns: u32) {}
-        }
+        use ads131m02::Error;
         let volts = |k: u32| 1e-3 * f64::from(k);
-        let model = RefCell::new(Ads131m02Model::new());
+        let model = core::cell::RefCell::new(Ads131m02Model::new());
         let convert = |k: u32| {
             let mut m = model.borrow_mut();
             m.set_inputs([volts(k), 0.0]);
             m.convert();
         };
-        let mut adc = Ads131m02::new(Shared(&model));
-        adc.reset(&mut NoDelay).unwrap();
-        adc.configure(&Config::default()).unwrap();
+        let mut adc = configured(&model);
         for k in 0..10 {
             convert(k);
             if k == 3 || k == 6 {
