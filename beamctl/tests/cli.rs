@@ -502,13 +502,7 @@ fn help_documents_every_flag() {
     ] {
         assert!(h.contains(flag), "{flag} missing from help");
     }
-    for unit in [
-        "SECONDS",
-        "rad/s",
-        "[default: 20]",
-        "[default: adaptive]",
-        "dB",
-    ] {
+    for unit in ["SECONDS", "rad/s", "[default: 20]", "[default: auto]", "dB"] {
         assert!(h.contains(unit), "{unit} missing from help");
     }
     let o = beamctl(&["replay", "--help"]);

@@ -102,7 +102,14 @@ fn nan_and_inf_samples_are_skipped_and_counted() {
     }
     let bad_path = scratch("nan-edited.csv");
     std::fs::write(&bad_path, lines.join("\n") + "\n").unwrap();
-    let r = json(&beamctl(&["replay", bad_path.to_str().unwrap(), "--json"]));
+    // The adaptive law, whose values on this record are the reference.
+    let r = json(&beamctl(&[
+        "replay",
+        bad_path.to_str().unwrap(),
+        "--estimator",
+        "adaptive",
+        "--json",
+    ]));
     assert_eq!(r["rejected_samples"], bad);
     assert_eq!(r["samples"], 40_000);
     for i in 0..2 {
@@ -211,7 +218,12 @@ fn replay_bad_inputs_fail_cleanly() {
     for (args, flag) in [
         (vec!["replay", &ok, "--columns", "a,b"], "--columns"),
         (vec!["replay", &ok, "--ts", "0"], "--ts"),
-        (vec!["replay", &ok, "--weights", "1"], "--weights"),
+        // Four weights: no model has four modes.
+        (vec!["replay", &ok, "--weights", "1,2,3,4"], "--weights"),
+        (
+            vec!["replay", &ok, "--modes", "2", "--weights", "1"],
+            "--weights",
+        ),
         (
             vec!["replay", &ok, "--modes", "3", "--paper-gains"],
             "--paper-gains",
@@ -259,4 +271,86 @@ mod replay_fuzz {
             prop_assert!(!stderr(&o).contains("panicked"));
         }
     }
+}
+
+/// With no flags, replay chooses the model from the data (docs/REPLAY.md,
+/// "Model selection"): on three committed lab records simulated outside
+/// this project (host-tests/data/records, numpy/scipy) it picks one mode,
+/// three modes and the level correction, each estimate within the
+/// record's reference tolerance (max(3σ_CRB, 1e-4) of the truth). Only
+/// this scoring reads reference.json.
+#[test]
+fn no_flags_chooses_the_model_order_and_the_level_correction() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data/records");
+    for (name, modes, level) in [
+        ("lab_1mode_1khz", 1, false),
+        ("lab_3mode_20khz", 3, false),
+        ("lab_offset_step_prbs", 2, true),
+    ] {
+        let reference: Value = serde_json::from_str(
+            &std::fs::read_to_string(format!("{dir}/{name}/reference.json")).expect("reference"),
+        )
+        .expect("reference JSON");
+        let path = format!("{dir}/{name}/record.csv.gz");
+        let r = json(&beamctl(&["replay", &path, "--json"]));
+        assert_eq!(r["modes"], modes, "{name}");
+        assert_eq!(r["level_correction"], level, "{name}");
+        assert_eq!(r["estimator"], "robust", "{name}");
+        let sel = &r["selection"];
+        assert_eq!(sel["rule"], "bic_of_the_output_error");
+        let chosen = &sel["candidates"][sel["chosen"].as_u64().expect("chosen") as usize];
+        assert_eq!(chosen["modes"], modes, "{name}");
+        assert_eq!(chosen["excluded"], Value::Null, "{name}");
+        let acc = &reference["acceptance"];
+        for (k, key, tol) in [
+            ("omega", "omega_rad_s", "omega_rel_tol"),
+            ("zeta", "zeta", "zeta_rel_tol"),
+        ] {
+            for i in 0..modes {
+                let est = num(&r["estimate"][k][i]);
+                let tru = num(&reference["truth"][key][i]);
+                let e = (est / tru - 1.0).abs();
+                let t = num(&acc[tol][i]);
+                assert!(e <= t, "{name} {k}{}: {est} vs {tru}: {e:e} > {t:e}", i + 1);
+            }
+        }
+        assert_eq!(r["verdict"]["trusted"], true, "{name}");
+    }
+}
+
+/// The flags fix their part of the choice: `--modes` and
+/// `--no-level-correction` leave only the estimator to choose, and a named
+/// estimator runs with no selection at all.
+#[test]
+fn flags_fix_their_part_of_the_model() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../host-tests/data/records/lab_offset_step_prbs/record.csv.gz"
+    );
+    let r = json(&beamctl(&[
+        "replay",
+        path,
+        "--modes",
+        "1",
+        "--no-level-correction",
+        "--json",
+    ]));
+    let cands = r["selection"]["candidates"].as_array().expect("candidates");
+    assert_eq!(cands.len(), 2, "robust and adaptive, 1 mode, no correction");
+    for c in cands {
+        assert_eq!(c["modes"], 1);
+        assert_eq!(c["level_correction"], false);
+    }
+    assert_eq!(r["modes"], 1);
+    assert_eq!(r["level_correction"], false);
+    let r = json(&beamctl(&[
+        "replay",
+        path,
+        "--estimator",
+        "adaptive",
+        "--json",
+    ]));
+    assert_eq!(r["selection"], Value::Null);
+    assert_eq!(r["modes"], 2);
+    assert_eq!(r["level_correction"], false);
 }

@@ -336,7 +336,14 @@ fn replay_with_robust_and_the_bound() {
         assert_eq!(run["crlb"]["model_set"], "modal");
         assert_eq!(num(&run["crlb"]["sigma"]), 1e-4);
     }
-    let r = json(&beamctl(&["replay", p, "--crlb", "--json"]));
+    let r = json(&beamctl(&[
+        "replay",
+        p,
+        "--estimator",
+        "adaptive",
+        "--crlb",
+        "--json",
+    ]));
     assert_eq!(r["crlb_sigma_source"], "model_output_residual");
     let o = beamctl(&["replay", p, "--estimator", "robust", "--crlb"]);
     let t = stdout(&o);

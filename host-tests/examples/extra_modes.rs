@@ -185,14 +185,16 @@ fn estimator_row<T: Real>(truth_modes: usize, lambda: f64) {
                 format!("{:.1e} / {:.1e} | {:.1e} / {:.1e}", w[0], w[1], z[0], z[1])
             })
     };
-    let r = ef.residual();
+    let (d, b3) = ef.residual().map_or((f64::NAN, f64::NAN), |r| {
+        (r.feedthrough.to_f64(), r.b3.to_f64())
+    });
     println!(
         "| {truth_modes} | {} | {lambda} | {} | {} | {:.3e} / {:.3e} |",
         T::NAME,
         cells(e2.transfer_function()),
         cells(ef.transfer_function()),
-        r.feedthrough.to_f64(),
-        r.b3.to_f64()
+        d,
+        b3
     );
 }
 

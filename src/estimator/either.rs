@@ -79,8 +79,8 @@ impl<T: Real, L: Estimator<T, NP>, R: Estimator<T, NP>, const NP: usize> Estimat
     fn supervision(&self) -> Option<Supervision<T>> {
         either!(self, e => e.supervision())
     }
-    fn feedthrough(&self) -> Option<T> {
-        either!(self, e => e.feedthrough())
+    fn residual(&self) -> Option<super::feedthrough::Residual<T>> {
+        either!(self, e => e.residual())
     }
     fn hold_for_settling(&mut self) {
         either!(self, e => e.hold_for_settling())

@@ -259,10 +259,11 @@ pub trait Estimator<T: Real, const NP: usize> {
     fn supervision(&self) -> Option<Supervision<T>> {
         None
     }
-    /// The feedthrough D (units of y per unit of u) of a model with a
-    /// residual term ([`feedthrough::Feedthrough`]); `None` for the models
-    /// without one. Not part of [`Estimator::transfer_function`].
-    fn feedthrough(&self) -> Option<T> {
+    /// The residual terms (the feedthrough D, units of y per unit of u, and
+    /// the s³ numerator coefficient) of a model with a residual term
+    /// ([`feedthrough::Feedthrough`]); `None` for the models without one.
+    /// Not part of [`Estimator::transfer_function`].
+    fn residual(&self) -> Option<feedthrough::Residual<T>> {
         None
     }
     /// Hold the law for the filters' settling time
@@ -309,8 +310,8 @@ impl<T: Real, E: Estimator<T, NP> + ?Sized, const NP: usize> Estimator<T, NP> fo
     fn supervision(&self) -> Option<Supervision<T>> {
         (**self).supervision()
     }
-    fn feedthrough(&self) -> Option<T> {
-        (**self).feedthrough()
+    fn residual(&self) -> Option<feedthrough::Residual<T>> {
+        (**self).residual()
     }
 }
 
@@ -340,8 +341,8 @@ pub trait Regression<T: Real, const NL: usize, const NP: usize>: Sized {
     /// The law's information matrix P as the reported model's
     /// ([`Estimator::information`]), `None` if it is not one (another size).
     fn information(p: [[T; NL]; NL]) -> Option<[[T; NP]; NP]>;
-    /// The feedthrough D ([`Estimator::feedthrough`]), from θ_s.
-    fn feedthrough(&self, _theta_s: &[T; NL]) -> Option<T> {
+    /// The residual terms ([`Estimator::residual`]), from θ_s.
+    fn residual(&self, _theta_s: &[T; NL]) -> Option<feedthrough::Residual<T>> {
         None
     }
 }
@@ -499,8 +500,8 @@ impl<T: Real, L: UpdateLaw<T, NL>, R: Regression<T, NL, NP>, const NL: usize, co
         self.learner.supervision()
     }
 
-    fn feedthrough(&self) -> Option<T> {
-        self.regression.feedthrough(&self.law.theta_scaled())
+    fn residual(&self) -> Option<feedthrough::Residual<T>> {
+        self.regression.residual(&self.law.theta_scaled())
     }
 
     fn health(&self) -> Health {

@@ -11,9 +11,12 @@ use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
-/// The update law(s) to run: one estimator, or `all`.
+/// The update law(s) to run: chosen from the data, one estimator, or `all`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EstimatorChoice {
+    /// `replay`: the model chosen from the data
+    /// ([`crate::judge::select`]); `simulate`: the adaptive law.
+    Auto,
     /// One estimator.
     One(EstimatorKind),
     /// [`EstimatorKind::ALL`], side by side.
@@ -24,6 +27,7 @@ impl ValueEnum for EstimatorChoice {
     fn value_variants<'a>() -> &'a [Self] {
         use EstimatorKind as K;
         &[
+            Self::Auto,
             Self::One(K::Adaptive),
             Self::One(K::Gradient),
             Self::One(K::LeastSquares),
@@ -35,6 +39,11 @@ impl ValueEnum for EstimatorChoice {
 
     fn to_possible_value(&self) -> Option<PossibleValue> {
         match self {
+            Self::Auto => Some(PossibleValue::new("auto").help(
+                "replay: run the candidate models (robust, adaptive and feedthrough laws; 1–3 \
+                 modes; level correction off and on) and keep the one the data supports best \
+                 (docs/REPLAY.md, \"Model selection\"); simulate: the adaptive law",
+            )),
             Self::One(k) => k.to_possible_value(),
             Self::All => Some(
                 PossibleValue::new("all")
@@ -158,7 +167,7 @@ pub enum PrecisionChoice {
 pub struct EstimatorArgs {
     /// Update law to run; `all` runs the four side by side on the same
     /// samples.
-    #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::One(EstimatorKind::Adaptive))]
+    #[arg(long, value_enum, value_name = "LAW", default_value_t = EstimatorChoice::Auto)]
     pub estimator: EstimatorChoice,
 
     /// Floating-point type of the estimator.
@@ -402,9 +411,11 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub ts: Option<f64>,
 
-    /// Number of modes N to identify, 1..=3.
-    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
-    pub modes: u8,
+    /// Number of modes N to identify, 1..=3 [default: chosen from the
+    /// data with --estimator auto (docs/REPLAY.md, "Model selection"),
+    /// else 2].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=3))]
+    pub modes: Option<u8>,
 
     /// Output weights c_i (row C̄ of eq. 24; they set b̄ only),
     /// comma-separated, one per mode, each finite and ≠ 0 [default:

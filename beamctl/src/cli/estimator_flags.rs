@@ -30,6 +30,9 @@ pub struct EstimatorPlan {
 /// Validate the shared flags for an `modes`-mode model.
 pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliError> {
     let kinds = match args.estimator {
+        // `replay` resolves `auto` itself (crate::judge::select) before
+        // it gets here; anywhere else it is the firmware's default law.
+        EstimatorChoice::Auto => vec![EstimatorKind::Adaptive],
         EstimatorChoice::One(k) => vec![k],
         EstimatorChoice::All => EstimatorKind::ALL.to_vec(),
     };

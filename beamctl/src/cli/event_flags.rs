@@ -148,9 +148,15 @@ pub struct GuardArgs {
     /// Remove y's offset steps and filter u and y by the guard's DC-removing
     /// high-pass (3 rad/s, second order; identical on u and y, so the
     /// estimate is unchanged), so that an offset or a drift of the gauge
-    /// does not bias the estimate [default: off, as on the firmware].
-    #[arg(long)]
+    /// does not bias the estimate [default: replay --estimator auto: chosen
+    /// from the data (docs/REPLAY.md, "Model selection"); otherwise off, as
+    /// on the firmware].
+    #[arg(long, conflicts_with = "no_level_correction")]
     pub level_correction: bool,
+
+    /// Never correct the level (see --level-correction).
+    #[arg(long)]
+    pub no_level_correction: bool,
 
     /// Also test for sensor faults on the model's equation error (the
     /// guard's residual monitor, 2-mode models): offset steps below the

@@ -22,7 +22,7 @@
 //!   the other laws the RMS of y − ŷ of the model output fit (which also
 //!   holds their bias, so it over-states σ when they are biased).
 
-use crate::cli::args::ReplayArgs;
+use crate::cli::args::{EstimatorChoice, ReplayArgs};
 use crate::cli::estimator_flags::{self, EstimatorPlan};
 use crate::error::{note, write_stdout};
 use crate::error::{CliError, EXIT_USAGE};
@@ -33,6 +33,7 @@ use crate::io::report::{self, Column};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::judge::fit;
 use crate::judge::frf::PowerSpectrum;
+use crate::judge::select;
 use crate::judge::verdict::{residual_spectrum, RecordEvidence};
 use crate::run::estimator::EstimatorKind;
 use crate::run::session::Outcome;
@@ -66,9 +67,117 @@ struct Plan {
     residual_monitor: bool,
 }
 
+/// The modes of a replay whose flags fix the model: `--modes`, else as
+/// many as `--weights` gives, else 2.
+fn fixed_modes(args: &ReplayArgs) -> usize {
+    match (args.modes, &args.weights) {
+        (Some(m), _) => usize::from(m),
+        (None, Some(w)) if (1..=3).contains(&w.len()) => w.len(),
+        _ => 2,
+    }
+}
+
+/// The flags' plan; with `--estimator auto` the first candidate's (the
+/// choice among the candidates is [`execute_auto`]'s).
 fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
-    let modes = usize::from(args.modes);
-    let est = estimator_flags::plan(&args.est, modes)?;
+    match candidates(args) {
+        Some(c) => c
+            .iter()
+            .find_map(|c| plan_for(args, Some(*c)).ok())
+            .map_or_else(|| plan_for(args, c.first().copied()), Ok),
+        None => plan_for(args, None),
+    }
+}
+
+/// One model `--estimator auto` tries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Candidate {
+    /// Update law.
+    pub estimator: EstimatorKind,
+    /// Modes of the model.
+    pub modes: usize,
+    /// The guard's level correction on.
+    pub level_correction: bool,
+}
+
+impl Candidate {
+    /// Parameters a model output fit of it adjusts
+    /// ([`crate::judge::select`]): 4N − 1 coefficients, 2N initial-state
+    /// coefficients, the feedthrough term's two.
+    fn parameters(&self) -> usize {
+        6 * self.modes - 1
+            + if self.estimator == EstimatorKind::Feedthrough {
+                2
+            } else {
+                0
+            }
+    }
+}
+
+/// With `--estimator auto`: every candidate model, in the rule's
+/// preference order (fewer modes, then no level correction, then the
+/// robust estimator, the adaptive law, the feedthrough model); the flags
+/// given fix their dimension. `None` when `--estimator` names a law.
+pub fn candidates(args: &ReplayArgs) -> Option<Vec<Candidate>> {
+    if args.est.estimator != EstimatorChoice::Auto {
+        return None;
+    }
+    let modes: Vec<usize> = match (args.modes, &args.weights) {
+        (Some(m), _) => vec![usize::from(m)],
+        (None, Some(w)) if (1..=3).contains(&w.len()) => vec![w.len()],
+        // A wrong count: the plan's error names it.
+        (None, Some(_)) => vec![2],
+        (None, None) => vec![1, 2, 3],
+    };
+    let levels: &[bool] = match (args.guard.level_correction, args.guard.no_level_correction) {
+        (true, _) => &[true],
+        (_, true) => &[false],
+        _ => &[false, true],
+    };
+    let mut out = Vec::new();
+    for &m in &modes {
+        for &level_correction in levels {
+            for estimator in [
+                EstimatorKind::Robust,
+                EstimatorKind::Adaptive,
+                EstimatorKind::Feedthrough,
+            ] {
+                if estimator == EstimatorKind::Feedthrough && m != 2 {
+                    continue;
+                }
+                out.push(Candidate {
+                    estimator,
+                    modes: m,
+                    level_correction,
+                });
+            }
+        }
+    }
+    Some(out)
+}
+
+/// The plan of the flags, or of `candidate` in place of the estimator,
+/// modes and level-correction flags.
+fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, CliError> {
+    let (modes, level_correction, est) = match candidate {
+        Some(c) => {
+            let mut est = args.est.clone();
+            est.estimator = EstimatorChoice::One(c.estimator);
+            (
+                c.modes,
+                c.level_correction,
+                estimator_flags::plan(&est, c.modes)?,
+            )
+        }
+        None => {
+            let modes = fixed_modes(args);
+            (
+                modes,
+                args.guard.level_correction,
+                estimator_flags::plan(&args.est, modes)?,
+            )
+        }
+    };
     if let Some(ts) = args.ts {
         if !(ts.is_finite() && ts > 0.0) {
             return Err(CliError::usage(
@@ -126,7 +235,7 @@ fn plan(args: &ReplayArgs) -> Result<Plan, CliError> {
         ts_s: args.ts,
         crlb: args.crlb.then(|| (args.model_set.set(), args.noise_sd)),
         range: crate::cli::event_flags::range(&args.guard)?,
-        level_correction: args.guard.level_correction,
+        level_correction,
         residual_monitor: args.guard.residual_monitor,
     })
 }
@@ -142,10 +251,15 @@ pub struct ReplayReport {
     pub precision: Precision,
     /// Modes identified.
     pub modes: usize,
+    /// The guard's level correction was on (the fit and the verdict are
+    /// then of the corrected samples).
+    pub level_correction: bool,
     /// Gain set.
     pub gains: &'static str,
     /// Sample interval (s).
     pub ts_s: f64,
+    /// With `--estimator auto`: how the model was chosen.
+    pub selection: Option<Selection>,
     /// Data rows read.
     pub samples: u64,
     /// Record length, samples × Ts (s).
@@ -363,7 +477,9 @@ pub fn replay_arrays(
     execute(args, &plan, &opts.label, opts.ts_s, opts.log_every, source)
 }
 
-/// The replay proper: the session over `source`, then `--csv`/`--plot`.
+/// The replay proper: the session over `source`, then `--csv`/`--plot`;
+/// with `--estimator auto`, the choice of a model first
+/// ([`execute_auto`]).
 fn execute(
     args: &ReplayArgs,
     plan: &Plan,
@@ -372,6 +488,9 @@ fn execute(
     log_every: Option<u64>,
     source: Source<'_>,
 ) -> Result<Replayed, CliError> {
+    if let Some(c) = candidates(args) {
+        return execute_auto(args, &c, label, ts, log_every, source);
+    }
     let names: Vec<&str> = plan.est.kinds.iter().map(|k| k.name()).collect();
     let csv = match &args.csv {
         Some(p) => Some(CsvOut::create(p, plan.modes, &names)?),
@@ -380,15 +499,7 @@ fn execute(
     if let Some(p) = &args.plot {
         plot::check_writable(p)?;
     }
-    let sized = match (plan.modes, plan.est.precision) {
-        (1, Precision::F64) => replay_sized::<f64, 2, 3, 6>,
-        (1, Precision::F32) => replay_sized::<f32, 2, 3, 6>,
-        (2, Precision::F64) => replay_sized::<f64, 4, 7, 28>,
-        (2, Precision::F32) => replay_sized::<f32, 4, 7, 28>,
-        (3, Precision::F64) => replay_sized::<f64, 6, 11, 66>,
-        _ => replay_sized::<f32, 6, 11, 66>,
-    };
-    let out = sized(plan, label, ts, source, csv, args.plot.is_some(), log_every)?;
+    let out = sized_for(plan)(plan, label, ts, source, csv, args.plot.is_some(), log_every)?;
     if let (Some(rows), Some(p)) = (out.csv_rows, &args.csv) {
         note(&format!("wrote {} ({rows} rows)", p.display()));
     }
@@ -418,6 +529,315 @@ fn execute(
         note(&format!("wrote {}{extra}", p.display()));
     }
     Ok(out)
+}
+
+/// How `--estimator auto` chose the model ([`crate::judge::select`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct Selection {
+    /// The rule: `bic_of_the_output_error`.
+    pub rule: &'static str,
+    /// Index of the chosen candidate in `candidates`; None if none was
+    /// eligible (the report is then the fallback's: the adaptive law,
+    /// no level correction, `--modes` or 2 modes).
+    pub chosen: Option<usize>,
+    /// Every candidate, in the rule's preference order.
+    pub candidates: Vec<CandidateReport>,
+}
+
+/// One candidate as the rule read it.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateReport {
+    /// The model.
+    #[serde(flatten)]
+    pub candidate: Candidate,
+    /// Its better model output fit: on the record as measured or after
+    /// the level correction ([`crate::judge::select`], step 2).
+    pub fit_percent: Option<f64>,
+    /// Which record that fit is of: `measured` or `level_corrected`.
+    pub fit_on: Option<&'static str>,
+    /// BIC and why it could not be chosen, if so.
+    #[serde(flatten)]
+    pub score: crate::judge::select::Score,
+}
+
+/// The samples a replay is judged on with the level correction: the
+/// sensor guard's output with `--level-correction` (offset steps removed,
+/// u and y through the same DC-removing high-pass), a faulty y as NaN;
+/// the guard's delay line drops the last few samples.
+fn level_corrected(
+    samples: impl Iterator<Item = (f64, f64)>,
+    ts: f64,
+    range: Option<[f64; 2]>,
+) -> Result<Vec<(f64, f64)>, CliError> {
+    let mut guard = beamest::guard::SensorGuard::<f64>::new(&guard_config(ts, range, true))
+        .map_err(|e| CliError::failure(format!("replay: level correction: {e}")))?;
+    let mut out = Vec::with_capacity(samples.size_hint().0);
+    for (u, y) in samples {
+        if let Some(g) = guard.push(u, y) {
+            out.push(g.for_estimator());
+        }
+    }
+    Ok(out)
+}
+
+/// `--estimator auto`: every candidate over the record (as many at once
+/// as there are cores), each judged on the level-corrected samples, the
+/// rule's choice ([`crate::judge::select`]), then the chosen flags' replay
+/// (so its report is exactly that of those flags given by hand) with the
+/// selection attached.
+fn execute_auto(
+    args: &ReplayArgs,
+    candidates: &[Candidate],
+    label: &str,
+    ts: f64,
+    log_every: Option<u64>,
+    source: Source<'_>,
+) -> Result<Replayed, CliError> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    use std::sync::Mutex;
+    let mut owned: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    let mut never = || false;
+    let (u, y, chunk, interrupt): (&[f64], &[f64], usize, &mut dyn FnMut() -> bool) = match source {
+        Source::File(reader) => {
+            read_file(reader, label, |batch| {
+                owned.0.extend(batch.iter().map(|s| s.0));
+                owned.1.extend(batch.iter().map(|s| s.1));
+            })?;
+            (&owned.0, &owned.1, BATCH, &mut never)
+        }
+        Source::Arrays {
+            u,
+            y,
+            chunk,
+            interrupt,
+        } => (u, y, chunk, interrupt),
+    };
+    let range = crate::cli::event_flags::range(&args.guard)?;
+    let judged = level_corrected(u.iter().copied().zip(y.iter().copied()), ts, range)?;
+    let stop = AtomicBool::new(false);
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<Judged, CliError>>>> =
+        Mutex::new(vec![None; candidates.len()]);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(candidates.len());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&c) = candidates.get(i) else {
+                    return;
+                };
+                let r = candidate_evidence(args, c, label, ts, (u, y), &judged, &stop);
+                if let Ok(mut all) = results.lock() {
+                    if let Some(slot) = all.get_mut(i) {
+                        *slot = Some(r);
+                    }
+                }
+                done.fetch_add(1, Ordering::Release);
+            });
+        }
+        while done.load(Ordering::Acquire) < candidates.len() {
+            if !stop.load(Ordering::Relaxed) && interrupt() {
+                stop.store(true, Ordering::Relaxed);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+    });
+    if stop.load(Ordering::Relaxed) {
+        return Err(CliError::interrupted("replay"));
+    }
+    let results = results
+        .into_inner()
+        .map_err(|_| CliError::failure("replay: a candidate's run panicked"))?;
+    let mut fits = Vec::with_capacity(candidates.len());
+    let mut evidence = Vec::with_capacity(candidates.len());
+    for r in results {
+        let (fit, e) = match r {
+            Some(Ok(v)) => v,
+            Some(Err(e)) if e.code == crate::error::EXIT_INTERRUPTED => return Err(e),
+            // A candidate the flags rule out (e.g. --paper-gains with 1 mode).
+            Some(Err(_)) | None => (
+                None,
+                select::Evidence {
+                    excluded: Some("not_applicable"),
+                    relative_residual: None,
+                    parameters: 0,
+                },
+            ),
+        };
+        fits.push(fit);
+        evidence.push(e);
+    }
+    let (scores, chosen) = select::choose(&evidence, judged.len());
+    let fallback = candidates
+        .iter()
+        .position(|c| {
+            c.estimator == EstimatorKind::Adaptive
+                && c.modes == fixed_modes(args)
+                && !c.level_correction
+        })
+        .unwrap_or(0);
+    let pick = candidates
+        .get(chosen.unwrap_or(fallback))
+        .copied()
+        .ok_or_else(|| CliError::failure("replay: no candidate model"))?;
+    let mut fixed = args.clone();
+    fixed.est.estimator = EstimatorChoice::One(pick.estimator);
+    fixed.modes = u8::try_from(pick.modes).ok();
+    fixed.guard.level_correction = pick.level_correction;
+    fixed.guard.no_level_correction = !pick.level_correction;
+    let plan = plan_for(&fixed, None)?;
+    let mut out = execute(
+        &fixed,
+        &plan,
+        label,
+        ts,
+        log_every,
+        Source::Arrays {
+            u,
+            y,
+            chunk,
+            interrupt,
+        },
+    )?;
+    let selection = Selection {
+        rule: "bic_of_the_output_error",
+        chosen,
+        candidates: candidates
+            .iter()
+            .zip(fits)
+            .zip(scores)
+            .map(|((c, fit), score)| CandidateReport {
+                candidate: *c,
+                fit_percent: fit.map(|f| f.0),
+                fit_on: fit.map(|f| f.1),
+                score,
+            })
+            .collect(),
+    };
+    for r in &mut out.reports {
+        r.selection = Some(selection.clone());
+    }
+    Ok(out)
+}
+
+/// A candidate's better fit (percent, and on which record) and what the
+/// rule knows of it.
+type Judged = (Option<(f64, &'static str)>, select::Evidence);
+
+/// One candidate's replay (no `--csv`, `--plot`, logs) and what the rule
+/// needs of it: its better fit percentage, on the record as measured
+/// (`u`, `y`) or level-corrected (`judged`), which one, and its evidence.
+fn candidate_evidence(
+    args: &ReplayArgs,
+    c: Candidate,
+    label: &str,
+    ts: f64,
+    (u, y): (&[f64], &[f64]),
+    judged: &[(f64, f64)],
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<Judged, CliError> {
+    let plan = plan_for(args, Some(c))?;
+    let mut stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
+    let out = sized_for(&plan)(
+        &plan,
+        label,
+        ts,
+        Source::Arrays {
+            u,
+            y,
+            chunk: BATCH,
+            interrupt: &mut stopped,
+        },
+        None,
+        false,
+        None,
+    )?;
+    let report = out
+        .reports
+        .first()
+        .ok_or_else(|| CliError::failure("replay: a candidate made no report"))?;
+    let e = &report.outcome.estimate;
+    let excluded = if !e.is_valid() {
+        Some("no_estimate")
+    } else {
+        report
+            .outcome
+            .validity
+            .first()
+            .copied()
+            .or_else(|| select::overdamped(&e.zeta))
+    };
+    let model = excluded
+        .is_none()
+        .then(|| summary_model(&report.outcome, ts))
+        .flatten();
+    let raw = model
+        .as_ref()
+        .and_then(|m| fit::fit(m, || u.iter().copied().zip(y.iter().copied())));
+    let corrected = model
+        .as_ref()
+        .and_then(|m| fit::fit(m, || judged.iter().copied()));
+    let best = match (raw, corrected) {
+        (Some(a), Some(b)) => Some(if a.percent >= b.percent {
+            (a.percent, "measured")
+        } else {
+            (b.percent, "level_corrected")
+        }),
+        (Some(a), None) => Some((a.percent, "measured")),
+        (None, Some(b)) => Some((b.percent, "level_corrected")),
+        (None, None) => None,
+    };
+    Ok((
+        best,
+        select::Evidence {
+            excluded,
+            relative_residual: best.map(|(p, _)| 1.0 - p / 100.0),
+            parameters: c.parameters(),
+        },
+    ))
+}
+
+/// The reported model of an outcome (with its residual terms, if any),
+/// for a fit.
+fn summary_model(o: &Outcome, ts: f64) -> Option<fit::Model> {
+    let e = &o.estimate;
+    let n = e.omega.len();
+    let mut tf = beamest::model::TransferFunction::<f64> {
+        modes: n,
+        a: [0.0; beamest::model::MAX_ORDER],
+        b: [0.0; beamest::model::MAX_ORDER],
+    };
+    tf.a.get_mut(..e.a.len())?.copy_from_slice(&e.a);
+    tf.b.get_mut(..e.b.len())?.copy_from_slice(&e.b);
+    match (o.numerator_s3, o.feedthrough) {
+        (Some(s3), Some(d)) => fit::Model::with_residual(&tf, ts, s3, d),
+        _ => fit::Model::new(&tf, ts),
+    }
+}
+
+/// The sized replay for a plan's modes and precision.
+type Sized = fn(
+    &Plan,
+    &str,
+    f64,
+    Source<'_>,
+    Option<CsvOut>,
+    bool,
+    Option<u64>,
+) -> Result<Replayed, CliError>;
+
+fn sized_for(plan: &Plan) -> Sized {
+    match (plan.modes, plan.est.precision) {
+        (1, Precision::F64) => replay_sized::<f64, 2, 3, 6>,
+        (1, Precision::F32) => replay_sized::<f32, 2, 3, 6>,
+        (2, Precision::F64) => replay_sized::<f64, 4, 7, 28>,
+        (2, Precision::F32) => replay_sized::<f32, 4, 7, 28>,
+        (3, Precision::F64) => replay_sized::<f64, 6, 11, 66>,
+        _ => replay_sized::<f32, 6, 11, 66>,
+    }
 }
 
 /// An evaluation grid: every `every` samples, the first at sample
@@ -637,6 +1057,10 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 batches.push(batch);
             })?;
             st.end();
+            if plan.level_correction {
+                let c = level_corrected(batches.iter().flatten().copied(), ts, plan.range)?;
+                return judge(plan, label, st, || c.iter().copied());
+            }
             judge(plan, label, st, || batches.iter().flatten().copied())
         }
         Source::Arrays {
@@ -652,6 +1076,10 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 }
             }
             st.end();
+            if plan.level_correction {
+                let c = level_corrected(u.iter().copied().zip(y.iter().copied()), ts, plan.range)?;
+                return judge(plan, label, st, || c.iter().copied());
+            }
             judge(plan, label, st, || u.iter().copied().zip(y.iter().copied()))
         }
     }
@@ -834,8 +1262,10 @@ where
                 _ => Precision::F64,
             },
             modes: plan.modes,
+            level_correction: plan.level_correction,
             gains: plan.est.gains.name(),
             ts_s: ts,
+            selection: None,
             samples: n,
             duration_s: n as f64 * ts,
             outcome,
@@ -928,8 +1358,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                     _ => Precision::F64,
                 },
                 modes: plan.modes,
+                level_correction: plan.level_correction,
                 gains: plan.est.gains.name(),
                 ts_s: self.ts,
+                selection: None,
                 samples: n,
                 duration_s: n as f64 * self.ts,
                 outcome: self.session.outcome(
@@ -956,7 +1388,9 @@ impl Stream {
     /// # Errors
     /// The flags' errors, a bad `ts_s`, a flag that does not apply.
     pub fn new(args: &ReplayArgs, ts_s: f64, every: u64) -> Result<Self, CliError> {
-        let plan = plan(args)?;
+        // A stream cannot choose among candidates before it has the
+        // record: `auto` is the adaptive law, `--modes` or 2 modes.
+        let plan = plan_for(args, None)?;
         if !(ts_s.is_finite() && ts_s > 0.0) {
             return Err(CliError::usage(
                 "ts",
@@ -1049,8 +1483,8 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         first.samples,
         first.ts_s,
         crate::io::table::short(first.duration_s, 6),
-        plan.modes,
-        if plan.modes == 1 { "" } else { "s" },
+        first.modes,
+        if first.modes == 1 { "" } else { "s" },
         plan.est.lambda_label,
         match first.precision {
             Precision::F64 => "f64",
@@ -1058,6 +1492,9 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         },
         first.gains
     );
+    if let Some(sel) = &first.selection {
+        out.push_str(&selection_line(sel, first));
+    }
     let columns: Vec<Column<'_>> = reports
         .iter()
         .map(|r| Column {
@@ -1088,11 +1525,11 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     if let Some((set, _)) = plan.crlb {
         out.push_str(&format!(
             "bound:  Cramér–Rao at each final estimate, {}, that model driven from rest by the recorded u\n",
-            crate::judge::bound::model_set_description(set, plan.modes)
+            crate::judge::bound::model_set_description(set, first.modes)
         ));
     }
     out.push('\n');
-    out.push_str(&report::table(plan.modes, None, None, &columns));
+    out.push_str(&report::table(first.modes, None, None, &columns));
     out.push_str(&report::verdict_reasons(&columns));
     out.push_str(report::FOOTNOTE);
     out.push_str(report::FOOTNOTE_GUARD);
@@ -1109,6 +1546,33 @@ any bias of the estimate too).\n",
         );
     }
     out
+}
+
+/// The table's line on how `--estimator auto` chose the model.
+fn selection_line(sel: &Selection, report: &ReplayReport) -> String {
+    let eligible = sel
+        .candidates
+        .iter()
+        .filter(|c| c.score.excluded.is_none())
+        .count();
+    let what = format!(
+        "{}, {} mode{}, level correction {}",
+        report.estimator.name(),
+        report.modes,
+        if report.modes == 1 { "" } else { "s" },
+        if report.level_correction { "on" } else { "off" }
+    );
+    match sel.chosen {
+        Some(_) => format!(
+            "model:  {what}: chosen from the data ({eligible} of {} candidates eligible; \
+             docs/REPLAY.md, \"Model selection\")\n",
+            sel.candidates.len()
+        ),
+        None => format!(
+            "model:  {what}: no candidate model was eligible (of {}), this is the fallback\n",
+            sel.candidates.len()
+        ),
+    }
 }
 
 /// `u` and `y` are sample pairs: the same length, else a usage error

@@ -57,12 +57,40 @@ pub struct Model {
     sections: Vec<Section>,
     /// Number of free-response basis functions (= model order).
     basis: usize,
+    /// Direct term D: ŷ_k gains D·u_{k−1}, the input held when y_k is read.
+    direct: f64,
 }
 
 impl Model {
     /// Discretise `tf` at `ts_s`; `None` for an empty model, a pole at
     /// s = 0, repeated poles or non-finite coefficients.
     pub fn new(tf: &TransferFunction<f64>, ts_s: f64) -> Option<Self> {
+        let d = tf.order();
+        let b = tf.b.get(..d.checked_sub(1)?)?;
+        Self::build(tf, ts_s, b, 0.0)
+    }
+
+    /// As [`Model::new`] for the model D + (s3·s^{d−1} + B(s))/A(s) of an
+    /// estimator with residual terms (the feedthrough model: `s3` the
+    /// numerator coefficient its modes cannot hold, `direct` = D).
+    pub fn with_residual(
+        tf: &TransferFunction<f64>,
+        ts_s: f64,
+        s3: f64,
+        direct: f64,
+    ) -> Option<Self> {
+        let d = tf.order();
+        let mut b = vec![s3];
+        b.extend_from_slice(tf.b.get(..d.checked_sub(1)?)?);
+        if !direct.is_finite() {
+            return None;
+        }
+        Self::build(tf, ts_s, &b, direct)
+    }
+
+    /// The sections of B(s)/A(s), `b` the numerator (highest power first,
+    /// degree < that of A), plus `direct`.
+    fn build(tf: &TransferFunction<f64>, ts_s: f64, b: &[f64], direct: f64) -> Option<Self> {
         let d = tf.order();
         if d == 0 || d > MAX_ORDER || !(ts_s > 0.0) {
             return None;
@@ -81,11 +109,11 @@ impl Model {
                     da = da * (p - q);
                 }
             }
-            let mut b = C::from_real(0.0);
-            for &bk in &tf.b[..d - 1] {
-                b = b * p + C::from_real(bk);
+            let mut bp = C::from_real(0.0);
+            for &bk in b {
+                bp = bp * p + C::from_real(bk);
             }
-            let r = b / da;
+            let r = bp / da;
             let real = p.im == 0.0;
             let phi = cexp(p.scale(ts_s));
             let gamma = (phi - C::from_real(1.0)) / p;
@@ -101,7 +129,11 @@ impl Model {
                 omega_rad_s: p.norm(),
             });
         }
-        Some(Self { sections, basis: d })
+        Some(Self {
+            sections,
+            basis: d,
+            direct,
+        })
     }
 
     /// True if every pole is in the open left half plane.
@@ -117,7 +149,8 @@ impl Model {
     pub fn response(&self, f_hz: f64, ts_s: f64) -> (f64, f64) {
         let w = 2.0 * std::f64::consts::PI * f_hz * ts_s;
         let z = C::new(w.cos(), w.sin());
-        let mut h = C::from_real(0.0);
+        // The direct term acts on the input held when y is read: D·z⁻¹.
+        let mut h = C::from_real(self.direct) / z;
         for s in &self.sections {
             let term = |phi: C, gamma: C, weight: C| weight * gamma / (z - phi);
             if s.real {
@@ -158,7 +191,7 @@ impl<'m> Pass<'m> {
     /// decayed below 1e-30).
     #[inline]
     fn step_forced(&mut self, u: f64) -> f64 {
-        let mut y = 0.0;
+        let mut y = self.model.direct * self.last_u;
         if u.is_finite() {
             self.last_u = u;
         }
@@ -175,7 +208,7 @@ impl<'m> Pass<'m> {
 
     /// ŷ_forced(k) and the basis b_j(k) into `b`; then advance with u_k.
     fn step(&mut self, u: f64, b: &mut [f64]) -> f64 {
-        let mut y = 0.0;
+        let mut y = self.model.direct * self.last_u;
         let mut j = 0;
         for ((s, x), z) in self.model.sections.iter().zip(&self.x).zip(&self.z) {
             y += (s.weight * *x).re;

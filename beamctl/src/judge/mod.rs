@@ -1,10 +1,12 @@
 //! How an estimate is judged: against the measurement (model output fit,
 //! [`fit`]) and against the best any unbiased estimator can do (the
 //! Cramér–Rao bound, [`bound`]), and the measured frequency response
-//! ([`frf`]). The tables and JSON that report it are
+//! ([`frf`]), and which of several candidate models a record supports
+//! best ([`select`]). The tables and JSON that report it are
 //! [`crate::io::report`].
 
 pub mod bound;
 pub mod fit;
 pub mod frf;
+pub mod select;
 pub mod verdict;

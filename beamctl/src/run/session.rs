@@ -124,6 +124,12 @@ pub struct Outcome {
     /// the other estimators.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub feedthrough: Option<f64>,
+    /// The s³ coefficient of the numerator of that model (B = N − D·A,
+    /// which its two modes cannot hold; units of y·s³ per unit of u);
+    /// absent for the other estimators. With `feedthrough` and `estimate`'s
+    /// a, b it is the whole fitted model (the model output fit uses it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub numerator_s3: Option<f64>,
     /// Samples rejected as non-finite or out of range (start-up window
     /// included).
     pub rejected_samples: u64,
@@ -558,9 +564,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             .map(|e| to_f64_tf(&e.transfer_function()))
     }
 
-    /// The identified model of estimator `i` for [`crate::judge::fit::fit`], if any.
+    /// The identified model of estimator `i` for [`crate::judge::fit::fit`],
+    /// if any: its transfer function, with the residual terms of a model
+    /// that has them.
     pub fn model(&self, i: usize, ts_s: f64) -> Option<Model> {
-        Model::new(&self.transfer_function(i)?, ts_s)
+        let tf = self.transfer_function(i)?;
+        match self.runs[i].estimate().and_then(|e| e.residual()) {
+            Some(r) => Model::with_residual(&tf, ts_s, r.b3.to_f64(), r.feedthrough.to_f64()),
+            None => Model::new(&tf, ts_s),
+        }
     }
 
     /// Counters of estimator `i` over the record.
@@ -576,7 +588,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         let fit = record.fit;
         let run = &self.runs[i];
         let n = self.weights.len();
-        let (estimate, exc, ok, validity, feedthrough) = match run.estimate() {
+        let (estimate, exc, ok, validity, residual) = match run.estimate() {
             Some(est) => {
                 let tf = est.transfer_function();
                 let recovered = modal_from_tf(&tf, &self.weights);
@@ -587,7 +599,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
                     est.excitation_level().map(|v| v.to_f64()),
                     est.health().state_ok,
                     validity,
-                    est.feedthrough().map(|v| v.to_f64()),
+                    est.residual()
+                        .map(|r| (r.feedthrough.to_f64(), r.b3.to_f64())),
                 )
             }
             None => (
@@ -613,7 +626,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         Outcome {
             estimate,
             excitation_min_eig: exc,
-            feedthrough,
+            feedthrough: residual.map(|r| r.0),
+            numerator_s3: residual.map(|r| r.1),
             rejected_samples: totals.rejected,
             skipped_updates: totals.skipped,
             law_updates: totals.updates,

@@ -20,8 +20,12 @@ Scoring (the same for every flag set):
 - unidentifiable: PASS when the report does not present an estimate of an
   unexcited mode as good: exit status 1 (no estimate), a non-empty
   `validity`, or every reported mode within 1% in ω of an excited mode
-  (acceptance.excited_modes). (Today's reports have no `verdict`; once
-  they do, this must read trusted: false.)
+  (acceptance.excited_modes). (The reports' `verdict` must also read
+  trusted: false there: python/tests/test_records.py asserts it.)
+
+The first flag set is no flags: `--estimator auto`, the model chosen from
+the data (docs/REPLAY.md, "Model selection"); the row says what it chose
+and the verdict.
 """
 
 import argparse
@@ -138,6 +142,12 @@ def describe(rc, out, err):
     est = out.get("estimate")
     sup = out.get("supervision") or {}
     parts = [f"exit {rc}"]
+    if out.get("selection") is not None:
+        lc = "LC" if out.get("level_correction") else "no LC"
+        parts.append(f"chose {out['estimator']} {out['modes']}m {lc}")
+    if out.get("verdict") is not None:
+        parts.append("trusted" if out["verdict"]["trusted"] else
+                     "not trusted (" + ",".join(r["code"] for r in out["verdict"]["reasons"]) + ")")
     if est is None:
         parts.append("no estimate")
     else:
