@@ -171,8 +171,10 @@ Output: the estimate (ω, ζ, b̄ per mode), the model output fit \
 fitted), how much the estimate moved over the last 10% of the record, λ and the \
 tuning rule's outcome, λmin(P) (adaptive law), samples, rejected samples and skipped \
 updates; for the robust estimator its phase and a-posteriori noise RMS; with --crlb the \
-Cramér–Rao bound at the final estimate (see --crlb). Exit status 1 if no estimate was \
-produced, 2 for bad flags or input.";
+Cramér–Rao bound at the final estimate (see --crlb); the verdict (trusted, or the reasons \
+why not). With no flags the estimator, the number of modes and the level correction are \
+chosen from the data (--estimator auto; docs/REPLAY.md, \"Model selection\"). Exit status 1 \
+if no estimate was produced or none is trusted (after the report), 2 for bad flags or input.";
 
 const MODEL_ABOUT: &str = "\
 Print the physical beam's modal model: per mode the root β_iL of eq. 20, ω_i, ζ_i, \

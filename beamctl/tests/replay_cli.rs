@@ -327,14 +327,24 @@ fn flags_fix_their_part_of_the_model() {
         env!("CARGO_MANIFEST_DIR"),
         "/../host-tests/data/records/lab_offset_step_prbs/record.csv.gz"
     );
-    let r = json(&beamctl(&[
+    let o = beamctl(&[
         "replay",
         path,
         "--modes",
         "1",
         "--no-level-correction",
         "--json",
-    ]));
+    ]);
+    // One mode and no correction of the offset step: nothing to trust, so
+    // exit status 1 after the full report.
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no trusted estimate: no: "),
+        "{}",
+        stderr(&o)
+    );
+    let r: Value = serde_json::from_slice(&o.stdout).expect("the report");
+    assert_eq!(r["verdict"]["trusted"], false);
     let cands = r["selection"]["candidates"].as_array().expect("candidates");
     assert_eq!(cands.len(), 2, "robust and adaptive, 1 mode, no correction");
     for c in cands {
@@ -343,13 +353,9 @@ fn flags_fix_their_part_of_the_model() {
     }
     assert_eq!(r["modes"], 1);
     assert_eq!(r["level_correction"], false);
-    let r = json(&beamctl(&[
-        "replay",
-        path,
-        "--estimator",
-        "adaptive",
-        "--json",
-    ]));
+    // The adaptive law alone (an offset step, no correction: not trusted).
+    let o = beamctl(&["replay", path, "--estimator", "adaptive", "--json"]);
+    let r: Value = serde_json::from_slice(&o.stdout).expect("the report");
     assert_eq!(r["selection"], Value::Null);
     assert_eq!(r["modes"], 2);
     assert_eq!(r["level_correction"], false);

@@ -261,7 +261,8 @@ def replay(u: Any, y: Any, ts: Optional[float] = None, t: Any = None, *,
     (s) or the sample times ``t`` (s; checked and reduced to Ts as a time
     column is). ``options`` are ``beamctl replay``'s flags: estimator,
     precision, modes, weights, lambda_, band_hz, beam, paper_gains,
-    paper_exp_gains, range, level_correction, residual_monitor, crlb,
+    paper_exp_gains, range, level_correction, no_level_correction,
+    residual_monitor, crlb,
     noise_sd, model_set, csv, plot. ``file`` is the report's ``file``.
     ``series_hz``: evaluations per second of record kept in
     :attr:`ReplayResult.series` (10 = the drift grid, 1000 = ``--csv``'s).
@@ -325,7 +326,9 @@ class Estimator:
     sample at a time, however the samples are split into chunks.
 
     ``Estimator(ts, rate_hz=100, **options)``: ``options`` as
-    :func:`replay`'s (not csv, plot, crlb). ``step(u, y)`` takes arrays
+    :func:`replay`'s (not csv, plot, crlb); ``estimator="auto"`` (the
+    default) is the adaptive law here, with ``modes`` or 2 modes: a
+    stream cannot choose a model before it has the record. ``step(u, y)`` takes arrays
     of any length and returns the estimates evaluated in them, one every
     ``round(1/(rate_hz·ts))`` samples (the first at sample
     ``every − 1``)."""

@@ -421,7 +421,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         render(&plan, &out.reports)
     };
     write_stdout(&text)?;
-    require_estimates(&out.reports)
+    require_trusted(&out.reports)
 }
 
 /// Exit status after the report: an error naming the first law that
@@ -435,6 +435,21 @@ pub fn require_estimates(reports: &[ReplayReport]) -> Result<(), CliError> {
             r.outcome.law_updates,
         )
     }))
+}
+
+/// `beamctl replay`'s exit status after the report: [`require_estimates`],
+/// then, when no report's verdict trusts its estimate, an error with the
+/// first one's reasons (exit status 1 either way).
+fn require_trusted(reports: &[ReplayReport]) -> Result<(), CliError> {
+    require_estimates(reports)?;
+    if reports.iter().any(|r| r.outcome.verdict.trusted) {
+        return Ok(());
+    }
+    let why = reports
+        .first()
+        .map(|r| r.outcome.verdict.summary())
+        .unwrap_or_default();
+    Err(CliError::failure(format!("no trusted estimate: {why}")))
 }
 
 /// `beamctl replay` over samples already in memory: `u[k]`, `y[k]` as the
