@@ -136,9 +136,9 @@ fn vfma_f64(a: f64, b: f64, c: f64) -> f64 {
     unsafe {
         core::arch::asm!(
             "vfma.f64 {acc}, {a}, {b}",
-            acc = inout(dreg) acc,
-            a = in(dreg) a,
-            b = in(dreg) b,
+            acc = inout(dreg_low16) acc,
+            a = in(dreg_low16) a,
+            b = in(dreg_low16) b,
             options(pure, nomem, nostack),
         );
     }
@@ -174,9 +174,9 @@ fn vfnms_f64(a: f64, b: f64, c: f64) -> f64 {
     unsafe {
         core::arch::asm!(
             "vfnms.f64 {acc}, {a}, {b}",
-            acc = inout(dreg) acc,
-            a = in(dreg) a,
-            b = in(dreg) b,
+            acc = inout(dreg_low16) acc,
+            a = in(dreg_low16) a,
+            b = in(dreg_low16) b,
             options(pure, nomem, nostack),
         );
     }
