@@ -53,8 +53,12 @@ const M4F_FEATURES: &str = "target-feature=+vfp2,-fp64";
 /// Which core an image's code is generated for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Cpu {
-    /// The plain `thumbv7em-none-eabihf` target: single-precision FPU
-    /// only (`f64` in software), runs on the Cortex-M4F and the M7.
+    /// The generic `thumbv7em-none-eabihf` target: single-precision FPU
+    /// only (`f64` in software), runs on the Cortex-M4F and the M7; built
+    /// with [`M4F_FEATURES`] so that the core's fused multiply-add is the
+    /// `VFMA.F32` instruction. (In the default target directory: a plain
+    /// `cargo build --target thumbv7em-none-eabihf` after it rebuilds the
+    /// dependencies once.)
     Generic,
     /// `-C target-cpu=cortex-m7`: the M7's FPv5-D16 double-precision FPU
     /// and its scheduling. Built in its own target directory
