@@ -18,6 +18,21 @@
 //! * sets `cfg(beamest_cortex_m7)` when the target's rustflags hold
 //!   `-C target-cpu=cortex-m7` (the reference board's binary refuses to
 //!   build without the M7's double-precision FPU);
+//!
+//!
+//! and for every build, board or not, the fused multiply-add routes of
+//! `src/scalar/fma.rs`, set only where `asm!` may name the FPU's registers
+//! (stable Rust 1.95 exposes no ARM FPU feature to `cfg`, and its `asm!`
+//! accepts the `sreg` class only with its `vfp2` feature, which the
+//! generic `thumbv7em-none-eabihf` does not report although its FPv4-SP
+//! has `VFMA.F32`):
+//! * `cfg(beamest_fma_f32)` on `thumbv7em-*-eabihf` with
+//!   `-C target-cpu=cortex-m7`, or with `-C target-feature=+vfp2,-fp64`
+//!   (what `cargo xtask` passes for the Cortex-M4F images: `vfp2` lets
+//!   `asm!` use the S registers, `-fp64` keeps `f64` in software as the
+//!   M4F needs);
+//! * `cfg(beamest_fma_f64)` with `-C target-cpu=cortex-m7` (FPv5-D16:
+//!   `VFMA.F64`; the M4F has no double-precision FPU);
 //! * passes the link scripts to the firmware binaries only (`-Tlink.x`,
 //!   `-Tdefmt.x` where defmt is linked, `--nmagic`), so the library's unit
 //!   tests and host tools never see them.
@@ -65,6 +80,23 @@ fn main() {
     // Set below when the firmware is built for the Cortex-M7 (the
     // reference board's binary refuses to build without it).
     println!("cargo::rustc-check-cfg=cfg(beamest_cortex_m7)");
+    println!("cargo::rustc-check-cfg=cfg(beamest_fma_f32)");
+    println!("cargo::rustc-check-cfg=cfg(beamest_fma_f64)");
+
+    let target = env::var("TARGET").unwrap_or_default();
+    let codegen = codegen_flags();
+    let cortex_m7 = codegen.iter().any(|f| f == "target-cpu=cortex-m7");
+    let sreg_allowed = cortex_m7
+        || codegen.iter().any(|f| {
+            f.strip_prefix("target-feature=")
+                .is_some_and(|list| list.split(',').any(|x| x == "+vfp2"))
+        });
+    if target.starts_with("thumbv7em-") && target.ends_with("eabihf") && sreg_allowed {
+        println!("cargo::rustc-cfg=beamest_fma_f32");
+        if cortex_m7 {
+            println!("cargo::rustc-cfg=beamest_fma_f64");
+        }
+    }
 
     let enabled: Vec<&Board> = BOARDS
         .iter()
@@ -83,7 +115,6 @@ fn main() {
         }
     };
 
-    let target = env::var("TARGET").unwrap_or_default();
     if !target.starts_with("thumbv7em-") {
         panic!(
             "feature `{}` builds firmware for thumbv7em-none-eabihf, not `{target}`: \
@@ -93,20 +124,6 @@ fn main() {
         );
     }
 
-    // `-C target-cpu=cortex-m7` in the target's rustflags (cargo passes
-    // them to build scripts, 0x1F-separated): the FPv5-D16 double-precision
-    // FPU is available.
-    let rustflags = env::var("CARGO_ENCODED_RUSTFLAGS").unwrap_or_default();
-    let mut flags = rustflags.split('\x1f').peekable();
-    let mut cortex_m7 = false;
-    while let Some(flag) = flags.next() {
-        let cpu = match flag.strip_prefix("-C") {
-            Some("") => flags.peek().copied().unwrap_or_default(),
-            Some(rest) => rest,
-            None => flag,
-        };
-        cortex_m7 |= cpu == "target-cpu=cortex-m7";
-    }
     if cortex_m7 {
         println!("cargo::rustc-cfg=beamest_cortex_m7");
     }
@@ -125,6 +142,22 @@ fn main() {
     if board.defmt {
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     }
+}
+
+/// The values of the `-C` options in the target's rustflags (cargo passes
+/// them to build scripts, 0x1F-separated; `-C x` and `-Cx` alike).
+fn codegen_flags() -> Vec<String> {
+    let rustflags = env::var("CARGO_ENCODED_RUSTFLAGS").unwrap_or_default();
+    let mut flags = rustflags.split('\x1f').peekable();
+    let mut out = Vec::new();
+    while let Some(flag) = flags.next() {
+        match flag.strip_prefix("-C") {
+            Some("") => out.push(flags.next().unwrap_or_default().to_string()),
+            Some(rest) => out.push(rest.to_string()),
+            None => {}
+        }
+    }
+    out
 }
 
 fn copy(from: &str, to: &PathBuf) {

@@ -81,13 +81,15 @@
 //! ```
 #![cfg_attr(not(test), no_std)]
 // No `unsafe` anywhere in the core. Firmware builds (a board feature) add
-// the board layer, which alone opts back in (`board/*/mod.rs`).
+// the board layer, which alone opts back in (`board/*/mod.rs`); builds for
+// the Cortex-M4F/M7 add the `VFMA` wrappers of `scalar/fma.rs`, the one
+// audited module outside the board layer that opts in.
 #![cfg_attr(
-    not(any(feature = "board-qemu", feature = "board-nucleo")),
+    not(any(feature = "board-qemu", feature = "board-nucleo", beamest_fma_f32)),
     forbid(unsafe_code)
 )]
 #![cfg_attr(
-    any(feature = "board-qemu", feature = "board-nucleo"),
+    any(feature = "board-qemu", feature = "board-nucleo", beamest_fma_f32),
     deny(unsafe_code)
 )]
 #![warn(missing_docs)]

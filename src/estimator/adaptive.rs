@@ -54,7 +54,8 @@
 //!   paper's plant. So P̃, Q̃ (and R̃) are double-word sums and W is
 //!   evaluated with a double-word dot product (`src/scalar/compensated.rs`) when
 //!   `T::COMPENSATED` (`f32`). Per sample, each of the NS + NP increments
-//!   is a near-exact product of operands split once (`Factor`) added
+//!   is a near-exact double-word product (`product_dd`: the product's
+//!   exact error and its cross terms by fused multiply-adds) added
 //!   lazily (`add_lazy`); P̃, Q̃ are renormalized inside the W pass at each
 //!   θ step (`residual_exact`); the cost/accuracy trade-offs behind this
 //!   are measured in docs/NUMERICS.md. The step matrix only sets the
@@ -73,7 +74,7 @@ use super::theta_step::ThetaStep;
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::scalar::compensated::{
-    add_lazy, residual_exact, Compensated, CompensatedArray, Dot2, Factor,
+    add_lazy, product_dd, product_dw, residual_exact, Compensated, CompensatedArray, Dot2,
 };
 use crate::scalar::Real;
 use crate::supervise::{InLoopLemma1, SupervisorConfig};
@@ -81,8 +82,8 @@ use crate::supervise::{InLoopLemma1, SupervisorConfig};
 /// With `T::COMPENSATED`, the trailing words of P̃ and Q̃ are renormalized
 /// every this many samples (they are accumulated lazily, see
 /// `compensated::add_lazy`; after 64 additions they hold at most ~8 ulp of
-/// the leading words, typically ~2, still ≪ 2^(p/2)·ulp as
-/// `compensated::Factor` needs).
+/// the leading words, typically ~2: the trailing word stays far below the
+/// leading one, as `compensated::product_dd` assumes).
 const RENORMALIZE_EVERY: u8 = 64;
 
 /// Gains of the proposed law, in scaled coordinates.
@@ -284,17 +285,11 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
     }
 
     /// P̃ += w·φφᵀ, Q̃ += w·φ·y with every increment formed from the
-    /// double-word φ as a near-exact product ([`Factor::mul`]) and added by
-    /// an exact two-sum into lazily renormalized double words
-    /// ([`add_lazy`]). `T::COMPENSATED` only.
+    /// double-word φ as a near-exact product ([`product_dd`], fused
+    /// multiply-adds) and added by an exact two-sum into lazily
+    /// renormalized double words ([`add_lazy`]). `T::COMPENSATED` only.
     #[inline(always)]
     fn accumulate_exact(&mut self, w: T, reg: &Regressor<T, NP>) {
-        let mut cols = [Factor::default(); NP];
-        for ((c, &h), &l) in cols.iter_mut().zip(reg.phi.iter()).zip(reg.phi_lo.iter()) {
-            *c = Factor::new(h, l);
-        }
-        let yf = Factor::new(reg.y, T::ZERO);
-        let wf = Factor::new(w, T::ZERO);
         // Row i of the packed upper triangle is the next NP − i entries.
         let mut rest_h: &mut [T] = &mut self.p.sum.hi;
         let mut rest_l: &mut [T] = &mut self.p.sum.lo;
@@ -303,26 +298,22 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             .hi
             .iter_mut()
             .zip(self.q.lo.iter_mut())
-            .zip(cols.iter());
-        for (i, ((qh, ql), ci)) in rows.enumerate() {
-            // a = w·φ_i, itself a double word, prepared once per row.
-            let (ah, al) = wf.mul(ci);
-            let a = Factor::new(ah, al);
+            .zip(reg.phi.iter().zip(reg.phi_lo.iter()));
+        for (i, ((qh, ql), (&ph, &pl))) in rows.enumerate() {
+            // a = w·φ_i, itself a double word, once per row.
+            let (ah, al) = product_dw(ph, pl, w);
             let (Some((row_h, tail_h)), Some((row_l, tail_l))) = (
                 core::mem::take(&mut rest_h).split_at_mut_checked(NP - i),
                 core::mem::take(&mut rest_l).split_at_mut_checked(NP - i),
             ) else {
                 return;
             };
-            for ((h, l), cj) in row_h
-                .iter_mut()
-                .zip(row_l.iter_mut())
-                .zip(cols.iter().skip(i))
-            {
-                let (p, e) = a.mul(cj);
+            let cols = reg.phi.iter().zip(reg.phi_lo.iter()).skip(i);
+            for ((h, l), (&ch, &cl)) in row_h.iter_mut().zip(row_l.iter_mut()).zip(cols) {
+                let (p, e) = product_dd(ah, al, ch, cl);
                 add_lazy(h, l, p, e);
             }
-            let (p, e) = a.mul(&yf);
+            let (p, e) = product_dw(ah, al, reg.y);
             add_lazy(qh, ql, p, e);
             rest_h = tail_h;
             rest_l = tail_l;

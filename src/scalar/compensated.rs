@@ -12,16 +12,17 @@
 //! `f32` sums ends 0.24 off after 20 s (docs/NUMERICS.md, rows 0–1; test
 //! `plain_f32_port_of_the_paper_law_fails_where_f64_succeeds` in
 //! `host-tests/tests/precision.rs`). Double-word arithmetic gives
-//! δ ≈ 1e-14 for about 3–8 extra flops per term, all in single precision,
-//! which fits a Cortex-M4F (no software `f64`).
+//! δ ≈ 1e-14 for a few extra instructions per term, all in single
+//! precision, which fits a Cortex-M4F (no software `f64`).
 //!
 //! # What
-//! * [`two_sum`] (Knuth), [`fast_two_sum`] (Dekker) and [`two_prod`]
-//!   (Dekker/Veltkamp, no FMA needed) are error-free transformations.
-//! * [`Factor`] and [`ExactFactor`] are double-word operands split once so
-//!   that each product with another costs 5 (near-exact, ~2⁻³³) or 8
-//!   (exact up to ~2⁻⁴⁶) flops: the adaptive law's per-sample increments
-//!   use the first, its residual W ([`residual_exact`]) the second.
+//! * [`two_sum`] (Knuth), [`fast_two_sum`] (Dekker) and [`two_prod`] (the
+//!   product's error by a fused multiply-add, [`Real::mul_sub`]) are
+//!   error-free transformations.
+//! * [`product_dd`] and [`product_dw`] multiply double words (exact up to
+//!   ~2⁻⁴⁷ in `f32`; 4 and 3 instructions on the Cortex-M4F's FPU): the
+//!   adaptive law's per-sample increments and its residual W
+//!   ([`residual_exact`]).
 //! * [`add_lazy`] adds such a product to a double word without
 //!   renormalizing it ([`CompensatedArray::renormalize`] does that later).
 //! * [`Compensated`] is a (hi, lo) accumulator: `add` is exact up to the
@@ -54,67 +55,15 @@ pub(crate) fn fast_two_sum<T: Real>(a: T, b: T) -> (T, T) {
     (s, b - (s - a))
 }
 
-/// p + e = a·b exactly, with p = fl(a·b) (Dekker's product with Veltkamp
-/// splitting, 17 flops, no fused multiply-add required).
+/// p + e = a·b exactly, with p = fl(a·b): the product and its exact
+/// error, e = fl(a·b − p) with one rounding of an exactly representable
+/// value ([`Real::mul_sub`]; 2 instructions with the FPU's fused
+/// multiply-add, where Dekker's product with Veltkamp splitting took 17).
+/// The same p and e as Dekker's on every target (both are exact).
 #[inline(always)]
 pub(crate) fn two_prod<T: Real>(a: T, b: T) -> (T, T) {
     let p = a * b;
-    let (ah, al) = split(a);
-    let (bh, bl) = split(b);
-    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
-    (p, e)
-}
-
-#[inline(always)]
-fn split<T: Real>(a: T) -> (T, T) {
-    let c = T::SPLITTER * a;
-    let hi = c - (c - a);
-    (hi, a - hi)
-}
-
-/// A double word h + l prepared for [`Factor::mul`]: its leading word h,
-/// the Veltkamp high half `hh` of h (⌈p/2⌉ significant bits) and the tail
-/// t = (h − hh) + l. Preparing costs 5 flops, once per operand; every
-/// product with another factor then costs 5 flops (Dekker's product with
-/// pre-split operands would cost 9, plus 4 for the low words).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub(crate) struct Factor<T> {
-    h: T,
-    hh: T,
-    t: T,
-}
-
-impl<T: Real> Factor<T> {
-    /// Prepare the double word `h + l` (`l` may be zero, or unnormalized:
-    /// only h + l matters, with |l| ≲ 2⁻ᵖ⁄²·|h|).
-    #[inline(always)]
-    pub fn new(h: T, l: T) -> Self {
-        let c = T::SPLITTER * h;
-        let hh = c - (c - h);
-        Self {
-            h,
-            hh,
-            t: (h - hh) + l,
-        }
-    }
-
-    /// The product of two double words as an unevaluated sum p + e with
-    /// p = fl(h·h′): Dekker's exact error term hh·hh′ − p (exact, as in
-    /// [`two_prod`]) plus the remaining partial products t·hh′ + h·t′ in
-    /// working precision. Only the products of a tail with a tail's lower
-    /// half are dropped, so p + e is the product to about 2^(3−3p/2)
-    /// relative (≈ 2⁻³³ in `f32`) instead of the 2⁻²⁴ of
-    /// a rounded product: in `f32` each increment of P, Q (eq. 33) and each
-    /// term of W (eq. 35) is then ~5e5 times more accurate than rounding
-    /// alone, and their rounding errors are random, so over the law's
-    /// memory of 1/(l·Ts) ≈ 2e5 samples they add up to ~2⁻⁴² of P. Only
-    /// used when `T::COMPENSATED`.
-    #[inline(always)]
-    pub(crate) fn mul(&self, o: &Self) -> (T, T) {
-        let p = self.h * o.h;
-        let e = ((self.hh * o.hh - p) + self.t * o.hh) + self.h * o.t;
-        (p, e)
-    }
+    (p, a.mul_sub(b, p))
 }
 
 /// A double-word accumulator: the value is `hi + lo`.
@@ -158,36 +107,6 @@ impl<T: Real> Compensated<T> {
     }
 }
 
-/// A double word prepared for exact products: h = hh + hl (Veltkamp) and
-/// the trailing word l.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub(crate) struct ExactFactor<T> {
-    h: T,
-    hh: T,
-    hl: T,
-    l: T,
-}
-
-impl<T: Real> ExactFactor<T> {
-    /// Prepare the double word `h + l`.
-    #[inline(always)]
-    pub fn new(h: T, l: T) -> Self {
-        let (hh, hl) = split(h);
-        Self { h, hh, hl, l }
-    }
-
-    /// (h + l)(h′ + l′) as p + e with p = fl(h·h′): Dekker's exact
-    /// h·h′ − p, then the cross terms h·l′ + l·h′ in the same chain (l·l′
-    /// dropped). e is exact up to the rounding of the two cross terms and
-    /// of the last two additions, ≲ 2⁻²ᵖ·|p|.
-    #[inline(always)]
-    pub(crate) fn mul(&self, o: &Self) -> (T, T) {
-        let p = self.h * o.h;
-        let e = ((self.hh * o.hh - p) + self.hh * o.hl + self.hl * o.hh) + self.hl * o.hl;
-        (p, (e + self.h * o.l) + self.l * o.h)
-    }
-}
-
 /// hi + lo += p + e for a double word (hi, lo) and an unevaluated sum
 /// p + e: the two-sum of the leading words is exact and its error joins `e`
 /// in the trailing word, which is **not** renormalized (3 flops fewer than
@@ -202,12 +121,25 @@ pub(crate) fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
     *lo += err + e;
 }
 
-/// (xh + xl)·(yh + yl) as a double word (p, e), dropping xl·yl (below the
-/// working precision squared).
+/// (xh + xl)·(yh + yl) as an unevaluated sum p + e with p = fl(xh·yh):
+/// the exact error of p ([`two_prod`]), then the cross terms xh·yl and
+/// xl·yh each added by a fused multiply-add (xl·yl, below the working
+/// precision squared, is dropped). e is exact up to those two roundings,
+/// ≲ 2⁻²ᵖ⁺¹·|p| (2⁻⁴⁷ in `f32`), in 4 instructions with the FPU's fused
+/// multiply-add: the near-exact increments of P, Q (eq. 33) and the terms
+/// of W (eq. 35) in single precision.
 #[inline(always)]
 pub(crate) fn product_dd<T: Real>(xh: T, xl: T, yh: T, yl: T) -> (T, T) {
     let (p, e) = two_prod(xh, yh);
-    (p, e + (xh * yl + xl * yh))
+    (p, xl.mul_add(yh, xh.mul_add(yl, e)))
+}
+
+/// (xh + xl)·y for a double word and a word: [`product_dd`] with yl = 0,
+/// one fused multiply-add fewer.
+#[inline(always)]
+pub(crate) fn product_dw<T: Real>(xh: T, xl: T, y: T) -> (T, T) {
+    let (p, e) = two_prod(xh, y);
+    (p, xl.mul_add(y, e))
 }
 
 /// An array of double-word accumulators stored as two word arrays
@@ -358,7 +290,7 @@ impl<T: Real> Dot2<T> {
     }
 
     /// Accumulate the unevaluated sum p + e (a product from
-    /// [`Factor::mul`]): an exact two-sum of the leading words, whose error
+    /// [`product_dd`]): an exact two-sum of the leading words, whose error
     /// joins `e` in the trailing sum.
     #[inline(always)]
     pub(crate) fn add_dw(&mut self, p: T, e: T) {
@@ -393,8 +325,8 @@ impl<T: Real> Dot2<T> {
 /// with [`add_lazy`], and renormalizing them at every θ step keeps its
 /// accuracy: leaving the trailing words at ~√64 ulp cost up to 2.5× in the
 /// ω, ζ errors of the worst-conditioned plants, docs/NUMERICS.md). Every
-/// term P_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁶
-/// ([`ExactFactor::mul`]), summed by [`Dot2::add_dw`]; row i of the packed
+/// term P_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁷
+/// ([`product_dd`]), summed by [`Dot2::add_dw`]; row i of the packed
 /// P adds P_ij·θ_j to W_i and, by symmetry, P_ij·θ_i to W_j (j > i).
 /// Meant for `T::COMPENSATED` (in `f64` it is merely exact and slow).
 pub(crate) fn residual_exact<T: Real, const NP: usize, const NS: usize>(
@@ -402,9 +334,9 @@ pub(crate) fn residual_exact<T: Real, const NP: usize, const NS: usize>(
     q: &mut CompensatedArray<T, NP>,
     theta: &CompensatedArray<T, NP>,
 ) -> [T; NP] {
-    let mut th = [ExactFactor::default(); NP];
+    let mut th = [(T::ZERO, T::ZERO); NP];
     for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
-        *f = ExactFactor::new(h, l);
+        *f = (h, l);
     }
     let mut acc = [Dot2::<T>::new(); NP];
     for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
@@ -415,23 +347,22 @@ pub(crate) fn residual_exact<T: Real, const NP: usize, const NS: usize>(
     // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
     let mut off = 0;
     for i in 0..NP {
-        let (Some(&th_i), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
+        let (Some(&(th_ih, th_il)), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
             break;
         };
         let mut acc_i = acc_start;
         for t in 0..NP {
-            let (Some(h), Some(l), Some(th_j)) =
+            let (Some(h), Some(l), Some(&(th_jh, th_jl))) =
                 (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
             else {
                 break;
             };
             (*h, *l) = fast_two_sum(*h, *l);
-            let pij = ExactFactor::new(*h, *l);
-            let (p, e) = pij.mul(th_j);
+            let (p, e) = product_dd(*h, *l, th_jh, th_jl);
             acc_i.add_dw(p, e);
             if t > 0 {
                 if let Some(acc_j) = acc.get_mut(i + t) {
-                    let (p, e) = pij.mul(&th_i);
+                    let (p, e) = product_dd(*h, *l, th_ih, th_il);
                     acc_j.add_dw(p, e);
                 }
             }
@@ -454,6 +385,34 @@ mod tests {
             let (p, e) = two_prod(a, b);
             let exact = a as f64 * b as f64;
             assert_eq!(p as f64 + e as f64, exact);
+        }
+    }
+
+    /// Dekker's product with Veltkamp splitting (what `two_prod` was before
+    /// the fused multiply-add): the reference it must equal bit for bit.
+    fn dekker_two_prod(a: f32, b: f32) -> (f32, f32) {
+        let split = |x: f32| {
+            let c = 4097.0 * x;
+            let hi = c - (c - x);
+            (hi, x - hi)
+        };
+        let p = a * b;
+        let ((ah, al), (bh, bl)) = (split(a), split(b));
+        (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
+    }
+
+    #[test]
+    fn two_prod_equals_dekkers_product() {
+        let mut next = rng(19);
+        for _ in 0..200_000 {
+            let (a, _, _) = random_dw(&mut next);
+            let (b, _, _) = random_dw(&mut next);
+            let (p, e) = two_prod(a, b);
+            assert_eq!((p.to_bits(), e.to_bits()), {
+                let (p, e) = dekker_two_prod(a, b);
+                (p.to_bits(), e.to_bits())
+            });
+            assert_eq!(p as f64 + e as f64, a as f64 * b as f64);
         }
     }
 
@@ -498,18 +457,20 @@ mod tests {
     }
 
     #[test]
-    fn factor_products_are_as_accurate_as_documented() {
+    fn double_word_products_are_as_accurate_as_documented() {
         let mut next = rng(7);
         for _ in 0..100_000 {
             let (ah, al, a) = random_dw(&mut next);
             let (bh, bl, b) = random_dw(&mut next);
             let exact = a * b; // exact in f64 up to 2^-53 relative
-            let (p, e) = Factor::new(ah, al).mul(&Factor::new(bh, bl));
+            let (p, e) = product_dd(ah, al, bh, bl);
             let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
-            assert!(err < 2f64.powi(-32), "Factor: {err:e}");
-            let (p, e) = ExactFactor::new(ah, al).mul(&ExactFactor::new(bh, bl));
+            assert!(err < 2f64.powi(-45), "product_dd: {err:e}");
+            assert_eq!(p, ah * bh);
+            let (p, e) = product_dw(ah, al, bh);
+            let exact = a * f64::from(bh);
             let err = ((p as f64 + e as f64) - exact).abs() / exact.abs();
-            assert!(err < 2f64.powi(-44), "ExactFactor: {err:e}");
+            assert!(err < 2f64.powi(-45), "product_dw: {err:e}");
         }
     }
 
@@ -520,10 +481,10 @@ mod tests {
         let mut next = rng(11);
         let (mut h, mut l) = (0.0f32, 0.0f32);
         let mut exact = 0.0f64;
-        let w = Factor::new(1.0e-4f32, 0.0);
+        let w = 1.0e-4f32;
         for k in 0..10_000 {
             let (xh, xl, _) = random_dw(&mut next);
-            let (p, e) = w.mul(&Factor::new(xh, xl));
+            let (p, e) = product_dw(xh, xl, w);
             exact += (p as f64) + (e as f64);
             add_lazy(&mut h, &mut l, p, e);
             if k % 10 == 9 {

@@ -16,6 +16,7 @@
 //! ([`sqrt_f32`], [`hypot_f32`]; libm's `hypotf` widens to `f64`).
 
 pub(crate) mod compensated;
+mod fma;
 
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
@@ -58,8 +59,6 @@ pub trait Real:
     /// for the paper's plant, ~1e8 with a weak high mode);
     /// `false` for `f64`, where plain arithmetic already reaches ~1e-10.
     const COMPENSATED: bool;
-    /// Veltkamp splitting constant 2^⌈p/2⌉ + 1 for Dekker's exact product.
-    const SPLITTER: Self;
     /// One more than the largest binary exponent: `MAX` < 2^`MAX_EXP`
     /// (`f32::MAX_EXP` = 128, `f64::MAX_EXP` = 1024).
     const MAX_EXP: i32;
@@ -89,6 +88,15 @@ pub trait Real:
     /// 0.5 ulp + 2⁻³⁰ relative of the exact value; no `f64` arithmetic
     /// beyond the split, no libm).
     fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self;
+    /// self·a + b rounded once (IEEE 754 fusedMultiplyAdd): the FPU's
+    /// `VFMA` on the Cortex-M4F (`f32`) and M7 (`f32`, `f64`), the
+    /// correctly rounded software routine elsewhere, the same result
+    /// everywhere (`src/scalar/fma.rs`). What makes a product's exact error
+    /// one instruction (`compensated::two_prod`).
+    fn mul_add(self, a: Self, b: Self) -> Self;
+    /// self·a − b rounded once (`VFNMS`; as [`Real::mul_add`] with −b, bit
+    /// for bit): the exact error of p = fl(x·y) is `x.mul_sub(y, p)`.
+    fn mul_sub(self, a: Self, b: Self) -> Self;
     /// Square root (correctly rounded; for `f32` without `f64`: the
     /// hardware instruction where libm has a path to it, else
     /// `sqrt_f32`).
@@ -149,8 +157,8 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal, $comp:literal, $split:literal, $sqrt:path, $exp:path, $ln:path, $sin:path, $cos:path,
-     $sinh:path, $cosh:path, $atan2:path, $hypot:path, $round:path, $spowi:path) => {
+    ($t:ty, $name:literal, $comp:literal, $sqrt:path, $exp:path, $ln:path, $sin:path, $cos:path,
+     $sinh:path, $cosh:path, $atan2:path, $hypot:path, $round:path, $spowi:path, $fma:path, $fms:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -158,7 +166,6 @@ macro_rules! impl_real {
             const MAX: Self = <$t>::MAX;
             const NAME: &'static str = $name;
             const COMPENSATED: bool = $comp;
-            const SPLITTER: Self = $split;
             const MAX_EXP: i32 = <$t>::MAX_EXP;
 
             #[inline(always)]
@@ -192,6 +199,14 @@ macro_rules! impl_real {
             #[inline(always)]
             fn scaled_powi_from_f64(base: f64, n: u32, coef: u32) -> Self {
                 $spowi(base, n, coef)
+            }
+            #[inline(always)]
+            fn mul_add(self, a: Self, b: Self) -> Self {
+                $fma(self, a, b)
+            }
+            #[inline(always)]
+            fn mul_sub(self, a: Self, b: Self) -> Self {
+                $fms(self, a, b)
             }
             #[inline(always)]
             fn sqrt(self) -> Self {
@@ -253,7 +268,6 @@ impl_real!(
     f32,
     "f32",
     true,
-    4097.0,
     sqrtf_select,
     libm::expf,
     libm::logf,
@@ -264,13 +278,14 @@ impl_real!(
     libm::atan2f,
     hypot_f32,
     libm::roundf,
-    scaled_powi_f32
+    scaled_powi_f32,
+    fma::mul_add_f32,
+    fma::mul_sub_f32
 );
 impl_real!(
     f64,
     "f64",
     false,
-    134217729.0,
     libm::sqrt,
     libm::exp,
     libm::log,
@@ -281,7 +296,9 @@ impl_real!(
     libm::atan2,
     libm::hypot,
     libm::round,
-    scaled_powi_f64
+    scaled_powi_f64,
+    fma::mul_add_f64,
+    fma::mul_sub_f64
 );
 
 /// √x for `f32` (correctly rounded either way): `libm::sqrtf` where libm

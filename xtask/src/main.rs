@@ -47,11 +47,18 @@ use std::thread;
 /// The firmware target triple (Cortex-M4F/M7, hard float).
 const TARGET: &str = "thumbv7em-none-eabihf";
 
+/// The target features of the Cortex-M4F images (see [`Cpu::cargo_args`]).
+const M4F_FEATURES: &str = "target-feature=+vfp2,-fp64";
+
 /// Which core an image's code is generated for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Cpu {
-    /// The plain `thumbv7em-none-eabihf` target: single-precision FPU
-    /// only (`f64` in software), runs on the Cortex-M4F and the M7.
+    /// The generic `thumbv7em-none-eabihf` target: single-precision FPU
+    /// only (`f64` in software), runs on the Cortex-M4F and the M7; built
+    /// with [`M4F_FEATURES`] so that the core's fused multiply-add is the
+    /// `VFMA.F32` instruction. (In the default target directory: a plain
+    /// `cargo build --target thumbv7em-none-eabihf` after it rebuilds the
+    /// dependencies once.)
     Generic,
     /// `-C target-cpu=cortex-m7`: the M7's FPv5-D16 double-precision FPU
     /// and its scheduling. Built in its own target directory
@@ -64,7 +71,20 @@ impl Cpu {
     /// Extra `cargo build` arguments and the target directory for `base`.
     fn cargo_args(self, base: &Path) -> (Vec<String>, PathBuf) {
         match self {
-            Cpu::Generic => (Vec::new(), base.to_path_buf()),
+            // `+vfp2,-fp64`: lets `asm!` name the S registers, so the
+            // core's `VFMA.F32` route is built (`src/scalar/fma.rs`; Rust
+            // 1.95 accepts the `sreg` class only with `vfp2`, which the
+            // generic target does not report), while `f64` stays in
+            // software as on the M4F. rustc warns that both are unstable
+            // target features; the flags change no other code generation
+            // (the target's FPv4-SP is enabled either way).
+            Cpu::Generic => (
+                vec![
+                    "--config".to_string(),
+                    format!("target.{TARGET}.rustflags=[\"-C\",\"{M4F_FEATURES}\"]"),
+                ],
+                base.to_path_buf(),
+            ),
             Cpu::CortexM7 => {
                 let dir = base.join("cortex-m7");
                 let args = vec![

@@ -141,6 +141,7 @@ fn main() -> ! {
         );
         board::exit(false);
     }
+    fma_self_check();
     let run_samples = run_length();
 
     let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue), Some(startup_queue)) = (
@@ -452,6 +453,43 @@ fn tuning() -> TuningConfig {
         timing: bench::output_timing(),
         ..TuningConfig::new(bench::TS_S, LambdaSource::Data)
     }
+}
+
+/// The fused multiply-add of the core (`Real::mul_add`, `VFMA.F32` in this
+/// image) against results computed on the host by `libm::fmaf`, bit for
+/// bit: rounded once, including where the unfused a·b + c gives 0 (the
+/// first three, the exact errors of products) and a subnormal result.
+/// Fails the run on any difference.
+fn fma_self_check() {
+    use beamest::Real;
+    // (a, b, c, fma(a, b, c)) as bit patterns.
+    const TRIPLES: [(u32, u32, u32, u32); 6] = [
+        (0x3f80_0001, 0x3f80_0001, 0xbf80_0002, 0x2880_0000), // (1+2⁻²³)² − (1+2⁻²²) = 2⁻⁴⁶
+        (0x3dcc_cccd, 0x4040_0000, 0xbe99_999a, 0xb200_0000), // 0.1·3 − 0.3
+        (0x3f8c_cccd, 0x4053_3333, 0xc068_51ec, 0xb3bd_70a4), // 1.1·3.3 − fl(1.1·3.3)
+        (0xbeaa_aaaa, 0x403f_fe5d, 0x3f80_0000, 0x380b_eaaa), // 1 − 0.3333333·2.9999
+        (0x1e3c_e508, 0x1e3c_e508, 0x000a_e398, 0x000b_fa5a), // 1e-20² + 1e-39 (subnormal)
+        (0x4b7f_ffff, 0x4b7f_fffd, 0xd6b5_e621, 0x5725_0cec), // 24-bit integers, product − 1e14
+    ];
+    for (a, b, c, want) in TRIPLES {
+        let (a, b, c) = (f32::from_bits(a), f32::from_bits(b), f32::from_bits(c));
+        let got = a.mul_add(b, c).to_bits();
+        if got != want || a.mul_sub(b, -c).to_bits() != want {
+            hprintln!(
+                "error: fused multiply-add {:e}·{:e} + {:e} = bits {:#010x}, expected {:#010x}",
+                a,
+                b,
+                c,
+                got,
+                want
+            );
+            board::exit(false);
+        }
+    }
+    hprintln!(
+        "fma self-check: {} fixed triples rounded once, as on the host",
+        TRIPLES.len()
+    );
 }
 
 /// Log and exit with failure (boot errors, broken invariants).

@@ -26,7 +26,7 @@
 
 use crate::estimator::theta_step::ThetaStep;
 use crate::estimator::{ConfigError, LawError};
-use crate::scalar::compensated::{product_dd, two_prod, Compensated, CompensatedArray, Dot2};
+use crate::scalar::compensated::{product_dw, two_prod, Compensated, CompensatedArray, Dot2};
 use crate::scalar::Real;
 
 /// Damping of the step matrix in units of NP·ε·max diag (see `step`).
@@ -188,11 +188,11 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
                 // W decides the fixed point: form w·ψ_iψ_j exactly.
                 let (ah, al) = two_prod(w, psi[i]);
                 for j in i..NP {
-                    let (p, e) = product_dd(ah, al, psi[j], T::ZERO);
+                    let (p, e) = product_dw(ah, al, psi[j]);
                     self.p.add_dw(idx, p, e);
                     idx += 1;
                 }
-                let (p, e) = product_dd(ah, al, eps, T::ZERO);
+                let (p, e) = product_dw(ah, al, eps);
                 self.q.add_dw(i, p, e);
             } else {
                 let a = w * psi[i];
