@@ -172,3 +172,94 @@ impl<T: Real, S: LockSpans> RobustUpdates<T, S> {
         }
     }
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use crate::estimator::robust::ExternalUpdates;
+    use crate::estimator::Estimator;
+    use crate::excitation::SquareWave;
+    use crate::filter_bank::{FilterConfig, SignalScales};
+    use crate::link::rebuild_robust;
+    use crate::modal::modal_from_tf;
+    use crate::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
+    use crate::rig::ModalPlant;
+    use beam_protocol::{EstimatorKind, EstimatorSettings};
+
+    /// A 0.6 s record keeps the test quick.
+    const B: usize = 6_000;
+    type Slot = RobustEstimator<f64, 4, 7, 28, B>;
+
+    /// The device side of a board, without a lock: the estimator the
+    /// "sample interrupt" steps.
+    struct Board {
+        est: ExternalUpdates<&'static mut Slot>,
+    }
+
+    impl RobustAccess<f64, B> for Board {
+        fn with_robust<R>(&mut self, f: impl FnOnce(&mut Slot) -> R) -> Option<R> {
+            Some(f(self.est.inner_mut()))
+        }
+    }
+
+    /// Lock spans counted, not timed.
+    #[derive(Default)]
+    struct Count(u32);
+
+    impl LockSpans for Count {
+        type Instant = ();
+        fn now() {}
+        fn add(&mut self, _: (), _: ()) {
+            self.0 += 1;
+        }
+    }
+
+    /// The firmware's arrangement on the host: the estimator rebuilt in
+    /// place for the link's settings, stepped without in-step updates, its
+    /// model updates run by the scheduler between samples in small chunks
+    /// (as the NUCLEO image does, 4 units per lock): the updates are
+    /// installed, the record fills, and the estimate is the beam's.
+    #[test]
+    fn updates_between_samples_converge() {
+        let filter = FilterConfig {
+            lambda_rad_s: 100.0,
+            scales: SignalScales {
+                u_scale: 0.1,
+                y_scale: 4e-3,
+            },
+            ..FilterConfig::default()
+        };
+        let settings = EstimatorSettings {
+            kind: EstimatorKind::Robust,
+            ..EstimatorSettings::default()
+        };
+        let (f0, law) = crate::link::robust_configs::<7>(&settings, 100.0, &filter);
+        assert_eq!(law.update_every, 0);
+        let mut board = Board {
+            est: ExternalUpdates(Box::leak(Box::new(Slot::new(&f0, &law).unwrap()))),
+        };
+        // A second build into the same slot, as a new command would.
+        rebuild_robust(board.est.inner_mut(), &settings, &filter, &[]).unwrap();
+        let mut updates = RobustUpdates::<f64, Count>::new(4, 4);
+        let mut plant =
+            ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();
+        let mut sq = SquareWave::<f64>::paper();
+        for _ in 0..30_000 {
+            let u = sq.next_sample();
+            board.est.step(u, plant.sample(u));
+            for _ in 0..8 {
+                updates.poll(&mut board);
+            }
+        }
+        let est = board.est.inner_mut();
+        assert_eq!(est.phase(), Phase::Steady);
+        assert!(updates.applied >= 2 && est.updates() == updates.applied);
+        assert!(updates.chunks > 0 && updates.locks.0 > updates.chunks);
+        let m = modal_from_tf(&est.transfer_function(), &[-2.0, 2.0]).unwrap();
+        for i in 0..2 {
+            assert!((m.omega_rad_s[i] / PAPER_OMEGA[i] - 1.0).abs() < 1e-6);
+            assert!((m.zeta[i] / PAPER_ZETA[i] - 1.0).abs() < 1e-5);
+        }
+    }
+}
