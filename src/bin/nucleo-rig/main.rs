@@ -20,7 +20,11 @@
 //!   recovered (eqs. 30–32, λmin(P)) and sent as an Estimate at the
 //!   estimate rate, Status at the status rate, raw samples when enabled,
 //!   commands decoded, validated, applied between samples ([`link`]) and
-//!   acknowledged; a defmt log once a second; ADC re-initialisation after a
+//!   acknowledged; the robust estimator's model updates when it runs
+//!   (`SetEstimator` kind Robust: `f64`, its two slots in the AXI SRAM and
+//!   SRAM1–3, `robust_slots`; `RobustUpdates` in chunks of
+//!   `ROBUST_CHUNK` units per lock); a defmt log once a second; ADC
+//!   re-initialisation after a
 //!   device reset; a warning when no sample has come for 0.5 s (SysTick
 //!   wakes it even then).
 //!

@@ -131,7 +131,11 @@
 //!   interrupt must never wait long uses the same work in bounded chunks
 //!   (`catchup.rs`: [`RobustEstimator::update_seed`],
 //!   [`UpdateSeed::start`], [`RobustEstimator::catch_up`],
-//!   [`RobustEstimator::apply_bounded`]), bit-identical. An update
+//!   [`RobustEstimator::apply_bounded`]), bit-identical; it steps the
+//!   estimator through [`ExternalUpdates`], whose step holds no model
+//!   update at all (a sample interrupt's call graph without the replays),
+//!   and keeps it in a static slot built where it lies
+//!   ([`RobustEstimator::new_in`], [`RobustEstimator::rebuild`]). An update
 //!   prepared before the record filled but applied after it is refused
 //!   ([`UpdateError::Stale`]): the samples past the record are not in it.
 //! * Started on a moving beam it converges (the initial state is fitted),
