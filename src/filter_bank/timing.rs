@@ -48,7 +48,7 @@ pub(crate) const U_TAPS: usize = 5;
 pub(crate) const U_HIST: usize = 9;
 /// The bank integrates [t_{n−3}, t_{n−2}] at push n (its look-ahead):
 /// u_{n−3−i} is history entry `LAG + i`.
-const LAG: i64 = 3;
+const LAG: i32 = 3;
 
 /// How the measured y_k weights the plant's output over time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -184,10 +184,13 @@ impl<const D: usize> InputTaps<D> {
         let e_tail = scaled(1.0 - f);
         let e_head = scaled(f);
         // Candidate lags: the kernel reaches u_{j−i} for a − 1 < i < a + len.
-        let i0 = fl as i64 - 1;
+        // i32, not i64: the FPU converts 32-bit integers (an i64 ↔ f64
+        // conversion is a library call, which the firmware's call-graph
+        // check refuses on the sample path); a kernel spans a few samples.
+        let i0 = fl as i32 - 1;
         let mut all = [[0.0f64; D]; U_TAPS + 2];
         for (k, g) in all.iter_mut().enumerate() {
-            let i = (i0 + k as i64) as f64;
+            let i = f64::from(i0 + k as i32);
             for (piece, &(ts, te)) in splits.iter().enumerate() {
                 let h = te - ts;
                 if h <= 0.0 {
@@ -230,7 +233,7 @@ impl<const D: usize> InputTaps<D> {
         for (dst, src) in gains.iter_mut().zip(all.iter().skip(start)).take(count) {
             *dst = *src;
         }
-        let first = (LAG + i0 + start as i64).clamp(0, (U_HIST - count) as i64) as usize;
+        let first = (LAG + i0 + start as i32).clamp(0, (U_HIST - count) as i32) as usize;
         Self {
             gains,
             first,

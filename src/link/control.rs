@@ -16,7 +16,7 @@
 //! running generator inside the lock and written back only if every
 //! setter accepted it, so a refused change leaves the output untouched.
 
-use crate::estimator::robust::RobustConfig;
+use crate::estimator::robust::{RobustConfig, RobustEstimator};
 use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
 use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
@@ -181,6 +181,26 @@ pub fn robust_configs<const NP: usize>(
         ..RobustConfig::default()
     };
     (filter, law)
+}
+
+/// Rebuild the two-mode robust estimator in `slot` for `settings` on the
+/// filter bank `filter` ([`robust_configs`]), its start-up law from θ(0) =
+/// `theta0` ([`with_theta0`]), in place ([`RobustEstimator::rebuild`]: a
+/// board's static slot is larger than its stack). On a refusal `slot` is
+/// unchanged.
+///
+/// # Errors
+/// `EstimatorUnavailable` for a `theta0` of another length than 7, and
+/// [`reject_config`]'s reason for settings the estimator refuses.
+pub fn rebuild_robust<T: Real, const B: usize>(
+    slot: &mut RobustEstimator<T, 4, 7, 28, B>,
+    settings: &EstimatorSettings,
+    filter: &FilterConfig,
+    theta0: &[f64],
+) -> Result<(), RejectReason> {
+    let (filter, mut law) = robust_configs::<7>(settings, filter.lambda_rad_s, filter);
+    law.startup = with_theta0(law.startup, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
+    slot.rebuild(&filter, &law).map_err(reject_config)
 }
 
 /// `law` starting from θ(0) = `theta0` (scaled; empty: unchanged);

@@ -69,14 +69,17 @@
 pub(crate) mod control;
 pub(crate) mod estimate;
 pub(crate) mod raw;
+pub(crate) mod robust_updates;
 pub(crate) mod tune;
 pub(crate) mod tx;
 
 pub use control::{
-    estimator_configs, reject_config, robust_configs, with_theta0, Control, Device, ExcitationPlan,
+    estimator_configs, rebuild_robust, reject_config, robust_configs, with_theta0, Control, Device,
+    ExcitationPlan,
 };
 pub use estimate::{estimate, Convergence, EstimateContext, FlagRules};
 pub(crate) use raw::RawAssembler;
+pub use robust_updates::{LockSpans, RobustAccess, RobustUpdates, UPDATE_EVERY};
 pub use tune::{BuildKind, Pending, StartupCollector, Tuner};
 pub use tx::{Sent, Transmitter, TxSink, TxStats};
 

@@ -18,6 +18,10 @@ use std::process::Command;
 #[derive(Debug, Default)]
 pub struct CallGraph {
     funcs: BTreeMap<String, (BTreeSet<String>, bool)>,
+    /// Stack bytes each function reserves by immediate `sub sp` (its frame
+    /// below the saved registers), and whether it also moves `sp` by a
+    /// register (a frame of unknown size).
+    frames: BTreeMap<String, (u64, bool)>,
 }
 
 /// What a reachable function must not be.
@@ -78,6 +82,11 @@ impl CallGraph {
                 .filter(|(addr, _)| addr.chars().all(|c| c.is_ascii_hexdigit()))
                 .map(|(_, name)| name.to_string())
             {
+                // `$t`, `$d`, `$a`: ARM mapping symbols (code or data after
+                // a literal pool or jump table) inside the current function.
+                if name.starts_with('$') && current.is_some() {
+                    continue;
+                }
                 g.funcs.entry(name.clone()).or_default();
                 current = Some(name);
                 continue;
@@ -91,9 +100,19 @@ impl CallGraph {
                 continue;
             };
             let mnemonic = mnemonic.trim();
+            if let Some(frame) = sp_subtraction(mnemonic, operands) {
+                let f = g.frames.entry(cur.clone()).or_default();
+                match frame {
+                    Some(bytes) => f.0 += bytes,
+                    None => f.1 = true,
+                }
+            }
             let entry = g.funcs.entry(cur.clone()).or_default();
             if is_branch(mnemonic) {
-                if let Some(t) = target(operands).filter(|t| *t != cur.as_str()) {
+                // A branch to a mapping symbol stays inside the function.
+                if let Some(t) =
+                    target(operands).filter(|t| *t != cur.as_str() && !t.starts_with('$'))
+                {
                     entry.0.insert(t.to_string());
                 }
             } else if (mnemonic == "blx" || mnemonic == "bx") && operands.trim() != "lr" {
@@ -101,6 +120,23 @@ impl CallGraph {
             }
         }
         g
+    }
+
+    /// The function with the largest immediate stack frame, and its bytes.
+    pub fn largest_frame(&self) -> Option<(&str, u64)> {
+        self.frames
+            .iter()
+            .map(|(name, (bytes, _))| (name.as_str(), *bytes))
+            .max_by_key(|&(_, bytes)| bytes)
+    }
+
+    /// Functions that move `sp` by a register (frames of unknown size).
+    pub fn dynamic_frames(&self) -> Vec<&str> {
+        self.frames
+            .iter()
+            .filter(|(_, (_, dynamic))| *dynamic)
+            .map(|(name, _)| name.as_str())
+            .collect()
     }
 
     /// Everything reachable from `root`, and what is wrong with it.
@@ -131,6 +167,29 @@ impl CallGraph {
         }
         (seen, findings)
     }
+}
+
+/// `sub sp, #N` / `sub.w sp, sp, #N` / `subw sp, sp, #N`: `Some(Some(N))`;
+/// the same by a register: `Some(None)`; anything else: `None`.
+fn sp_subtraction(mnemonic: &str, operands: &str) -> Option<Option<u64>> {
+    if !matches!(mnemonic, "sub" | "sub.w" | "subw" | "subs") {
+        return None;
+    }
+    let ops: Vec<&str> = operands
+        .split('@')
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let amount = match ops.as_slice() {
+        ["sp", "sp", a] | ["sp", a] => *a,
+        _ => return None,
+    };
+    Some(amount.strip_prefix('#').and_then(|n| {
+        n.strip_prefix("0x")
+            .map_or_else(|| n.parse().ok(), |h| u64::from_str_radix(h, 16).ok())
+    }))
 }
 
 /// `__aeabi_dadd`, `__aeabi_fmul`, `__aeabi_l2d`, `__aeabi_f2d`… (run-time
@@ -196,6 +255,12 @@ mod tests {
  801bb74: f7ff fffe    \tbl\t0x8000000 <__aeabi_uldivmod>
  801bb78: 4770         \tbx\tlr
 
+080002a6 <$d>:
+ 80002a6: 01 00        \t.short\t0x0001
+
+080002a8 <$t>:
+ 80002a8: f000 b800    \tb.w\t0x80002aa <$t+0x2>
+
 080002aa <core::panicking::panic_bounds_check>:
  80002aa: 4780         \tblx\tr0
 
@@ -208,6 +273,13 @@ mod tests {
 08000020 <clean>:
  8000020: f7ff fffe    \tbl\t0x8000010 <__aeabi_uldivmod>
  8000024: 4770         \tbx\tlr
+
+08000030 <framed>:
+ 8000030: b0ff         \tsub\tsp, #0x1fc
+ 8000032: f5ad 5d00    \tsub.w\tsp, sp, #8192
+ 8000036: f6ad 0d10    \tsubw\tsp, sp, #2064
+ 800003a: ebad 0d00    \tsub.w\tsp, sp, r0
+ 800003e: 3801         \tsubs\tr0, #0x1
 ";
 
     #[test]
@@ -234,6 +306,13 @@ mod tests {
             "core::panicking::panic_bounds_check".into()
         )));
         assert_eq!(findings.len(), 3);
+    }
+
+    #[test]
+    fn stack_frames() {
+        let g = CallGraph::parse(TEXT);
+        assert_eq!(g.largest_frame(), Some(("framed", 0x1fc + 8192 + 2064)));
+        assert_eq!(g.dynamic_frames(), vec!["framed"]);
     }
 
     #[test]

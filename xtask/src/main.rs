@@ -110,9 +110,18 @@ struct Image {
     /// Flash and static RAM targets to report against (bytes), if any.
     budget: Option<(u64, u64)>,
     /// The sample interrupt's handler, if its call graph must be free of
-    /// panics, software floating point and indirect branches (a hard check).
+    /// panics, software floating point and indirect branches (a hard check);
+    /// the image's stack frames are checked then too (none may take half
+    /// the stack, none may be of unknown size).
     sample_isr: Option<&'static str>,
+    /// Regions of the map that must each hold a static of at least this
+    /// many bytes (a hard check: where the large records must land).
+    placed: &'static [(&'static str, u64)],
 }
+
+/// Statics of at least this size are listed with their section, address
+/// and size.
+const LARGE_STATIC: u64 = 1024;
 
 /// Every firmware image.
 const IMAGES: &[Image] = &[
@@ -125,6 +134,7 @@ const IMAGES: &[Image] = &[
         // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
         budget: Some((64 * 1024, 16 * 1024)),
         sample_isr: None,
+        placed: &[],
     },
     Image {
         board: "qemu mps2-an386 (Cortex-M4F) + the robust estimator",
@@ -136,6 +146,7 @@ const IMAGES: &[Image] = &[
         // each): no 16 KiB budget; the board has 4 MiB.
         budget: None,
         sample_isr: None,
+        placed: &[],
     },
     Image {
         board: "NUCLEO-H743ZI2 (Cortex-M7, f64)",
@@ -145,6 +156,10 @@ const IMAGES: &[Image] = &[
         memory_x: "src/board/nucleo/memory.x",
         budget: None,
         sample_isr: Some("EXTI3"),
+        // The robust estimator's two slots (f64, 1.8 s record: 2 × 18,000 ×
+        // 8 B plus its state), one in the AXI SRAM, one in SRAM1–3
+        // (src/bin/nucleo-rig/main.rs, `ROBUST_RECORD`).
+        placed: &[("AXISRAM", 2 * 18_000 * 8), ("SRAM123", 2 * 18_000 * 8)],
     },
 ];
 
@@ -292,11 +307,53 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
     let regions = memory_map::parse(&map_text).map_err(|e| format!("{}: {e}", image.memory_x))?;
     let flash = memory_map::region(&regions, "FLASH").map_err(|e| e.to_string())?;
     let ram = memory_map::region(&regions, "RAM").map_err(|e| e.to_string())?;
+    let other: Vec<memory_map::Region> = regions
+        .iter()
+        .filter(|r| r.name != "FLASH" && r.name != "RAM")
+        .cloned()
+        .collect();
     let elf = fs::read(elf_path).map_err(|e| format!("reading {}: {e}", elf_path.display()))?;
-    let fp = image::inspect(&elf, flash, ram).map_err(|e| e.to_string())?;
+    let fp = image::inspect(&elf, flash, ram, &other).map_err(|e| e.to_string())?;
 
     for (name, addr, size) in &fp.sections {
         println!("  {name:<16} {addr:#010x} {size:>8} B");
+    }
+    let region_of = |addr: u64| {
+        regions
+            .iter()
+            .find(|r| r.contains(addr))
+            .map_or("?", |r| r.name.as_str())
+    };
+    let statics = image::large_statics(&elf, LARGE_STATIC).map_err(|e| e.to_string())?;
+    println!("  statics of {LARGE_STATIC} B or more (region, section, address, size):");
+    for st in &statics {
+        println!(
+            "    {:<8} {:<10} {:#010x} {:>8} B  {}",
+            region_of(st.address),
+            st.section,
+            st.address,
+            st.size,
+            st.name
+        );
+    }
+    for (region, used) in &fp.other_ram {
+        let length = other
+            .iter()
+            .find(|r| &r.name == region)
+            .map_or(0, |r| r.length);
+        println!(
+            "  {region}: {used} B of {length} B ({:.1} KiB free)",
+            length.saturating_sub(*used) as f64 / 1024.0
+        );
+    }
+    for &(region, min) in image.placed {
+        let found = statics
+            .iter()
+            .find(|st| region_of(st.address) == region && st.size >= min);
+        match found {
+            Some(st) => println!("  {region} holds {} ({} B ≥ {min} B): OK", st.name, st.size),
+            None => return Err(format!("no static of {min} B or more in {region}")),
+        }
     }
     println!(
         "  flash {} B ({:.1} KiB of {} KiB), static RAM {} B ({:.1} KiB of {} KiB, stack excluded)",
@@ -335,7 +392,28 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
             Cpu::CortexM7 => "cortex-m7",
         };
         let text = callgraph::disassemble(elf_path, mcpu)?;
-        let (reached, findings) = callgraph::CallGraph::parse(&text).check(isr);
+        let graph = callgraph::CallGraph::parse(&text);
+        // A static built by value passes through the stack: a frame of half
+        // the stack (which lies in RAM below the statics) would overflow it.
+        let stack = ram.length.saturating_sub(fp.ram);
+        let dynamic = graph.dynamic_frames();
+        if !dynamic.is_empty() {
+            return Err(format!(
+                "stack frames of unknown size: {}",
+                dynamic.join(", ")
+            ));
+        }
+        if let Some((name, bytes)) = graph.largest_frame() {
+            if 2 * bytes > stack {
+                return Err(format!(
+                    "stack frame of {bytes} B in {name}: more than half the {stack} B stack"
+                ));
+            }
+            println!(
+                "  largest stack frame {bytes} B ({name}), under half the {stack} B stack: OK"
+            );
+        }
+        let (reached, findings) = graph.check(isr);
         if !findings.is_empty() {
             let list: Vec<String> = findings.iter().map(|f| f.to_string()).collect();
             return Err(format!("sample interrupt `{isr}`: {}", list.join("; ")));

@@ -1,8 +1,9 @@
 //! The serial link on the reference board: the core's device end
 //! ([`beamest::link::DeviceLink`], docs/PROTOCOL.md) on USART3, the same
 //! code the QEMU image runs, with this board's side of it ([`NucleoDevice`]:
-//! the sample task's pipeline inside its critical section, estimators built
-//! by value) and its fixed properties ([`link_config`], [`start_settings`],
+//! the sample task's pipeline inside its critical section, the adaptive law
+//! built by value, the robust estimator rebuilt in one of its two static
+//! slots) and its fixed properties ([`link_config`], [`start_settings`],
 //! [`tuning`]). Thread mode only: records, raw blocks and received bytes
 //! are handed to the link there; commands are applied between two samples
 //! (the lock masks the DRDY interrupt for a setter or a swap).
@@ -11,23 +12,26 @@ use beam_protocol::budget::uart_bytes_per_s;
 use beam_protocol::{
     EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
 };
-use beamest::estimator::Adaptive2;
+use beamest::estimator::robust::ExternalUpdates;
+use beamest::estimator::{Adaptive2, Either};
 use beamest::excitation::{MULTISINE_MAX_TONES, PRBS_MAX_ORDER, PRBS_MIN_ORDER};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::reject_config;
 use beamest::link::{
-    estimator_configs, with_theta0, Device, FlagRules, LinkConfig, Settings, FIRMWARE_VERSION,
+    estimator_configs, rebuild_robust, with_theta0, Device, FlagRules, LinkConfig, RobustAccess,
+    Settings, FIRMWARE_VERSION,
 };
 use beamest::tuning::{LambdaSource, TuningConfig};
 
 use beamest::board::nucleo::clocks;
 
 use crate::rig;
-use crate::{RigPipeline, SAMPLE};
+use crate::{Est, RigPipeline, RobustSlot, ROBUST_RECORD, SAMPLE};
 
 /// What the link checks commands against: the ADC's rate, the actuator's
-/// safe window, every generator's range, the adaptive law only, two
-/// modes, and USART3's line rate as the link budget.
+/// safe window, every generator's range, the adaptive law and the robust
+/// estimator (its record in the AXI and D2 SRAMs), two modes, and USART3's
+/// line rate as the link budget.
 pub fn link_config() -> LinkConfig {
     LinkConfig {
         limits: Limits {
@@ -37,7 +41,7 @@ pub fn link_config() -> LinkConfig {
             max_multisine_tones: MULTISINE_MAX_TONES as u8,
             prbs_bits_min: PRBS_MIN_ORDER,
             prbs_bits_max: PRBS_MAX_ORDER,
-            estimators: EstimatorKind::Adaptive.bit(),
+            estimators: EstimatorKind::Adaptive.bit() | EstimatorKind::Robust.bit(),
             modes: 2,
             link_bytes_per_s: uart_bytes_per_s(clocks::BAUD) as f32,
         },
@@ -72,12 +76,59 @@ pub fn tuning() -> TuningConfig {
     }
 }
 
-/// The board's side of the link.
-pub struct NucleoDevice;
+/// The board's side of the link: the robust estimator's two static slots
+/// (`crate::robust_slots`), one running and one to build the next into (a
+/// λ re-centring or a new command while it runs), or both free.
+pub struct NucleoDevice {
+    robust: [Option<&'static mut RobustSlot>; 2],
+}
+
+impl NucleoDevice {
+    /// The device with the robust estimator's two slots.
+    pub fn new(robust: [Option<&'static mut RobustSlot>; 2]) -> Self {
+        Self { robust }
+    }
+
+    /// The adaptive law, by value (a few KB on the stack).
+    fn build_adaptive(
+        settings: &EstimatorSettings,
+        filter: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<Est, RejectReason> {
+        let (filter, law) =
+            estimator_configs::<{ crate::NP }>(settings, filter.lambda_rad_s, filter);
+        let law = with_theta0(law, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
+        Adaptive2::<f64>::new(&filter, &law)
+            .map(Either::Left)
+            .map_err(reject_config)
+    }
+
+    /// The robust estimator, rebuilt in place in a free slot.
+    fn build_robust(
+        &mut self,
+        settings: &EstimatorSettings,
+        filter: &FilterConfig,
+        theta0: &[f64],
+    ) -> Result<Est, RejectReason> {
+        let Some(free) = self.robust.iter_mut().find(|s| s.is_some()) else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
+        let Some(slot) = free.take() else {
+            return Err(RejectReason::EstimatorUnavailable);
+        };
+        match rebuild_robust(slot, settings, filter, theta0) {
+            Ok(()) => Ok(Either::Right(ExternalUpdates(slot))),
+            Err(e) => {
+                *free = Some(slot);
+                Err(e)
+            }
+        }
+    }
+}
 
 impl Device for NucleoDevice {
     type Real = f64;
-    type Estimator = Adaptive2<f64>;
+    type Estimator = Est;
     type Pipeline = RigPipeline;
 
     fn with_pipeline<R>(&mut self, f: impl FnOnce(&mut RigPipeline) -> R) -> R {
@@ -93,12 +144,28 @@ impl Device for NucleoDevice {
         settings: &EstimatorSettings,
         filter: &FilterConfig,
         theta0: &[f64],
-    ) -> Result<Adaptive2<f64>, RejectReason> {
-        let (filter, law) =
-            estimator_configs::<{ crate::NP }>(settings, filter.lambda_rad_s, filter);
-        let law = with_theta0(law, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
-        Adaptive2::<f64>::new(&filter, &law).map_err(reject_config)
+    ) -> Result<Est, RejectReason> {
+        match settings.kind {
+            EstimatorKind::Adaptive => Self::build_adaptive(settings, filter, theta0),
+            EstimatorKind::Robust => self.build_robust(settings, filter, theta0),
+            EstimatorKind::Gradient | EstimatorKind::LeastSquares => {
+                Err(RejectReason::EstimatorUnavailable)
+            }
+        }
     }
 
-    fn recycle_estimator(&mut self, _old: Adaptive2<f64>) {}
+    fn recycle_estimator(&mut self, old: Est) {
+        if let Either::Right(r) = old {
+            if let Some(free) = self.robust.iter_mut().find(|s| s.is_none()) {
+                *free = Some(r.into_inner());
+            }
+        }
+    }
+}
+
+/// The running robust estimator inside the sample task's lock.
+impl RobustAccess<f64, ROBUST_RECORD> for NucleoDevice {
+    fn with_robust<R>(&mut self, f: impl FnOnce(&mut RobustSlot) -> R) -> Option<R> {
+        self.with_pipeline(|p| p.estimator_mut().right_mut().map(|r| f(r.inner_mut())))
+    }
 }

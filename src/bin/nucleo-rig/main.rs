@@ -20,7 +20,11 @@
 //!   recovered (eqs. 30–32, λmin(P)) and sent as an Estimate at the
 //!   estimate rate, Status at the status rate, raw samples when enabled,
 //!   commands decoded, validated, applied between samples ([`link`]) and
-//!   acknowledged; a defmt log once a second; ADC re-initialisation after a
+//!   acknowledged; the robust estimator's model updates when it runs
+//!   (`SetEstimator` kind Robust: `f64`, its two slots in the AXI SRAM and
+//!   SRAM1–3, `robust_slots`; `RobustUpdates` in chunks of
+//!   `ROBUST_CHUNK` units per lock); a defmt log once a second; ADC
+//!   re-initialisation after a
 //!   device reset; a warning when no sample has come for 0.5 s (SysTick
 //!   wakes it even then).
 //!
@@ -73,13 +77,18 @@ mod link;
 mod rig;
 
 use ad5761r::Ad5761r;
+use beam_protocol::EstimatorKind;
 use beamest::board::nucleo::converters::{resync, Adc};
 use beamest::board::nucleo::cycles::{self, Spans};
 use beamest::board::nucleo::shared::Shared;
 use beamest::board::nucleo::{self as board, clocks, drdy, uart, Board, SpiDev};
-use beamest::estimator::Adaptive2;
-use beamest::link::{BuildKind, DeviceLink, StartupCollector, Tuned};
+use beamest::estimator::robust::{ExternalUpdates, Phase, RobustEstimator};
+use beamest::estimator::{Adaptive2, Either};
+use beamest::link::{
+    robust_configs, BuildKind, DeviceLink, RobustUpdates, StartupCollector, Tuned,
+};
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};
+use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt::{error, info, warn, Debug2Format};
@@ -123,10 +132,35 @@ const STALL_CYCLES: u32 = clocks::CPU_HZ / 2;
 /// then needs three conversions to fill (ADS131M02 §8.3.7.1).
 const SETTLE_FRAMES: u32 = 4;
 
+/// The robust estimator's start-up record on this board: 1.8 s at 10 kHz
+/// (the host's default is 2 s). Two slots of `f64` are needed (one runs, the
+/// next is built beside it), 292,856 B each: one fills most of the AXI
+/// SRAM (512 KiB), the other most of SRAM1–3 (288 KiB = 294,912 B), and 2 s
+/// (324,856 B) would not fit the second. `f64` because the M7's FPU is
+/// double precision and the pipeline runs in `f64` (the `f32` form needs
+/// double-word sums for the same accuracy, `beamest::estimator::robust`).
+pub(crate) const ROBUST_RECORD: usize = 18_000;
+/// The robust estimator of this board (two modes).
+pub(crate) type RobustSlot = RobustEstimator<f64, 4, NP, NS, ROBUST_RECORD>;
+/// The estimator the pipeline steps: the adaptive law by value, or the
+/// robust estimator in its static slot, its model updates in thread mode
+/// (`ExternalUpdates`: none inside the sample interrupt).
+pub(crate) type Est = Either<Adaptive2<f64>, ExternalUpdates<&'static mut RobustSlot>>;
+/// Units (a replayed or fitted sample, or a refinement step) per catch-up
+/// lock of a robust model update. Not measured on the board: on the
+/// Cortex-M4F in `f32` a unit is 2,000–4,000 instructions
+/// (`cargo xtask robust-bench`); 4 of them at that count is ≲ 16,000 of
+/// the 40,000 cycles of a sample period at 400 MHz, beside the sample
+/// interrupt's few thousand. The status line's late-sample counter shows
+/// whether a lock ever pushed a tick past its period.
+const ROBUST_CHUNK: usize = 4;
+/// Most units left to do inside the installing lock.
+const ROBUST_APPLY_MAX: usize = 4;
+
 type Record = TelemetryRecord<f64, NP, NS>;
 pub(crate) type RigPipeline = Pipeline<
     f64,
-    Adaptive2<f64>,
+    Est,
     Adc<SpiDev>,
     Ad5761r<SpiDev>,
     Producer<'static, Record>,
@@ -301,7 +335,8 @@ fn main() -> ! {
     if SERIAL.put(SerialIsr { drain, fill }).is_err() {
         fatal("serial task", "not placed");
     }
-    let mut device = NucleoDevice;
+    let mut device = NucleoDevice::new(robust_slots());
+    let mut robust_updates = RobustUpdates::<f64, Spans>::new(ROBUST_CHUNK, ROBUST_APPLY_MAX);
     board::enable_serial_interrupt();
     // Milliseconds have passed since the null measurement's last read: the
     // ADC's FIFO is full. Drain it and drop the old DRDY edges right before
@@ -340,6 +375,9 @@ fn main() -> ! {
             let recovered = link.on_record(&record, &rig::OUTPUT_WEIGHT, &mut tx);
             if records % LOG_EVERY_RECORDS == 0 {
                 report(&record, recovered, &link);
+                if link.settings().estimator.kind == EstimatorKind::Robust {
+                    report_robust(&robust_updates, &mut device);
+                }
                 b.led_heartbeat.toggle();
                 if record.counters != Counters::default() {
                     b.led_fault.set_high();
@@ -351,6 +389,9 @@ fn main() -> ! {
             link.on_raw(&block, &mut tx);
         }
         link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        if link.settings().estimator.kind == EstimatorKind::Robust {
+            robust_updates.poll(&mut device);
+        }
         match link.poll(&mut device) {
             Ok(Some(t)) => {
                 between_samples();
@@ -383,7 +424,9 @@ fn build_pipeline(
     telemetry: Producer<'static, Record>,
     raw: Producer<'static, RawBlock<f64>>,
 ) -> Result<RigPipeline, &'static str> {
-    let placeholder = rig::estimator(rig::nominal_y_scale()).map_err(|_| "estimator settings")?;
+    let placeholder = rig::estimator(rig::nominal_y_scale())
+        .map(Either::Left)
+        .map_err(|_| "estimator settings")?;
     let excitation = rig::excitation().map_err(|_| "excitation settings")?;
     let config = beamest::pipeline::PipelineConfig {
         telemetry_every: link.record_every(),
@@ -394,6 +437,69 @@ fn build_pipeline(
         .map_err(|_| "pipeline settings")?;
     pipeline.freeze();
     Ok(pipeline)
+}
+
+/// The robust estimator's two slots, one in the AXI SRAM (`.axisram`), one
+/// in SRAM1–3 (`.sram123`); both sections are zeroed at boot
+/// (`Board::init`), so the singletons' `taken` flags start false. Each
+/// holds a placeholder (the default settings) until `SetEstimator` kind
+/// Robust rebuilds it in place ([`NucleoDevice`]). The placeholder is
+/// written where it lies (`RobustEstimator::new_in`): `cargo xtask
+/// firmware` checks that no stack frame of the image is as large as a slot.
+fn robust_slots() -> [Option<&'static mut RobustSlot>; 2] {
+    let (filter, law) = robust_configs::<NP>(
+        &beam_protocol::EstimatorSettings::default(),
+        rig::PLACEHOLDER_LAMBDA_RAD_S,
+        &beamest::filter_bank::FilterConfig {
+            ts_s: rig::TS_S,
+            ..beamest::filter_bank::FilterConfig::default()
+        },
+    );
+    let (Some(a), Some(b)) = (
+        cortex_m::singleton!(#[link_section = ".axisram"] : MaybeUninit<RobustSlot> =
+            MaybeUninit::uninit()),
+        cortex_m::singleton!(#[link_section = ".sram123"] : MaybeUninit<RobustSlot> =
+            MaybeUninit::uninit()),
+    ) else {
+        fatal("robust estimator slots", "placed twice")
+    };
+    let (Ok(a), Ok(b)) = (
+        RobustSlot::new_in(a, &filter, &law),
+        RobustSlot::new_in(b, &filter, &law),
+    ) else {
+        fatal("robust estimator slots", "settings")
+    };
+    [Some(a), Some(b)]
+}
+
+/// The robust estimator's phase and model updates (with a status line).
+fn report_robust(u: &RobustUpdates<f64, Spans>, dev: &mut NucleoDevice) {
+    use beamest::link::RobustAccess;
+    let Some((phase, updates, recorded)) =
+        dev.with_robust(|r| (r.phase(), r.updates(), r.recorded()))
+    else {
+        return;
+    };
+    let phase = match phase {
+        Phase::Startup => "startup",
+        Phase::Refining => "refining",
+        Phase::Steady => "steady",
+    };
+    between_samples();
+    info!(
+        "robust: phase {}, {} model updates, {} of {} samples recorded; updates {} seeded, {} \
+         installed, {} still moving, {} refused, {} chunks; longest lock {} cycles",
+        phase,
+        updates,
+        recorded,
+        ROBUST_RECORD,
+        u.seeded,
+        u.applied,
+        u.not_converged,
+        u.refused,
+        u.chunks,
+        u.locks.max
+    );
 }
 
 /// Log an estimator the tuning rule swapped in.

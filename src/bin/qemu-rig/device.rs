@@ -24,11 +24,11 @@ use beam_protocol::{EstimatorKind, EstimatorSettings, RejectReason};
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::TimedEstimator;
 use beamest::board::qemu::{IsrOwned, Shared};
-use beamest::estimator::robust::Robust2;
+use beamest::estimator::robust::{Robust2, DEFAULT_RECORD};
 use beamest::estimator::{Adaptive2, Either};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::reject_config;
-use beamest::link::{estimator_configs, with_theta0, Device};
+use beamest::link::{estimator_configs, with_theta0, Device, RobustAccess};
 
 use crate::sample::{Est, RigPipeline, SampleTask, NP};
 
@@ -58,15 +58,16 @@ impl QemuDevice {
         }
     }
 
-    /// Run `f` on the running robust estimator inside the lock (timed like
-    /// every lock); `None` if the pipeline runs another kind.
-    pub fn with_robust<R>(&mut self, f: impl FnOnce(&mut Robust2<f32>) -> R) -> Option<R> {
-        self.with_pipeline(|p| p.estimator_mut().inner_mut().right_mut().map(|r| f(r)))
-    }
-
     /// Thread-mode lock spans so far (SysTick ticks).
     pub fn locks(&self) -> SpanSum {
         self.locks
+    }
+}
+
+/// The running robust estimator inside the lock (timed like every lock).
+impl RobustAccess<f32, DEFAULT_RECORD> for QemuDevice {
+    fn with_robust<R>(&mut self, f: impl FnOnce(&mut Robust2<f32>) -> R) -> Option<R> {
+        self.with_pipeline(|p| p.estimator_mut().inner_mut().right_mut().map(|r| f(r)))
     }
 }
 
@@ -143,9 +144,9 @@ impl QemuDevice {
         }
     }
 
-    /// The robust estimator into a free robust slot (`theta0`: its start-up
-    /// law's θ(0)); model updates are then prepared in thread mode
-    /// ([`crate::robust::RobustUpdates`]).
+    /// The robust estimator into a free robust slot, rebuilt in place
+    /// (`theta0`: its start-up law's θ(0)); model updates are then
+    /// prepared in thread mode ([`crate::robust::RobustUpdates`]).
     #[cfg(feature = "qemu-robust")]
     fn build_robust(
         &mut self,
@@ -153,26 +154,17 @@ impl QemuDevice {
         filter: &FilterConfig,
         theta0: &[f64],
     ) -> Result<Est, RejectReason> {
-        let (filter, mut law) =
-            beamest::link::robust_configs::<NP>(settings, filter.lambda_rad_s, filter);
-        let Some(startup) = with_theta0(law.startup, theta0) else {
-            return Err(RejectReason::EstimatorUnavailable);
-        };
-        law.startup = startup;
         let Some(free) = self.robust.iter_mut().find(|s| s.is_some()) else {
             return Err(RejectReason::EstimatorUnavailable);
         };
         let Some(slot) = free.take() else {
             return Err(RejectReason::EstimatorUnavailable);
         };
-        match Robust2::<f32>::new(&filter, &law) {
-            Ok(est) => {
-                *slot = est;
-                Ok(TimedEstimator::new(Either::Right(slot)))
-            }
+        match beamest::link::rebuild_robust(slot, settings, filter, theta0) {
+            Ok(()) => Ok(TimedEstimator::new(Either::Right(slot))),
             Err(e) => {
                 *free = Some(slot);
-                Err(reject_config(e))
+                Err(e)
             }
         }
     }

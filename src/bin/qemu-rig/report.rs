@@ -154,7 +154,7 @@ pub fn on_build(t: &Tuned, link: &DeviceLink, run: &mut Run) {
 }
 
 /// What thread mode saw of the tuning rule's builds.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Run {
     /// First sample of the first estimator.
     pub started_at: Option<u64>,
@@ -166,6 +166,18 @@ pub struct Run {
     pub first_block: Option<crate::sample::Raw>,
     /// The robust estimator's model updates (when it runs).
     pub robust: RobustUpdates,
+}
+
+impl Default for Run {
+    fn default() -> Self {
+        Self {
+            started_at: None,
+            first_lambda: None,
+            recentred: heapless::Vec::new(),
+            first_block: None,
+            robust: robust::updates(),
+        }
+    }
 }
 
 /// Mean instructions of a span sum.

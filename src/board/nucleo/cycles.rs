@@ -95,3 +95,15 @@ impl embedded_hal::delay::DelayNs for CycleDelay {
         }
     }
 }
+
+/// Lock spans of the robust estimator's model updates, in cycles
+/// ([`crate::link::RobustUpdates`]).
+impl crate::link::LockSpans for Spans {
+    type Instant = u32;
+    fn now() -> u32 {
+        now()
+    }
+    fn add(&mut self, start: u32, end: u32) {
+        Spans::add(self, between(start, end));
+    }
+}

@@ -8,7 +8,9 @@
 //! * [`uart`] — USART3 (ST-LINK virtual COM port), interrupt-driven rings;
 //! * [`cycles`] — the DWT cycle counter and a busy-wait `DelayNs`;
 //! * [`converters`] — the drivers as the pipeline's converter traits;
-//! * [`shared`] — state shared by the sample interrupt and thread mode.
+//! * [`shared`] — state shared by the sample interrupt and thread mode;
+//! * `extra_ram` — the AXI and D2 SRAMs (the robust estimator's record)
+//!   clocked and zeroed at boot.
 //!
 //! HAL: embassy-stm32 used in blocking mode only (clock tree, GPIO,
 //! embedded-hal 1.0 SPI, USART set-up); no executor, no time driver, no
@@ -57,6 +59,7 @@ pub mod clocks;
 pub mod converters;
 pub mod cycles;
 pub mod drdy;
+mod extra_ram;
 pub mod shared;
 pub mod uart;
 
@@ -184,9 +187,14 @@ impl Board {
     /// pulse); their drivers do the rest.
     pub fn init() -> Result<Self, BoardError> {
         let mut cp = cortex_m::Peripherals::take().ok_or(BoardError::CorePeripheralsTaken)?;
+        // The AXI and D2 SRAMs (the robust estimator's slots): clocked and
+        // zeroed before anything touches their statics.
+        extra_ram::init();
         // Code and constants come from flash through the AXI bus: cache
         // them. Data live in DTCM (memory.x), which is never cached, so the
-        // debugger's RTT reads see what the core wrote.
+        // debugger's RTT reads see what the core wrote; the robust
+        // estimator's record in the AXI/D2 SRAMs is cached, and only the
+        // core accesses it.
         cp.SCB.enable_icache();
         cp.SCB.enable_dcache(&mut cp.CPUID);
         cycles::start(&mut cp.DCB, &mut cp.DWT);

@@ -230,6 +230,18 @@ impl SpanSum {
     }
 }
 
+/// The robust estimator's update locks timed on SysTick
+/// ([`beamest::link::RobustUpdates`](crate::link::RobustUpdates)).
+impl crate::link::LockSpans for SpanSum {
+    type Instant = u32;
+    fn now() -> u32 {
+        now()
+    }
+    fn add(&mut self, start: u32, end: u32) {
+        SpanSum::add(self, start, end);
+    }
+}
+
 /// Burn `256·n` instructions (n ≥ 1) in straight-line blocks: the cheapest
 /// busy idle for QEMU to emulate (one translation block per 256
 /// instructions instead of per loop iteration).

@@ -131,7 +131,11 @@
 //!   interrupt must never wait long uses the same work in bounded chunks
 //!   (`catchup.rs`: [`RobustEstimator::update_seed`],
 //!   [`UpdateSeed::start`], [`RobustEstimator::catch_up`],
-//!   [`RobustEstimator::apply_bounded`]), bit-identical. An update
+//!   [`RobustEstimator::apply_bounded`]), bit-identical; it steps the
+//!   estimator through [`ExternalUpdates`], whose step holds no model
+//!   update at all (a sample interrupt's call graph without the replays),
+//!   and keeps it in a static slot built where it lies
+//!   ([`RobustEstimator::new_in`], [`RobustEstimator::rebuild`]). An update
 //!   prepared before the record filled but applied after it is refused
 //!   ([`UpdateError::Stale`]): the samples past the record are not in it.
 //! * Started on a moving beam it converges (the initial state is fitted),
@@ -156,8 +160,10 @@
 //!   the estimator stays in [`Phase::Startup`]: the paper's law, biased.
 
 mod catchup;
+mod external;
 mod law;
 mod oe;
+mod place;
 mod start;
 
 use crate::estimator::adaptive::{AdaptiveConfig, AdaptiveLaw};
@@ -173,6 +179,7 @@ use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
 use crate::supervise::{excitation_min_eig, Supervision, Supervisor, SupervisorConfig};
 pub use catchup::UpdateSeed;
+pub use external::ExternalUpdates;
 use law::OeLaw;
 use oe::{Filters, InitialFit, OeModel};
 use start::start_test;
@@ -594,6 +601,44 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         self.updates = self.updates.saturating_add(1);
     }
 
+    /// One sample into the record and the running law, without the model
+    /// updates [`Estimator::step`] runs itself when `update_every > 0`
+    /// ([`ExternalUpdates`] steps with this).
+    #[inline]
+    fn step_recording(&mut self, u: T, y: T) -> StepStatus {
+        self.learner.samples = self.learner.samples.wrapping_add(1);
+        match self.learner.screen.screen(u, y) {
+            Screened::Good(u, y) => {
+                let adapt = self.learner.admit(u) && !self.frozen;
+                match self.push(u, y, adapt, true) {
+                    Ok(()) if !adapt => StepStatus::Frozen,
+                    Ok(()) => StepStatus::Updated,
+                    Err(_) => {
+                        self.learner.skipped = self.learner.skipped.saturating_add(1);
+                        StepStatus::Skipped
+                    }
+                }
+            }
+            Screened::Quarantined(u, y) => {
+                self.learner.admit(u);
+                let _ = self.push(u, y, false, true);
+                StepStatus::Frozen
+            }
+            Screened::Rejected(u_sub, y_sub) => {
+                // The simulation must see the input the plant saw: keep a
+                // good u even when y is bad (a wrong u would leave a model
+                // transient lasting as long as the slowest mode).
+                let u = if self.learner.screen.accepts_u(u) {
+                    u
+                } else {
+                    u_sub
+                };
+                let _ = self.push(u, y_sub, false, false);
+                StepStatus::Rejected
+            }
+        }
+    }
+
     fn auto_update(&mut self) {
         if self.cfg.update_every == 0 || self.phase == Phase::Steady {
             return;
@@ -647,10 +692,15 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         // carry nothing, and the start test judges the beam at the
         // record's first sample.
         let leading = self.rec_len == 0 && !y_valid;
-        if self.rec_len < B && !leading {
-            self.rec_u[self.rec_len] = us;
-            self.rec_y[self.rec_len] = if y_valid { ys } else { T::from_f64(f64::NAN) };
-            self.rec_len += 1;
+        let n = self.rec_len;
+        if n < B && !leading {
+            // Without indexing: the sample path has no panic to reach (the
+            // firmware's call-graph check).
+            if let (Some(ru), Some(ry)) = (self.rec_u.get_mut(n), self.rec_y.get_mut(n)) {
+                *ru = us;
+                *ry = if y_valid { ys } else { T::from_f64(f64::NAN) };
+            }
+            self.rec_len = n + 1;
             if self.rec_len == B && self.phase == Phase::Refining {
                 self.phase = Phase::Steady;
             }
@@ -724,37 +774,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {
-        self.learner.samples = self.learner.samples.wrapping_add(1);
-        let status = match self.learner.screen.screen(u, y) {
-            Screened::Good(u, y) => {
-                let adapt = self.learner.admit(u) && !self.frozen;
-                match self.push(u, y, adapt, true) {
-                    Ok(()) if !adapt => StepStatus::Frozen,
-                    Ok(()) => StepStatus::Updated,
-                    Err(_) => {
-                        self.learner.skipped = self.learner.skipped.saturating_add(1);
-                        StepStatus::Skipped
-                    }
-                }
-            }
-            Screened::Quarantined(u, y) => {
-                self.learner.admit(u);
-                let _ = self.push(u, y, false, true);
-                StepStatus::Frozen
-            }
-            Screened::Rejected(u_sub, y_sub) => {
-                // The simulation must see the input the plant saw: keep a
-                // good u even when y is bad (a wrong u would leave a model
-                // transient lasting as long as the slowest mode).
-                let u = if self.learner.screen.accepts_u(u) {
-                    u
-                } else {
-                    u_sub
-                };
-                let _ = self.push(u, y_sub, false, false);
-                StepStatus::Rejected
-            }
-        };
+        let status = self.step_recording(u, y);
         self.auto_update();
         status
     }
