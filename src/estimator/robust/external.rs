@@ -66,8 +66,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
     fn supervision(&self) -> Option<Supervision<T>> {
         self.0.supervision()
     }
-    fn feedthrough(&self) -> Option<T> {
-        self.0.feedthrough()
+    fn residual(&self) -> Option<crate::estimator::feedthrough::Residual<T>> {
+        self.0.residual()
     }
 }
 
