@@ -596,10 +596,11 @@ fn level_corrected(
 }
 
 /// `--estimator auto`: every candidate over the record (as many at once
-/// as there are cores), each judged on the level-corrected samples, the
-/// rule's choice ([`crate::judge::select`]), then the chosen flags' replay
-/// (so its report is exactly that of those flags given by hand) with the
-/// selection attached.
+/// as there are cores), each judged on the measured and the
+/// level-corrected samples, the rule's choice ([`crate::judge::select`]),
+/// then the chosen flags' replay (so its report is exactly that of those
+/// flags given by hand; the candidate's own run when it is that replay
+/// already) with the selection attached.
 fn execute_auto(
     args: &ReplayArgs,
     candidates: &[Candidate],
@@ -633,7 +634,7 @@ fn execute_auto(
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<Result<Judged, CliError>>>> =
-        Mutex::new(vec![None; candidates.len()]);
+        Mutex::new(candidates.iter().map(|_| None).collect());
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(candidates.len());
@@ -668,9 +669,10 @@ fn execute_auto(
         .map_err(|_| CliError::failure("replay: a candidate's run panicked"))?;
     let mut fits = Vec::with_capacity(candidates.len());
     let mut evidence = Vec::with_capacity(candidates.len());
+    let mut runs = Vec::with_capacity(candidates.len());
     for r in results {
-        let (fit, e) = match r {
-            Some(Ok(v)) => v,
+        let (fit, e, run) = match r {
+            Some(Ok((fit, e, run))) => (fit, e, Some(run)),
             Some(Err(e)) if e.code == crate::error::EXIT_INTERRUPTED => return Err(e),
             // A candidate the flags rule out (e.g. --paper-gains with 1 mode).
             Some(Err(_)) | None => (
@@ -680,10 +682,12 @@ fn execute_auto(
                     relative_residual: None,
                     parameters: 0,
                 },
+                None,
             ),
         };
         fits.push(fit);
         evidence.push(e);
+        runs.push(run);
     }
     let (scores, chosen) = select::choose(&evidence, judged.len());
     let fallback = candidates
@@ -694,8 +698,9 @@ fn execute_auto(
                 && !c.level_correction
         })
         .unwrap_or(0);
+    let index = chosen.unwrap_or(fallback);
     let pick = candidates
-        .get(chosen.unwrap_or(fallback))
+        .get(index)
         .copied()
         .ok_or_else(|| CliError::failure("replay: no candidate model"))?;
     let mut fixed = args.clone();
@@ -704,19 +709,25 @@ fn execute_auto(
     fixed.guard.level_correction = pick.level_correction;
     fixed.guard.no_level_correction = !pick.level_correction;
     let plan = plan_for(&fixed, None)?;
-    let mut out = execute(
-        &fixed,
-        &plan,
-        label,
-        ts,
-        log_every,
-        Source::Arrays {
-            u,
-            y,
-            chunk,
-            interrupt,
-        },
-    )?;
+    // The candidate's run is that replay already, unless the report needs
+    // more than a candidate computes (the CSV, the plot, the logs, the bound).
+    let reusable = args.csv.is_none() && args.plot.is_none() && log_every.is_none() && !args.crlb;
+    let mut out = match runs.get_mut(index).and_then(Option::take) {
+        Some(run) if reusable => run,
+        _ => execute(
+            &fixed,
+            &plan,
+            label,
+            ts,
+            log_every,
+            Source::Arrays {
+                u,
+                y,
+                chunk,
+                interrupt,
+            },
+        )?,
+    };
     let selection = Selection {
         rule: "bic_of_the_output_error",
         chosen,
@@ -738,9 +749,9 @@ fn execute_auto(
     Ok(out)
 }
 
-/// A candidate's better fit (percent, and on which record) and what the
-/// rule knows of it.
-type Judged = (Option<(f64, &'static str)>, select::Evidence);
+/// A candidate's better fit (percent, and on which record), what the rule
+/// knows of it, and its replay.
+type Judged = (Option<(f64, &'static str)>, select::Evidence, Replayed);
 
 /// One candidate's replay (no `--csv`, `--plot`, logs) and what the rule
 /// needs of it: its better fit percentage, on the record as measured
@@ -754,7 +765,9 @@ fn candidate_evidence(
     judged: &[(f64, f64)],
     stop: &std::sync::atomic::AtomicBool,
 ) -> Result<Judged, CliError> {
-    let plan = plan_for(args, Some(c))?;
+    let mut plan = plan_for(args, Some(c))?;
+    // The bound is the chosen model's only (execute_auto's final run).
+    plan.crlb = None;
     let mut stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
     let out = sized_for(&plan)(
         &plan,
@@ -805,14 +818,12 @@ fn candidate_evidence(
         (None, Some(b)) => Some((b.percent, "level_corrected")),
         (None, None) => None,
     };
-    Ok((
-        best,
-        select::Evidence {
-            excluded,
-            relative_residual: best.map(|(p, _)| 1.0 - p / 100.0),
-            parameters: c.parameters(),
-        },
-    ))
+    let evidence = select::Evidence {
+        excluded,
+        relative_residual: best.map(|(p, _)| 1.0 - p / 100.0),
+        parameters: c.parameters(),
+    };
+    Ok((best, evidence, out))
 }
 
 /// The reported model of an outcome (with its residual terms, if any),
