@@ -324,6 +324,65 @@ fn no_flags_chooses_the_model_order_and_the_level_correction() {
     }
 }
 
+/// Mains lines in y that u does not drive are found in a first fit's
+/// residual and removed from u and y (docs/REPLAY.md "Lines in y"): on a
+/// record simulated independently of this project (60 Hz mains running 1%
+/// fast, its third harmonic, a mode 5 Hz below the line, 40 dB) the lines
+/// are reported at their frequencies and the estimate is within the
+/// record's tolerance (max(3σ_CRB, 1e-3), the bound paying for the lines'
+/// unknown amplitudes and phases); with `--lines off` it is not (ζ2 3×
+/// off), and a record with no line has none removed.
+#[test]
+fn no_flags_removes_the_mains_lines() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data/records");
+    let name = "lab_hum60_prbs";
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{dir}/{name}/reference.json")).expect("reference"),
+    )
+    .expect("reference JSON");
+    let path = format!("{dir}/{name}/record.csv.gz");
+    let within = |r: &Value| {
+        let acc = &reference["acceptance"];
+        (0..2).all(|i| {
+            [
+                ("omega", "omega_rad_s", "omega_rel_tol"),
+                ("zeta", "zeta", "zeta_rel_tol"),
+            ]
+            .iter()
+            .all(|(k, key, tol)| {
+                let e = (num(&r["estimate"][k][i]) / num(&reference["truth"][key][i]) - 1.0).abs();
+                e <= num(&acc[tol][i])
+            })
+        })
+    };
+    let r = json(&beamctl(&["replay", &path, "--json"]));
+    assert_eq!(r["line_removal"]["mode"], "auto");
+    let removed = r["line_removal"]["removed"].as_array().expect("removed");
+    assert_eq!(removed.len(), 2, "{removed:?}");
+    for (line, (f, rms)) in removed.iter().zip([(60.6, 0.03), (181.8, 0.01)]) {
+        assert!((num(&line["freq_hz"]) - f).abs() < 0.01, "{line}");
+        let share = num(&line["rms"]) / num(&reference["noise"]["rms_clean_y"]);
+        assert!((share / rms - 1.0).abs() < 0.05, "{line}: {share}");
+        assert_eq!(line["source"], "detected");
+    }
+    assert!(within(&r), "{}", r["estimate"]);
+    assert_eq!(r["verdict"]["trusted"], true);
+    assert_eq!(r["verdict"]["lines"], serde_json::json!([]));
+    let o = beamctl(&["replay", &path, "--lines", "off", "--json"]);
+    // Not trusted (the lines are in the residual): exit 1 after the report.
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let off: Value = serde_json::from_str(&stdout(&o)).expect("JSON");
+    assert_eq!(off["line_removal"]["removed"], serde_json::json!([]));
+    assert!(!within(&off), "{}", off["estimate"]);
+    let clean = json(&beamctl(&[
+        "replay",
+        &format!("{dir}/lab_noise40_prbs/record.csv.gz"),
+        "--json",
+    ]));
+    assert_eq!(clean["line_removal"]["mode"], "auto");
+    assert_eq!(clean["line_removal"]["removed"], serde_json::json!([]));
+}
+
 /// The flags fix their part of the choice: `--modes` and
 /// `--no-level-correction` leave only the estimator to choose, and a named
 /// estimator runs with no selection at all.

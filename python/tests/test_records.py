@@ -68,6 +68,7 @@ def test_the_verdict_trusts_what_the_reference_accepts(repo, score, beamctl, nam
 RIGHT_WITH_NO_FLAGS = [
     "lab_1mode_1khz", "lab_2mode_5khz", "lab_3mode_20khz", "lab_noise40_prbs",
     "lab_noise60_multisine", "lab_offset_step_prbs", "lab_velocity_prbs",
+    "lab_hum50_chirp", "lab_hum60_prbs", "lab_hum50_harmonics_prbs",
 ]
 
 

@@ -52,6 +52,10 @@
 //!   [`DEFAULT_HIGHPASS_RAD_S`]): identical filtering commutes with the
 //!   plant, so the estimate is unchanged (see its module docs), and its
 //!   double zero at DC removes a constant and a ramp exactly.
+//! * **Lines in y** (the mains) are removed by a separate stage after the
+//!   guard, the line canceller of [`lines`], also identical on u and y;
+//!   the host's replay sets its lines from the record (docs/REPLAY.md,
+//!   "Lines in y"); no board runs it yet.
 //!
 //! Measured bias with and without: docs/ROBUSTNESS.md.
 //!
@@ -81,6 +85,7 @@
 pub(crate) mod delay;
 pub(crate) mod highpass;
 mod level;
+pub mod lines;
 pub(crate) mod monitor;
 pub(crate) mod residual;
 mod step;

@@ -474,6 +474,66 @@ pub struct ReplayArgs {
         requires = "crlb"
     )]
     pub model_set: ModelSetChoice,
+
+    /// Narrow lines in y that u does not drive (the mains): `auto` finds
+    /// steady lines in a first fit's residual and removes them (docs/REPLAY.md,
+    /// "Lines in y"), `off` leaves y as it is, or a list of frequencies HZ,...
+    /// names the lines to remove (each refined within ±1% from the record).
+    #[arg(long, value_name = "auto|off|HZ,...", default_value = "auto", value_parser = parse_lines)]
+    pub lines: LinesChoice,
+
+    /// The mains frequency (e.g. 50 or 60): remove its harmonics 1–7 below
+    /// the Nyquist frequency, each refined within ±1% (as `--lines` with
+    /// those frequencies).
+    #[arg(long, value_name = "HZ", conflicts_with = "lines")]
+    pub mains: Option<f64>,
+
+    /// The lines the second pass removes (set by the line pass, not a flag).
+    #[arg(skip)]
+    pub removing: Vec<(
+        beamest::guard::lines::LineSpec,
+        crate::judge::lines::RemovedLine,
+    )>,
+}
+
+/// `replay --lines`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LinesChoice {
+    /// Detect and remove (the default).
+    Auto,
+    /// Remove none.
+    Off,
+    /// Remove these (Hz).
+    Named(Vec<f64>),
+}
+
+fn parse_lines(s: &str) -> Result<LinesChoice, String> {
+    match s {
+        "auto" => Ok(LinesChoice::Auto),
+        "off" => Ok(LinesChoice::Off),
+        _ => {
+            let freqs = s
+                .split(',')
+                .map(|v| {
+                    v.trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|f| f.is_finite() && *f > 0.0)
+                        .ok_or_else(|| {
+                            format!("expected auto, off or frequencies HZ,... > 0 (got `{v}`)")
+                        })
+                })
+                .collect::<Result<Vec<f64>, String>>()?;
+            if freqs.len() > beamest::guard::lines::MAX_LINES {
+                return Err(format!(
+                    "at most {} lines (got {})",
+                    beamest::guard::lines::MAX_LINES,
+                    freqs.len()
+                ));
+            }
+            Ok(LinesChoice::Named(freqs))
+        }
+    }
 }
 
 /// Options of `beamctl crlb`.

@@ -46,6 +46,10 @@ use beamest::Real;
 use serde::Serialize;
 use std::sync::mpsc::sync_channel;
 
+mod lines;
+use beamest::guard::lines::LineSpec;
+pub use lines::{mains_lines, LineRemoval, MAINS_HARMONICS, MAX_LINE_RUNS, NAMED_TOLERANCE};
+
 /// Samples per batch handed from the parsing thread.
 pub const BATCH: usize = 1 << 16;
 
@@ -65,6 +69,11 @@ struct Plan {
     level_correction: bool,
     /// `--residual-monitor`.
     residual_monitor: bool,
+    /// The lines the guard's output passes the canceller for (the line
+    /// pass's second pass; empty otherwise).
+    lines: Vec<LineSpec>,
+    /// What the report says of them.
+    line_removal: LineRemoval,
 }
 
 /// The modes of a replay whose flags fix the model: `--modes`, else as
@@ -237,6 +246,8 @@ fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, Cli
         range: crate::cli::event_flags::range(&args.guard)?,
         level_correction,
         residual_monitor: args.guard.residual_monitor,
+        lines: args.removing.iter().map(|r| r.0).collect(),
+        line_removal: LineRemoval::of(args),
     })
 }
 
@@ -260,6 +271,9 @@ pub struct ReplayReport {
     pub ts_s: f64,
     /// With `--estimator auto`: how the model was chosen.
     pub selection: Option<Selection>,
+    /// The lines in y removed before this estimate (the line pass, docs/REPLAY.md
+    /// "Lines in y").
+    pub line_removal: LineRemoval,
     /// Data rows read.
     pub samples: u64,
     /// Record length, samples × Ts (s).
@@ -414,7 +428,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let reader = Reader::open(&args.file, &plan.columns, plan.ts_s).map_err(input)?;
     let ts = reader.ts_s();
     let label = args.file.display().to_string();
-    let out = execute(args, &plan, &label, ts, None, Source::File(reader))?;
+    let out = lines::execute_with_lines(args, &plan, &label, ts, None, Source::File(reader))?;
     let text = if args.json {
         report::to_json(&out.reports)?
     } else {
@@ -489,7 +503,7 @@ pub fn replay_arrays(
         chunk: opts.chunk.max(1),
         interrupt: opts.interrupt,
     };
-    execute(args, &plan, &opts.label, opts.ts_s, opts.log_every, source)
+    lines::execute_with_lines(args, &plan, &opts.label, opts.ts_s, opts.log_every, source)
 }
 
 /// The replay proper: the session over `source`, then `--csv`/`--plot`;
@@ -575,21 +589,41 @@ pub struct CandidateReport {
     pub score: crate::judge::select::Score,
 }
 
-/// The samples a replay is judged on with the level correction: the
-/// sensor guard's output with `--level-correction` (offset steps removed,
-/// u and y through the same DC-removing high-pass), a faulty y as NaN;
-/// the guard's delay line drops the last few samples.
-fn level_corrected(
+/// The samples a replay is judged on when the guard changes them: its
+/// output with `level_correction` (offset steps removed, u and y through
+/// the same DC-removing high-pass) and then through the line canceller of
+/// `lines` (if any), a faulty y as NaN; the guard's delay line drops the
+/// last few samples.
+fn conditioned(
     samples: impl Iterator<Item = (f64, f64)>,
     ts: f64,
     range: Option<[f64; 2]>,
+    level_correction: bool,
+    lines: &[LineSpec],
 ) -> Result<Vec<(f64, f64)>, CliError> {
-    let mut guard = beamest::guard::SensorGuard::<f64>::new(&guard_config(ts, range, true))
-        .map_err(|e| CliError::failure(format!("replay: level correction: {e}")))?;
+    let fail = |e: &dyn std::fmt::Display| CliError::failure(format!("replay: {e}"));
+    let mut guard =
+        beamest::guard::SensorGuard::<f64>::new(&guard_config(ts, range, level_correction))
+            .map_err(|e| fail(&e))?;
+    let mut canceller = match lines {
+        [] => None,
+        l => Some(
+            beamest::guard::lines::LineCanceller::<f64, { beamest::guard::lines::MAX_LINES }>::new(
+                l,
+                ts,
+                beamest::guard::lines::DEFAULT_LINE_TIME_CONSTANT_S,
+            )
+            .map_err(|e| fail(&e))?,
+        ),
+    };
     let mut out = Vec::with_capacity(samples.size_hint().0);
     for (u, y) in samples {
         if let Some(g) = guard.push(u, y) {
-            out.push(g.for_estimator());
+            let (u, y) = g.for_estimator();
+            out.push(match canceller.as_mut() {
+                Some(c) => c.push(u, y),
+                None => (u, y),
+            });
         }
     }
     Ok(out)
@@ -613,23 +647,15 @@ fn execute_auto(
     use std::sync::Mutex;
     let mut owned: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     let mut never = || false;
-    let (u, y, chunk, interrupt): (&[f64], &[f64], usize, &mut dyn FnMut() -> bool) = match source {
-        Source::File(reader) => {
-            read_file(reader, label, |batch| {
-                owned.0.extend(batch.iter().map(|s| s.0));
-                owned.1.extend(batch.iter().map(|s| s.1));
-            })?;
-            (&owned.0, &owned.1, BATCH, &mut never)
-        }
-        Source::Arrays {
-            u,
-            y,
-            chunk,
-            interrupt,
-        } => (u, y, chunk, interrupt),
-    };
+    let (u, y, chunk, interrupt) = in_memory(source, label, &mut owned, &mut never)?;
     let range = crate::cli::event_flags::range(&args.guard)?;
-    let judged = level_corrected(u.iter().copied().zip(y.iter().copied()), ts, range)?;
+    let lines: Vec<LineSpec> = args.removing.iter().map(|r| r.0).collect();
+    let pairs = || u.iter().copied().zip(y.iter().copied());
+    let judged = conditioned(pairs(), ts, range, true, &lines)?;
+    let measured = match lines.as_slice() {
+        [] => None,
+        l => Some(conditioned(pairs(), ts, range, false, l)?),
+    };
     let stop = AtomicBool::new(false);
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
@@ -645,7 +671,15 @@ fn execute_auto(
                 let Some(&c) = candidates.get(i) else {
                     return;
                 };
-                let r = candidate_evidence(args, c, label, ts, (u, y), &judged, &stop);
+                let r = candidate_evidence(
+                    args,
+                    c,
+                    label,
+                    ts,
+                    (u, y),
+                    (measured.as_deref(), &judged),
+                    &stop,
+                );
                 if let Ok(mut all) = results.lock() {
                     if let Some(slot) = all.get_mut(i) {
                         *slot = Some(r);
@@ -749,20 +783,54 @@ fn execute_auto(
     Ok(out)
 }
 
+/// The record of `source` in memory: its u, y, batch size and interrupt
+/// poll (a file is read into `owned` and polls `never`).
+#[allow(clippy::type_complexity)]
+fn in_memory<'s: 'o, 'o>(
+    source: Source<'s>,
+    label: &str,
+    owned: &'o mut (Vec<f64>, Vec<f64>),
+    never: &'o mut dyn FnMut() -> bool,
+) -> Result<(&'o [f64], &'o [f64], usize, &'o mut dyn FnMut() -> bool), CliError> {
+    match source {
+        Source::File(reader) => {
+            let (ou, oy) = (&mut owned.0, &mut owned.1);
+            read_file(reader, label, |batch| {
+                ou.extend(batch.iter().map(|s| s.0));
+                oy.extend(batch.iter().map(|s| s.1));
+            })?;
+            Ok((&owned.0, &owned.1, BATCH, never))
+        }
+        Source::Arrays {
+            u,
+            y,
+            chunk,
+            interrupt,
+        } => {
+            let interrupt: &'o mut dyn FnMut() -> bool = interrupt;
+            Ok((u, y, chunk, interrupt))
+        }
+    }
+}
+
+/// Samples as (u, y) pairs.
+type Pairs<'a> = &'a [(f64, f64)];
+
 /// A candidate's better fit (percent, and on which record), what the rule
 /// knows of it, and its replay.
 type Judged = (Option<(f64, &'static str)>, select::Evidence, Replayed);
 
 /// One candidate's replay (no `--csv`, `--plot`, logs) and what the rule
 /// needs of it: its better fit percentage, on the record as measured
-/// (`u`, `y`) or level-corrected (`judged`), which one, and its evidence.
+/// (`u`, `y`, or `measured` when lines are removed from it) or
+/// level-corrected (`judged`), which one, and its evidence.
 fn candidate_evidence(
     args: &ReplayArgs,
     c: Candidate,
     label: &str,
     ts: f64,
     (u, y): (&[f64], &[f64]),
-    judged: &[(f64, f64)],
+    (measured, judged): (Option<Pairs<'_>>, Pairs<'_>),
     stop: &std::sync::atomic::AtomicBool,
 ) -> Result<Judged, CliError> {
     let mut plan = plan_for(args, Some(c))?;
@@ -802,9 +870,10 @@ fn candidate_evidence(
         .is_none()
         .then(|| summary_model(&report.outcome, ts))
         .flatten();
-    let raw = model
-        .as_ref()
-        .and_then(|m| fit::fit(m, || u.iter().copied().zip(y.iter().copied())));
+    let raw = model.as_ref().and_then(|m| match measured {
+        Some(r) => fit::fit(m, || r.iter().copied()),
+        None => fit::fit(m, || u.iter().copied().zip(y.iter().copied())),
+    });
     let corrected = model
         .as_ref()
         .and_then(|m| fit::fit(m, || judged.iter().copied()));
@@ -1028,6 +1097,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
         let session =
             Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
                 .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
+                .and_then(|s| s.with_lines(&plan.lines))
                 .and_then(|s| s.with_monitor(plan.residual_monitor))
                 .map_err(|e| CliError::failure(format!("replay: {e}")))?;
         let dense = csv.is_some() || want_plot;
@@ -1083,8 +1153,14 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 batches.push(batch);
             })?;
             st.end();
-            if plan.level_correction {
-                let c = level_corrected(batches.iter().flatten().copied(), ts, plan.range)?;
+            if plan.level_correction || !plan.lines.is_empty() {
+                let c = conditioned(
+                    batches.iter().flatten().copied(),
+                    ts,
+                    plan.range,
+                    plan.level_correction,
+                    &plan.lines,
+                )?;
                 return judge(plan, label, st, || c.iter().copied());
             }
             judge(plan, label, st, || batches.iter().flatten().copied())
@@ -1102,8 +1178,14 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 }
             }
             st.end();
-            if plan.level_correction {
-                let c = level_corrected(u.iter().copied().zip(y.iter().copied()), ts, plan.range)?;
+            if plan.level_correction || !plan.lines.is_empty() {
+                let c = conditioned(
+                    u.iter().copied().zip(y.iter().copied()),
+                    ts,
+                    plan.range,
+                    plan.level_correction,
+                    &plan.lines,
+                )?;
                 return judge(plan, label, st, || c.iter().copied());
             }
             judge(plan, label, st, || u.iter().copied().zip(y.iter().copied()))
@@ -1292,6 +1374,7 @@ where
             gains: plan.est.gains.name(),
             ts_s: ts,
             selection: None,
+            line_removal: plan.line_removal.clone(),
             samples: n,
             duration_s: n as f64 * ts,
             outcome,
@@ -1388,6 +1471,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                 gains: plan.est.gains.name(),
                 ts_s: self.ts,
                 selection: None,
+                line_removal: LineRemoval {
+                    mode: "off",
+                    removed: Vec::new(),
+                },
                 samples: n,
                 duration_s: n as f64 * self.ts,
                 outcome: self.session.outcome(
@@ -1520,6 +1607,24 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
     );
     if let Some(sel) = &first.selection {
         out.push_str(&selection_line(sel, first));
+    }
+    if !first.line_removal.removed.is_empty() {
+        let each: Vec<String> = first
+            .line_removal
+            .removed
+            .iter()
+            .map(|l| {
+                let near = l
+                    .near_mode
+                    .map_or(String::new(), |m| format!(", in mode {m}'s band"));
+                format!("{:.4} Hz (RMS {:.3e}{near})", l.freq_hz, l.rms)
+            })
+            .collect();
+        out.push_str(&format!(
+            "lines:  removed from u and y ({}): {}\n",
+            first.line_removal.mode,
+            each.join(", ")
+        ));
     }
     let columns: Vec<Column<'_>> = reports
         .iter()

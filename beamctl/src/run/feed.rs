@@ -6,7 +6,9 @@
 //! Per raw sample, in this order:
 //! 1. the guard screens it ([`SensorGuard::push_monitored`]); what leaves
 //!    its delay line (a faulty sample as NaN, which an estimator rejects)
-//!    is the estimators' sample, and nothing leaves it while it fills;
+//!    passes the line canceller if lines are set ([`Feed::with_lines`],
+//!    [`beamest::guard::lines`]) and is the estimators' sample; nothing
+//!    leaves it while it fills;
 //! 2. a hold the guard asks for after a gap or an offset step with the
 //!    high-pass on ([`SensorGuard::take_hold`]) is given to every
 //!    estimator first, whether or not a sample leaves the line;
@@ -25,6 +27,9 @@
 //! hold keeps the model: the plant has not changed.
 
 use beamest::estimator::{Estimator, StepStatus};
+use beamest::guard::lines::{
+    LineCanceller, LineError, LineSpec, DEFAULT_LINE_TIME_CONSTANT_S, MAX_LINES,
+};
 use beamest::guard::{
     GuardConfig, GuardError, ResidualMonitor, Screening, SensorGuard, CHANGE_QUIET_S,
 };
@@ -76,6 +81,9 @@ pub struct Screened {
 #[derive(Debug, Clone)]
 pub struct Feed {
     guard: SensorGuard<f64>,
+    /// The line canceller after the guard (`None`: no lines).
+    lines: Option<LineCanceller<f64, MAX_LINES>>,
+    ts_s: f64,
     index: u64,
     /// [`CHANGE_QUIET_S`] in samples.
     quiet: u64,
@@ -91,10 +99,30 @@ impl Feed {
     pub fn new(cfg: &GuardConfig) -> Result<Self, GuardError> {
         Ok(Self {
             guard: SensorGuard::new(cfg)?,
+            lines: None,
+            ts_s: cfg.ts_s,
             index: 0,
             quiet: (CHANGE_QUIET_S / cfg.ts_s).round() as u64,
             rest_until: 0,
         })
+    }
+
+    /// The same feed with `lines` cancelled after the guard, the weights'
+    /// time constant [`DEFAULT_LINE_TIME_CONSTANT_S`] (no lines: none).
+    ///
+    /// # Errors
+    /// [`LineError`] for a line the canceller cannot hold.
+    pub fn with_lines(mut self, lines: &[LineSpec]) -> Result<Self, LineError> {
+        self.lines = if lines.is_empty() {
+            None
+        } else {
+            Some(LineCanceller::new(
+                lines,
+                self.ts_s,
+                DEFAULT_LINE_TIME_CONSTANT_S,
+            )?)
+        };
+        Ok(self)
     }
 
     /// Give a screened sample to `target` (steps 2–4 of the module docs);
@@ -143,8 +171,15 @@ impl Feed {
     pub fn push(&mut self, u: f64, y: f64, monitor: Option<&mut ResidualMonitor<f64>>) -> Screened {
         let out = self.guard.push_monitored(u, y, true, self.index, monitor);
         self.index += 1;
+        let lines = &mut self.lines;
         Screened {
-            pair: out.map(|g| g.for_estimator()),
+            pair: out.map(|g| {
+                let (u, y) = g.for_estimator();
+                match lines {
+                    Some(c) => c.push(u, y),
+                    None => (u, y),
+                }
+            }),
             gap_hold: self.guard.take_hold(),
             change_hold: self.guard.change_hold(),
             screening: self.guard.last_screening(),

@@ -479,6 +479,22 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         Ok(self)
     }
 
+    /// The same session with `lines` cancelled after the guard
+    /// ([`Feed::with_lines`]; set after [`Session::with_guard`]).
+    ///
+    /// # Errors
+    /// A line the canceller cannot hold.
+    pub fn with_lines(
+        mut self,
+        lines: &[beamest::guard::lines::LineSpec],
+    ) -> Result<Self, RunError> {
+        self.feed = self
+            .feed
+            .with_lines(lines)
+            .map_err(|e| RunError::Setup(e.to_string()))?;
+        Ok(self)
+    }
+
     /// Feed one raw sample: it passes the sensor guard
     /// ([`beamest::guard`]), and the pair leaving the guard's delay line
     /// (faulty ones as NaN, which the estimators reject) goes to every

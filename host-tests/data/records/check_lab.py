@@ -3,7 +3,8 @@
 estimator (numpy/scipy only): an output-error least-squares fit of the
 exact model (generate_lab.simulate, the records' own simulator) to each
 white-noise record as written (6-digit CSV), started 0.2% off in ω and 5%
-off in ζ. An efficient estimator lands within a few σ_CRB of the truth;
+off in ζ (a record with mains lines: each line's amplitude and phase fitted
+too, its frequency known, as its bound assumes). An efficient estimator lands within a few σ_CRB of the truth;
 the residual RMS ÷ σ_noise should be ≈ 1.
 
     python3 host-tests/data/records/check_lab.py
@@ -44,11 +45,17 @@ def main():
         else:
             shape = 1 - np.exp(-t / 3.0)
 
+        lines = [h["freq_hz"] for h in ref.get("hum", {}).get("lines", [])]
+        waves = [w for f in lines for w in (np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t))]
+        extra = 2 if lev else 0
+
         def res(q):
             th = q[: 3 * n] * th0
             e = simulate(th[:n], th[n : 2 * n], th[2 * n :], ref["sensor_output"], ref["ts_s"], u) - y
             if lev:
                 e = e + q[3 * n] + q[3 * n + 1] * shape
+            for j, w in enumerate(waves):
+                e = e + q[3 * n + extra + j] * w
             return e
 
         q0 = np.ones(3 * n)
@@ -56,6 +63,7 @@ def main():
         q0[n : 2 * n] *= 1.05
         if lev:
             q0 = np.concatenate([q0, [0.0, 0.0]])
+        q0 = np.concatenate([q0, np.zeros(len(waves))])
         s = least_squares(res, q0, method="lm", x_scale="jac")
         err = s.x[: 3 * n] - 1
         c = ref["crb"]
