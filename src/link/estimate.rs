@@ -23,9 +23,9 @@
 //! queued for the wire (PROTOCOL.md §4.1): the counter bits come from the
 //! differences of the cumulative counters each record carries against
 //! those of that estimate's record, and the record's own event bits
-//! ([`SINCE_PREVIOUS_RECORD`]) of the records in between (records that
-//! only carried a Status, or whose estimate was dropped on a full TX ring)
-//! are carried into the next estimate ([`EstimateContext::earlier_events`]).
+//! (FROZEN_AUTO, CHANGE_DETECTED, SENSOR_LEVEL, TELEMETRY_DROPPED) of the
+//! records in between (records that only carried a Status, or whose
+//! estimate was dropped on a full TX ring) are carried into the next estimate ([`EstimateContext::earlier_events`]).
 //! So they are exact when records in between were dropped, when Status
 //! runs faster than the estimates, and when an estimate is lost.
 
@@ -242,9 +242,10 @@ pub struct EstimateContext<'a> {
     /// Counters of the record of the previous estimate queued for the wire
     /// (zero before the first).
     pub previous: &'a Counters,
-    /// The [`SINCE_PREVIOUS_RECORD`] bits of the records after the previous
-    /// estimate's and before this one (empty when every record makes an
-    /// estimate that gets through).
+    /// The event bits (FROZEN_AUTO, CHANGE_DETECTED, SENSOR_LEVEL,
+    /// TELEMETRY_DROPPED) of the records after the previous estimate's and
+    /// before this one (empty when every record makes an estimate that gets
+    /// through).
     pub earlier_events: StatusFlags,
     /// Telemetry dropped since the previous estimate outside the records'
     /// counters (frames dropped on the TX ring).
