@@ -60,9 +60,57 @@ pub struct Tally {
     /// Estimates before the first one with modes.
     pub without_modes_first: u64,
     /// Estimates that break PROTOCOL.md §4.1's meaning: EXCITED not
-    /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear), or
-    /// modes / PHYSICALLY_VALID with Θ̂ = 0.
+    /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear),
+    /// modes / PHYSICALLY_VALID with Θ̂ = 0, or modes that are not the
+    /// roots of the A(s) that the estimate's own Θ̂ and λ define (§4.0).
     pub meaning_violations: u64,
+    /// Estimates with modes that arrived before any Status naming λ: read
+    /// (and checked) from their own Θ̂ and λ alone.
+    pub with_modes_before_lambda_status: u64,
+    /// A Status with some λ has arrived.
+    pub lambda_status_seen: bool,
+}
+
+/// How far (relative to the size of the terms) a coefficient of A(s) from
+/// Θ̂ and λ may differ from the product of the sent modes' polynomials: the
+/// f32 rounding of Θ̂ and the device's root finding (3e-7 of k_j measured
+/// on the plain QEMU capture); a wrong λ or Θ̂ misses by percent.
+const MODES_FROM_THETA_TOLERANCE: f64 = 1e-5;
+
+/// An estimate's modes are those its own Θ̂ and λ define (PROTOCOL.md §4.0,
+/// eqs. 29–30), with nothing else from the stream: A(s) = Λ(s) − (the
+/// last 2n entries of Θ̂), Λ(s) = (s + λ)^{2n}, must equal
+/// Π_i (s² + 2ζ_iω_i s + ω_i²) coefficient by coefficient. No modes: true.
+pub fn modes_follow_from_theta(e: &Estimate) -> bool {
+    let n = e.modes.len();
+    if n == 0 {
+        return true;
+    }
+    let d = 2 * n;
+    if e.theta.len() != 4 * n - 1 {
+        return false;
+    }
+    let lambda = f64::from(e.lambda_rad_s);
+    // Π q_i, ascending powers, monic of degree 2n.
+    let mut product = vec![1.0f64];
+    for m in &e.modes {
+        let (w, z) = (f64::from(m.omega_rad_s), f64::from(m.zeta));
+        let q = [w * w, 2.0 * z * w, 1.0];
+        let mut next = vec![0.0; product.len() + 2];
+        for (i, p) in product.iter().enumerate() {
+            for (j, c) in q.iter().enumerate() {
+                next[i + j] += p * c;
+            }
+        }
+        product = next;
+    }
+    (0..d).all(|j| {
+        // k_j = C(2n, j) λ^{2n−j}; entry 4n − 2 − j of Θ̂ is k_j − a_j.
+        let binom = (0..j).fold(1.0, |b, i| b * (d - i) as f64 / (i + 1) as f64);
+        let k = binom * lambda.powi((d - j) as i32);
+        let a = k - f64::from(e.theta[4 * n - 2 - j]);
+        (a - product[j]).abs() <= MODES_FROM_THETA_TOLERANCE * (k.abs() + product[j].abs())
+    })
 }
 
 /// The firmware's EXCITED threshold on excitation_level (PROTOCOL.md §9.3).
@@ -75,6 +123,7 @@ pub fn estimate_means_what_it_says(e: &Estimate) -> bool {
     let zero = e.theta.iter().all(|v| *v == 0.0);
     e.flags.contains(StatusFlags::EXCITED) == excited
         && !(zero && (!e.modes.is_empty() || e.flags.contains(StatusFlags::PHYSICALLY_VALID)))
+        && modes_follow_from_theta(e)
 }
 
 impl Tally {
@@ -86,6 +135,12 @@ impl Tally {
             if !estimate_means_what_it_says(e) {
                 self.meaning_violations += 1;
             }
+            if !self.lambda_status_seen && !e.modes.is_empty() {
+                self.with_modes_before_lambda_status += 1;
+            }
+        }
+        if let Message::Status(s) = m {
+            self.lambda_status_seen |= s.estimator.lambda_rad_s.is_some();
         }
         let c = match m {
             Message::Estimate(_) => &mut self.estimates,
@@ -123,7 +178,8 @@ impl Capture {
         let t = &self.tally;
         format!(
             "{} bytes, {} frames ({} estimates, {} status, {} raw-sample blocks, {} acks); \
-             {} estimates before the first with modes, {} estimates against PROTOCOL.md §4.1; \
+             {} estimates before the first with modes, {} with modes before the first Status \
+             naming λ (read from their own Θ̂ and λ), {} estimates against PROTOCOL.md §4.0/§4.1; \
              lost {}, CRC errors {}, other frame errors {}, duplicates {}, out of order {}{}",
             c.bytes,
             c.frames_ok,
@@ -132,6 +188,7 @@ impl Capture {
             t.raw,
             t.acks,
             t.without_modes_first,
+            t.with_modes_before_lambda_status,
             t.meaning_violations,
             c.lost,
             c.crc_errors,
@@ -663,5 +720,85 @@ fn check(h: &mut Host, capture: &Capture) {
     }
     for f in fails {
         h.fail(f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use beam_protocol::{EstimatorKind, ModeEstimate};
+
+    /// PROTOCOL.md §6's Estimate example: the paper's plant, Θ̂ at
+    /// λ = 100 rad/s rounded to f32.
+    fn example() -> Estimate {
+        let mode = |omega_rad_s, zeta| ModeEstimate {
+            omega_rad_s,
+            zeta,
+            b_bar: 1.0,
+        };
+        Estimate {
+            estimator: EstimatorKind::Adaptive,
+            modes: [mode(39.1533, 0.0207), mode(245.3711, 0.13)]
+                .into_iter()
+                .collect(),
+            lambda_rad_s: 100.0,
+            theta: [
+                13.02,
+                -1180.0,
+                -1_110_000.0,
+                334.58257,
+                -1843.3683,
+                3_804_609.0,
+                7_703_854.5,
+            ]
+            .into_iter()
+            .collect(),
+            ..Estimate::default()
+        }
+    }
+
+    #[test]
+    fn modes_are_checked_against_the_estimates_own_theta_and_lambda() {
+        let e = example();
+        assert!(modes_follow_from_theta(&e));
+        // Read with another λ (say, an older Status's), Θ̂ means other modes.
+        for lambda in [99.0, 100.1, 113.0] {
+            let other = Estimate {
+                lambda_rad_s: lambda,
+                ..e.clone()
+            };
+            assert!(!modes_follow_from_theta(&other), "λ {lambda}");
+        }
+        // A mode 1e-4 off, or the modes of λ's own poles for this Θ̂.
+        let mut off = e.clone();
+        off.modes[1].omega_rad_s *= 1.0001;
+        assert!(!modes_follow_from_theta(&off));
+        let mut poles = e.clone();
+        for m in poles.modes.iter_mut() {
+            (m.omega_rad_s, m.zeta) = (100.0, 1.0);
+        }
+        assert!(!modes_follow_from_theta(&poles));
+        // ... which are right for Θ̂ = 0 (and still refused there: §4.1).
+        poles.theta.iter_mut().for_each(|t| *t = 0.0);
+        assert!(modes_follow_from_theta(&poles));
+        assert!(!estimate_means_what_it_says(&poles));
+        // No modes: nothing to check.
+        let none = Estimate {
+            modes: Default::default(),
+            ..e
+        };
+        assert!(modes_follow_from_theta(&none));
+    }
+
+    #[test]
+    fn estimates_with_modes_before_a_status_with_lambda_are_counted() {
+        let mut t = Tally::default();
+        let e = Message::Estimate(example());
+        t.count(&e);
+        t.count(&e);
+        assert_eq!(
+            (t.with_modes_before_lambda_status, t.meaning_violations),
+            (2, 0)
+        );
     }
 }
