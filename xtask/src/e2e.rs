@@ -62,7 +62,8 @@ pub struct Tally {
     /// Estimates that break PROTOCOL.md §4.1's meaning: EXCITED not
     /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear),
     /// modes / PHYSICALLY_VALID with Θ̂ = 0, or modes that are not the
-    /// roots of the A(s) that the estimate's own Θ̂ and λ define (§4.0).
+    /// roots of the A(s) that the estimate's own Θ̂ and λ define, or gains
+    /// b̄ that are not §4.0's for the emulated rig's output weights (§9.6).
     pub meaning_violations: u64,
     /// Estimates with modes that arrived before any Status naming λ: read
     /// (and checked) from their own Θ̂ and λ alone.
@@ -124,6 +125,94 @@ pub fn estimate_means_what_it_says(e: &Estimate) -> bool {
     e.flags.contains(StatusFlags::EXCITED) == excited
         && !(zero && (!e.modes.is_empty() || e.flags.contains(StatusFlags::PHYSICALLY_VALID)))
         && modes_follow_from_theta(e)
+        && gains_follow_from_theta(e, &beamest::bench::OUTPUT_WEIGHT)
+}
+
+/// How far a sent b̄_i may be from the least-squares solution of §4.0 on
+/// the estimate's own Θ̂ and modes, relative to the largest |b̄|: the f32
+/// rounding of Θ̂ and of the modes and the device's own solve (3e-6
+/// measured on the plain QEMU capture); another sign or scale of the
+/// output weights misses by a factor.
+const GAINS_FROM_THETA_TOLERANCE: f64 = 1e-4;
+
+/// An estimate's modal gains b̄ are PROTOCOL.md §4.0's (eqs. 31–32) for
+/// the device's output weights `weights` (ascending ω; §9.6): the
+/// least-squares solution of Σ_i c_i·b̄_i·Π_{j≠i} q_j(s) = B(s), B's
+/// coefficients b_{2n−2} … b_0 being the first 2n − 1 entries of Θ̂ and
+/// q_i the sent modes' polynomials. No modes: true.
+pub fn gains_follow_from_theta(e: &Estimate, weights: &[f64]) -> bool {
+    let n = e.modes.len();
+    if n == 0 {
+        return true;
+    }
+    if e.theta.len() != 4 * n - 1 || weights.len() != n {
+        return false;
+    }
+    let q: Vec<[f64; 3]> = e
+        .modes
+        .iter()
+        .map(|m| {
+            let (w, z) = (f64::from(m.omega_rad_s), f64::from(m.zeta));
+            [1.0, 2.0 * z * w, w * w]
+        })
+        .collect();
+    // Column i: c_i·Π_{j≠i} q_j, descending powers s^{2n−2} … s^0.
+    let columns: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let mut p = vec![weights[i]];
+            for qj in q
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, qj)| qj)
+            {
+                let mut next = vec![0.0; p.len() + 2];
+                for (a, pa) in p.iter().enumerate() {
+                    for (b, qb) in qj.iter().enumerate() {
+                        next[a + b] += pa * qb;
+                    }
+                }
+                p = next;
+            }
+            p
+        })
+        .collect();
+    let rhs: Vec<f64> = e.theta[..2 * n - 1].iter().map(|&v| f64::from(v)).collect();
+    // Normal equations (n ≤ 3), Gaussian elimination with partial pivoting.
+    let mut m: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let mut row: Vec<f64> = (0..n)
+                .map(|j| columns[i].iter().zip(&columns[j]).map(|(a, b)| a * b).sum())
+                .collect();
+            row.push(columns[i].iter().zip(&rhs).map(|(a, b)| a * b).sum());
+            row
+        })
+        .collect();
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, pivot);
+        if m[col][col] == 0.0 {
+            return false;
+        }
+        let pivot_row = m[col].clone();
+        for row in m.iter_mut().skip(col + 1) {
+            let f = row[col] / pivot_row[col];
+            for (v, p) in row.iter_mut().zip(&pivot_row).skip(col) {
+                *v -= f * p;
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let tail: f64 = (r + 1..n).map(|k| m[r][k] * x[k]).sum();
+        x[r] = (m[r][n] - tail) / m[r][r];
+    }
+    let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    e.modes.iter().zip(&x).all(|(mode, want)| {
+        (f64::from(mode.b_bar) - want).abs() <= GAINS_FROM_THETA_TOLERANCE * scale
+    })
 }
 
 impl Tally {
@@ -731,14 +820,14 @@ mod tests {
     /// PROTOCOL.md §6's Estimate example: the paper's plant, Θ̂ at
     /// λ = 100 rad/s rounded to f32.
     fn example() -> Estimate {
-        let mode = |omega_rad_s, zeta| ModeEstimate {
+        let mode = |omega_rad_s, zeta, b_bar| ModeEstimate {
             omega_rad_s,
             zeta,
-            b_bar: 1.0,
+            b_bar,
         };
         Estimate {
             estimator: EstimatorKind::Adaptive,
-            modes: [mode(39.1533, 0.0207), mode(245.3711, 0.13)]
+            modes: [mode(39.1533, 0.0207, 9.6293), mode(245.3711, 0.13, 16.1458)]
                 .into_iter()
                 .collect(),
             lambda_rad_s: 100.0,
@@ -788,6 +877,25 @@ mod tests {
             ..e
         };
         assert!(modes_follow_from_theta(&none));
+    }
+
+    #[test]
+    fn gains_are_checked_against_the_definition_and_the_weights() {
+        // §6's example with its b̄ (9.6293, 16.1458 for C̄ = (−2, 2)).
+        let e = example();
+        assert!(gains_follow_from_theta(&e, &[-2.0, 2.0]));
+        assert!(estimate_means_what_it_says(&e));
+        // Other weights (the reference board's), the modal residues β_i
+        // themselves, a flipped sign or a gain 1e-3 off: not §4.0's b̄.
+        assert!(!gains_follow_from_theta(&e, &[1.0, 1.0]));
+        let mut beta = e.clone();
+        beta.modes[0].b_bar *= -2.0;
+        beta.modes[1].b_bar *= 2.0;
+        assert!(!gains_follow_from_theta(&beta, &[-2.0, 2.0]));
+        assert!(gains_follow_from_theta(&beta, &[1.0, 1.0]));
+        let mut off = e.clone();
+        off.modes[1].b_bar *= 1.001;
+        assert!(!gains_follow_from_theta(&off, &[-2.0, 2.0]));
     }
 
     #[test]
