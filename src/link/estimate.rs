@@ -14,14 +14,20 @@
 //! | EXCITED | the excitation level sent (λmin(P)/tr(P): the supervisor's in-loop value, else the record's) ≥ [`FlagRules::excitation_rel_threshold`], and INPUT_GONE clear (Lemma 1) |
 //! | CONVERGED | [`Convergence`]: every ω̂, ζ̂ within [`FlagRules::converged_rel_tol`] of its value at the start of a window of [`FlagRules::converged_window_samples`] |
 //! | PHYSICALLY_VALID | modes recovered, as many as the model has, ω > 0, 0 < ζ < 1, ω strictly ascending, all finite |
-//! | SENSOR_FAULT | since the previous record: ADC CRC, status, bus or other errors, stale or stuck conversions, an open bridge |
-//! | ADC_SATURATED | since the previous record: a bridge or monitor conversion at full scale |
-//! | DAC_SATURATED | since the previous record: a DAC write limited at a rail or failed, or an excitation sample clamped at the safe window |
+//! | SENSOR_FAULT | since the previous estimate: ADC CRC, status, bus or other errors, stale or stuck conversions, an open bridge |
+//! | ADC_SATURATED | since the previous estimate: a bridge or monitor conversion at full scale |
+//! | DAC_SATURATED | since the previous estimate: a DAC write limited at a rail or failed, or an excitation sample clamped at the safe window |
 //! | TELEMETRY_DROPPED | (also) since the previous estimate: a record or raw block dropped on a full queue, or a frame dropped on a full TX ring |
 //!
-//! The "since the previous record" bits come from the differences of the
-//! cumulative counters each record carries, so they are exact even when
-//! records in between were dropped.
+//! "Since the previous estimate" is since the previous Estimate that was
+//! queued for the wire (PROTOCOL.md §4.1): the counter bits come from the
+//! differences of the cumulative counters each record carries against
+//! those of that estimate's record, and the record's own event bits
+//! (FROZEN_AUTO, CHANGE_DETECTED, SENSOR_LEVEL, TELEMETRY_DROPPED) of the
+//! records in between (records that only carried a Status, or whose
+//! estimate was dropped on a full TX ring) are carried into the next estimate ([`EstimateContext::earlier_events`]).
+//! So they are exact when records in between were dropped, when Status
+//! runs faster than the estimates, and when an estimate is lost.
 
 use crate::model::ModalParams;
 use crate::pipeline::{Counters, Recovered, TelemetryRecord};
@@ -215,6 +221,15 @@ fn modal_f32<T: Real>(m: &ModalParams<T>) -> ModalParams<f32> {
     }
 }
 
+/// The record bits that say something happened since the previous record
+/// (the sample task clears them after each record), as opposed to a state
+/// at the record: a record that makes no estimate passes them on to the
+/// next estimate ([`EstimateContext::earlier_events`]).
+pub(crate) const SINCE_PREVIOUS_RECORD: StatusFlags = StatusFlags::FROZEN_AUTO
+    .with(StatusFlags::CHANGE_DETECTED)
+    .with(StatusFlags::SENSOR_LEVEL)
+    .with(StatusFlags::TELEMETRY_DROPPED);
+
 /// Everything besides the record that an [`Estimate`] needs.
 #[derive(Debug, Clone, Copy)]
 pub struct EstimateContext<'a> {
@@ -224,8 +239,14 @@ pub struct EstimateContext<'a> {
     pub model_modes: usize,
     /// Thresholds.
     pub rules: &'a FlagRules,
-    /// Counters of the previous record (zero before the first).
+    /// Counters of the record of the previous estimate queued for the wire
+    /// (zero before the first).
     pub previous: &'a Counters,
+    /// The event bits (FROZEN_AUTO, CHANGE_DETECTED, SENSOR_LEVEL,
+    /// TELEMETRY_DROPPED) of the records after the previous estimate's and
+    /// before this one (empty when every record makes an estimate that gets
+    /// through).
+    pub earlier_events: StatusFlags,
     /// Telemetry dropped since the previous estimate outside the records'
     /// counters (frames dropped on the TX ring).
     pub dropped_elsewhere: bool,
@@ -266,7 +287,9 @@ pub fn estimate<T: Real, const NP: usize, const NS: usize>(
     // the recovery, the thresholds or the counters' differences. EXCITED
     // is decided here, from the level that is sent, so that a receiver
     // can check it: level ≥ threshold and the input present.
-    let mut flags = record.flags;
+    let mut flags = record
+        .flags
+        .with(StatusFlags(ctx.earlier_events.0 & SINCE_PREVIOUS_RECORD.0));
     let input_gone = flags.contains(StatusFlags::INPUT_GONE);
     let lemma1 = level.is_some_and(|l| l >= rules.excitation_rel_threshold);
     flags.set(StatusFlags::EXCITED, lemma1 && !input_gone);
@@ -477,6 +500,7 @@ mod tests {
             rules: &rules,
             previous,
             dropped_elsewhere: false,
+            earlier_events: StatusFlags::default(),
             no_update_yet: false,
         };
         // Same counters, good modes, excited: EXCITED | PHYSICALLY_VALID.

@@ -90,7 +90,7 @@ use crate::tuning::{TuningConfig, TuningError};
 use beam_protocol::budget::MAX_COMMAND_ENCODED_LEN;
 use beam_protocol::{
     Ack, AckResult, Command, Decoder, EstimatorSettings, FirmwareVersion, Limits, LinkCounters,
-    Message, RejectReason, Status, TelemetryRates,
+    Message, RejectReason, Status, StatusFlags, TelemetryRates,
 };
 
 /// This crate's version, for [`Status::firmware`].
@@ -217,7 +217,13 @@ pub struct DeviceLink {
     fresh_since: Option<u64>,
     /// Sample index of the previous record.
     last_record: Option<u64>,
-    previous: Counters,
+    /// Counters of the record of the last estimate queued for the wire:
+    /// the flags' "since the previous estimate" baseline.
+    at_last_estimate: Counters,
+    /// [`estimate::SINCE_PREVIOUS_RECORD`] bits of the records since the
+    /// last estimate queued (records without an estimate, or whose
+    /// estimate was dropped), for the next estimate.
+    events_since_estimate: StatusFlags,
     convergence: Convergence,
     raw: RawAssembler,
     next_estimate_at: u64,
@@ -252,7 +258,8 @@ impl DeviceLink {
             started_at: None,
             fresh_since: None,
             last_record: None,
-            previous: Counters::default(),
+            at_last_estimate: Counters::default(),
+            events_since_estimate: StatusFlags::default(),
             convergence: Convergence::default(),
             raw: RawAssembler::default(),
             next_estimate_at: 0,
@@ -451,7 +458,9 @@ impl DeviceLink {
             self.send_estimate(record, &rec, tx);
             rec
         });
-        self.previous = record.counters;
+        if recovered.is_none() {
+            self.note_events(record.flags);
+        }
         if let Some(every) = interval_samples(self.settings.telemetry.status_rate_hz, fs) {
             if index >= self.next_status_at {
                 self.next_status_at = next_due(self.next_status_at, every, index);
@@ -473,7 +482,8 @@ impl DeviceLink {
             estimator: self.settings.estimator.kind,
             model_modes: usize::from(self.config.limits.modes),
             rules: &self.config.rules,
-            previous: &self.previous,
+            previous: &self.at_last_estimate,
+            earlier_events: self.events_since_estimate,
             dropped_elsewhere: dropped != self.drops_at_last_estimate,
             no_update_yet: self.fresh_since.is_some(),
         };
@@ -481,7 +491,20 @@ impl DeviceLink {
         // A dropped estimate is flagged by the next one that gets through.
         if let Sent::Queued(_) = self.tx.send(&msg.into(), ANSWER_RESERVE_BYTES, tx) {
             self.drops_at_last_estimate = dropped;
+            self.at_last_estimate = record.counters;
+            self.events_since_estimate = StatusFlags::default();
+        } else {
+            // Its events and counter steps go with the next estimate.
+            self.note_events(record.flags);
         }
+    }
+
+    /// Keep a record's event bits for the next estimate: its own estimate
+    /// was not made or did not get through.
+    fn note_events(&mut self, record_flags: StatusFlags) {
+        self.events_since_estimate = self.events_since_estimate.with(StatusFlags(
+            record_flags.0 & estimate::SINCE_PREVIOUS_RECORD.0,
+        ));
     }
 
     /// One raw block from the sample task: sent in frames of up to 64 pairs

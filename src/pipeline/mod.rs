@@ -495,9 +495,12 @@ where
         let sup = self.estimator.supervision();
         let input_gone = sup.is_some_and(|s| s.reason == ExcitationReason::InputGone);
         flags.set(StatusFlags::FROZEN_BY_COMMAND, self.frozen);
+        // `self.flags` may carry FROZEN_AUTO and CHANGE_DETECTED from a
+        // dropped record: kept, not cleared.
+        let held = self.steps.frozen > 0;
         flags.set(
             StatusFlags::FROZEN_AUTO,
-            self.steps.frozen > 0 || input_gone,
+            flags.contains(StatusFlags::FROZEN_AUTO) || held || input_gone,
         );
         flags.set(
             StatusFlags::STATE_DEGRADED,
@@ -508,7 +511,7 @@ where
             flags.set(StatusFlags::INPUT_GONE, input_gone);
             flags.set(
                 StatusFlags::CHANGE_DETECTED,
-                sup.changes != self.changes_seen,
+                flags.contains(StatusFlags::CHANGE_DETECTED) || sup.changes != self.changes_seen,
             );
             self.changes_seen = sup.changes;
         }
@@ -528,8 +531,16 @@ where
             self.flags = StatusFlags::default();
         } else {
             bump(&mut self.counters.dropped_records);
-            // Keep this block's events for the next record that gets through.
+            // Keep this block's events for the next record that gets
+            // through: a hold since the previous record, a detected change
+            // (its count is already taken), a level correction.
             self.flags = self.flags.with(StatusFlags::TELEMETRY_DROPPED);
+            if held {
+                self.flags = self.flags.with(StatusFlags::FROZEN_AUTO);
+            }
+            if flags.contains(StatusFlags::CHANGE_DETECTED) {
+                self.flags = self.flags.with(StatusFlags::CHANGE_DETECTED);
+            }
         }
         self.steps = StepCounts::default();
     }

@@ -368,8 +368,12 @@ fn full_queue_drops_and_counts_and_never_blocks() {
         ..config()
     };
     let (mut p, mut tc, _rc) = build(&cfg, Adc::default(), &mut tq, &mut rq);
-    // Capacity 3 (N − 1): 3 records fit, the next 97 are dropped.
-    for _ in 0..100 {
+    // Capacity 3 (N − 1): 3 records fit, the next 97 are dropped. A hold
+    // (a missed period) falls in the dropped ones.
+    for k in 0..100 {
+        if k == 50 {
+            p.note_overrun(1);
+        }
         p.tick();
     }
     let c = p.counters();
@@ -383,11 +387,14 @@ fn full_queue_drops_and_counts_and_never_blocks() {
     let first = tc.dequeue().unwrap();
     assert_eq!(first.sample_index, 0);
     assert!(!first.flags.contains(StatusFlags::TELEMETRY_DROPPED));
+    assert!(!first.flags.contains(StatusFlags::FROZEN_AUTO));
     tc.dequeue();
     tc.dequeue();
     p.tick();
     let next = tc.dequeue().unwrap();
     assert!(next.flags.contains(StatusFlags::TELEMETRY_DROPPED));
+    // The hold happened in a dropped record, long over by now: still told.
+    assert!(next.flags.contains(StatusFlags::FROZEN_AUTO));
     assert_eq!(next.counters.dropped_records, 197);
 }
 

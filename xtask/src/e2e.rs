@@ -60,9 +60,58 @@ pub struct Tally {
     /// Estimates before the first one with modes.
     pub without_modes_first: u64,
     /// Estimates that break PROTOCOL.md §4.1's meaning: EXCITED not
-    /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear), or
-    /// modes / PHYSICALLY_VALID with Θ̂ = 0.
+    /// (excitation_level ≥ the firmware's 1e-7 and INPUT_GONE clear),
+    /// modes / PHYSICALLY_VALID with Θ̂ = 0, or modes that are not the
+    /// roots of the A(s) that the estimate's own Θ̂ and λ define, or gains
+    /// b̄ that are not §4.0's for the emulated rig's output weights (§9.6).
     pub meaning_violations: u64,
+    /// Estimates with modes that arrived before any Status naming λ: read
+    /// (and checked) from their own Θ̂ and λ alone.
+    pub with_modes_before_lambda_status: u64,
+    /// A Status with some λ has arrived.
+    pub lambda_status_seen: bool,
+}
+
+/// How far (relative to the size of the terms) a coefficient of A(s) from
+/// Θ̂ and λ may differ from the product of the sent modes' polynomials: the
+/// f32 rounding of Θ̂ and the device's root finding (3e-7 of k_j measured
+/// on the plain QEMU capture); a wrong λ or Θ̂ misses by percent.
+const MODES_FROM_THETA_TOLERANCE: f64 = 1e-5;
+
+/// An estimate's modes are those its own Θ̂ and λ define (PROTOCOL.md §4.0,
+/// eqs. 29–30), with nothing else from the stream: A(s) = Λ(s) − (the
+/// last 2n entries of Θ̂), Λ(s) = (s + λ)^{2n}, must equal
+/// Π_i (s² + 2ζ_iω_i s + ω_i²) coefficient by coefficient. No modes: true.
+pub fn modes_follow_from_theta(e: &Estimate) -> bool {
+    let n = e.modes.len();
+    if n == 0 {
+        return true;
+    }
+    let d = 2 * n;
+    if e.theta.len() != 4 * n - 1 {
+        return false;
+    }
+    let lambda = f64::from(e.lambda_rad_s);
+    // Π q_i, ascending powers, monic of degree 2n.
+    let mut product = vec![1.0f64];
+    for m in &e.modes {
+        let (w, z) = (f64::from(m.omega_rad_s), f64::from(m.zeta));
+        let q = [w * w, 2.0 * z * w, 1.0];
+        let mut next = vec![0.0; product.len() + 2];
+        for (i, p) in product.iter().enumerate() {
+            for (j, c) in q.iter().enumerate() {
+                next[i + j] += p * c;
+            }
+        }
+        product = next;
+    }
+    (0..d).all(|j| {
+        // k_j = C(2n, j) λ^{2n−j}; entry 4n − 2 − j of Θ̂ is k_j − a_j.
+        let binom = (0..j).fold(1.0, |b, i| b * (d - i) as f64 / (i + 1) as f64);
+        let k = binom * lambda.powi((d - j) as i32);
+        let a = k - f64::from(e.theta[4 * n - 2 - j]);
+        (a - product[j]).abs() <= MODES_FROM_THETA_TOLERANCE * (k.abs() + product[j].abs())
+    })
 }
 
 /// The firmware's EXCITED threshold on excitation_level (PROTOCOL.md §9.3).
@@ -75,6 +124,95 @@ pub fn estimate_means_what_it_says(e: &Estimate) -> bool {
     let zero = e.theta.iter().all(|v| *v == 0.0);
     e.flags.contains(StatusFlags::EXCITED) == excited
         && !(zero && (!e.modes.is_empty() || e.flags.contains(StatusFlags::PHYSICALLY_VALID)))
+        && modes_follow_from_theta(e)
+        && gains_follow_from_theta(e, &beamest::bench::OUTPUT_WEIGHT)
+}
+
+/// How far a sent b̄_i may be from the least-squares solution of §4.0 on
+/// the estimate's own Θ̂ and modes, relative to the largest |b̄|: the f32
+/// rounding of Θ̂ and of the modes and the device's own solve (3e-6
+/// measured on the plain QEMU capture); another sign or scale of the
+/// output weights misses by a factor.
+const GAINS_FROM_THETA_TOLERANCE: f64 = 1e-4;
+
+/// An estimate's modal gains b̄ are PROTOCOL.md §4.0's (eqs. 31–32) for
+/// the device's output weights `weights` (ascending ω; §9.6): the
+/// least-squares solution of Σ_i c_i·b̄_i·Π_{j≠i} q_j(s) = B(s), B's
+/// coefficients b_{2n−2} … b_0 being the first 2n − 1 entries of Θ̂ and
+/// q_i the sent modes' polynomials. No modes: true.
+pub fn gains_follow_from_theta(e: &Estimate, weights: &[f64]) -> bool {
+    let n = e.modes.len();
+    if n == 0 {
+        return true;
+    }
+    if e.theta.len() != 4 * n - 1 || weights.len() != n {
+        return false;
+    }
+    let q: Vec<[f64; 3]> = e
+        .modes
+        .iter()
+        .map(|m| {
+            let (w, z) = (f64::from(m.omega_rad_s), f64::from(m.zeta));
+            [1.0, 2.0 * z * w, w * w]
+        })
+        .collect();
+    // Column i: c_i·Π_{j≠i} q_j, descending powers s^{2n−2} … s^0.
+    let columns: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let mut p = vec![weights[i]];
+            for qj in q
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, qj)| qj)
+            {
+                let mut next = vec![0.0; p.len() + 2];
+                for (a, pa) in p.iter().enumerate() {
+                    for (b, qb) in qj.iter().enumerate() {
+                        next[a + b] += pa * qb;
+                    }
+                }
+                p = next;
+            }
+            p
+        })
+        .collect();
+    let rhs: Vec<f64> = e.theta[..2 * n - 1].iter().map(|&v| f64::from(v)).collect();
+    // Normal equations (n ≤ 3), Gaussian elimination with partial pivoting.
+    let mut m: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let mut row: Vec<f64> = (0..n)
+                .map(|j| columns[i].iter().zip(&columns[j]).map(|(a, b)| a * b).sum())
+                .collect();
+            row.push(columns[i].iter().zip(&rhs).map(|(a, b)| a * b).sum());
+            row
+        })
+        .collect();
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, pivot);
+        if m[col][col] == 0.0 {
+            return false;
+        }
+        let pivot_row = m[col].clone();
+        for row in m.iter_mut().skip(col + 1) {
+            let f = row[col] / pivot_row[col];
+            for (v, p) in row.iter_mut().zip(&pivot_row).skip(col) {
+                *v -= f * p;
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let tail: f64 = (r + 1..n).map(|k| m[r][k] * x[k]).sum();
+        x[r] = (m[r][n] - tail) / m[r][r];
+    }
+    let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    e.modes.iter().zip(&x).all(|(mode, want)| {
+        (f64::from(mode.b_bar) - want).abs() <= GAINS_FROM_THETA_TOLERANCE * scale
+    })
 }
 
 impl Tally {
@@ -86,6 +224,12 @@ impl Tally {
             if !estimate_means_what_it_says(e) {
                 self.meaning_violations += 1;
             }
+            if !self.lambda_status_seen && !e.modes.is_empty() {
+                self.with_modes_before_lambda_status += 1;
+            }
+        }
+        if let Message::Status(s) = m {
+            self.lambda_status_seen |= s.estimator.lambda_rad_s.is_some();
         }
         let c = match m {
             Message::Estimate(_) => &mut self.estimates,
@@ -123,7 +267,8 @@ impl Capture {
         let t = &self.tally;
         format!(
             "{} bytes, {} frames ({} estimates, {} status, {} raw-sample blocks, {} acks); \
-             {} estimates before the first with modes, {} estimates against PROTOCOL.md §4.1; \
+             {} estimates before the first with modes, {} with modes before the first Status \
+             naming λ (read from their own Θ̂ and λ), {} estimates against PROTOCOL.md §4.0/§4.1; \
              lost {}, CRC errors {}, other frame errors {}, duplicates {}, out of order {}{}",
             c.bytes,
             c.frames_ok,
@@ -132,6 +277,7 @@ impl Capture {
             t.raw,
             t.acks,
             t.without_modes_first,
+            t.with_modes_before_lambda_status,
             t.meaning_violations,
             c.lost,
             c.crc_errors,
@@ -663,5 +809,104 @@ fn check(h: &mut Host, capture: &Capture) {
     }
     for f in fails {
         h.fail(f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use beam_protocol::{EstimatorKind, ModeEstimate};
+
+    /// PROTOCOL.md §6's Estimate example: the paper's plant, Θ̂ at
+    /// λ = 100 rad/s rounded to f32.
+    fn example() -> Estimate {
+        let mode = |omega_rad_s, zeta, b_bar| ModeEstimate {
+            omega_rad_s,
+            zeta,
+            b_bar,
+        };
+        Estimate {
+            estimator: EstimatorKind::Adaptive,
+            modes: [mode(39.1533, 0.0207, 9.6293), mode(245.3711, 0.13, 16.1458)]
+                .into_iter()
+                .collect(),
+            lambda_rad_s: 100.0,
+            theta: [
+                13.02,
+                -1180.0,
+                -1_110_000.0,
+                334.58257,
+                -1843.3683,
+                3_804_609.0,
+                7_703_854.5,
+            ]
+            .into_iter()
+            .collect(),
+            ..Estimate::default()
+        }
+    }
+
+    #[test]
+    fn modes_are_checked_against_the_estimates_own_theta_and_lambda() {
+        let e = example();
+        assert!(modes_follow_from_theta(&e));
+        // Read with another λ (say, an older Status's), Θ̂ means other modes.
+        for lambda in [99.0, 100.1, 113.0] {
+            let other = Estimate {
+                lambda_rad_s: lambda,
+                ..e.clone()
+            };
+            assert!(!modes_follow_from_theta(&other), "λ {lambda}");
+        }
+        // A mode 1e-4 off, or the modes of λ's own poles for this Θ̂.
+        let mut off = e.clone();
+        off.modes[1].omega_rad_s *= 1.0001;
+        assert!(!modes_follow_from_theta(&off));
+        let mut poles = e.clone();
+        for m in poles.modes.iter_mut() {
+            (m.omega_rad_s, m.zeta) = (100.0, 1.0);
+        }
+        assert!(!modes_follow_from_theta(&poles));
+        // ... which are right for Θ̂ = 0 (and still refused there: §4.1).
+        poles.theta.iter_mut().for_each(|t| *t = 0.0);
+        assert!(modes_follow_from_theta(&poles));
+        assert!(!estimate_means_what_it_says(&poles));
+        // No modes: nothing to check.
+        let none = Estimate {
+            modes: Default::default(),
+            ..e
+        };
+        assert!(modes_follow_from_theta(&none));
+    }
+
+    #[test]
+    fn gains_are_checked_against_the_definition_and_the_weights() {
+        // §6's example with its b̄ (9.6293, 16.1458 for C̄ = (−2, 2)).
+        let e = example();
+        assert!(gains_follow_from_theta(&e, &[-2.0, 2.0]));
+        assert!(estimate_means_what_it_says(&e));
+        // Other weights (the reference board's), the modal residues β_i
+        // themselves, a flipped sign or a gain 1e-3 off: not §4.0's b̄.
+        assert!(!gains_follow_from_theta(&e, &[1.0, 1.0]));
+        let mut beta = e.clone();
+        beta.modes[0].b_bar *= -2.0;
+        beta.modes[1].b_bar *= 2.0;
+        assert!(!gains_follow_from_theta(&beta, &[-2.0, 2.0]));
+        assert!(gains_follow_from_theta(&beta, &[1.0, 1.0]));
+        let mut off = e.clone();
+        off.modes[1].b_bar *= 1.001;
+        assert!(!gains_follow_from_theta(&off, &[-2.0, 2.0]));
+    }
+
+    #[test]
+    fn estimates_with_modes_before_a_status_with_lambda_are_counted() {
+        let mut t = Tally::default();
+        let e = Message::Estimate(example());
+        t.count(&e);
+        t.count(&e);
+        assert_eq!(
+            (t.with_modes_before_lambda_status, t.meaning_violations),
+            (2, 0)
+        );
     }
 }

@@ -165,7 +165,14 @@ fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     let bytes = fs::read(&o.uart0).map_err(|e| format!("reading {}: {e}", o.uart0.display()))?;
     let link = e2e::decode_capture(&bytes);
     println!("UART0: {}", link.summary());
-    let link_ok = link.is_clean() && link.tally.estimates > 0 && link.tally.status > 0;
+    // The estimates that arrive before any Status names λ (the estimator
+    // starts at 0.2 s, the first Status with λ rides the 1 s record) must
+    // be among those checked from their own Θ̂ and λ: else the check of
+    // PROTOCOL.md §4.0 on them tested nothing.
+    let link_ok = link.is_clean()
+        && link.tally.estimates > 0
+        && link.tally.status > 0
+        && link.tally.with_modes_before_lambda_status > 0;
     match (status.success(), verdict, link_ok) {
         (true, Ok(()), true) => Ok(()),
         (false, _, _) => Err(format!("the emulated firmware failed ({status})")),

@@ -759,6 +759,114 @@ mod tests {
         );
     }
 
+    /// PROTOCOL.md §3.1–§3.2, rule by rule: a varint is valid only in its
+    /// shortest form, within its type's length (u16 3, u32 5, u64 10
+    /// bytes) and width; a sequence length is a varint too, and above the
+    /// sequence's maximum it is invalid.
+    #[test]
+    fn varint_and_length_rules() {
+        let frame = |kind: Kind, payload: &[u8]| {
+            let mut out = [0u8; MAX_ENCODED_LEN];
+            let n = encode_raw(&Header::new(kind, 1), payload, &mut out).unwrap();
+            let m = cobs::decode_in_place(&mut out[..n - 1]).unwrap();
+            parse_frame(&out[..m])
+        };
+        // An Estimate of one mode's model (Θ̂ of 3 entries), no modes:
+        // sample_index (u64), estimator 0, flags (u16), modes' length,
+        // λ = 100, Θ̂'s length and entries, no level.
+        let estimate = |index: &[u8], flags: &[u8], modes: &[u8], theta: &[u8], n: usize| {
+            let mut p = index.to_vec();
+            p.push(0);
+            p.extend(flags);
+            p.extend(modes);
+            p.extend(100f32.to_le_bytes());
+            p.extend(theta);
+            for _ in 0..n {
+                p.extend(1f32.to_le_bytes());
+            }
+            p.push(0);
+            frame(Kind::Estimate, &p)
+        };
+        let index = |r: Result<Frame, DecodeError>| match r {
+            Ok(Frame {
+                message: Message::Estimate(e),
+                ..
+            }) => Ok((e.sample_index, e.flags.0, e.theta.len())),
+            // Kind 01 decodes only as an Estimate; any other answer fails.
+            Ok(_) => Err(DecodeError::UnknownKind(0)),
+            Err(e) => Err(e),
+        };
+        let ok = |i: &[u8], f: &[u8], m: &[u8], t: &[u8], n| index(estimate(i, f, m, t, n));
+        assert_eq!(ok(&[0], &[0], &[0], &[3], 3), Ok((0, 0, 3)));
+        // u64: the largest value in 10 bytes; more bits, more bytes, or a
+        // non-shortest form are invalid.
+        let max64 = [0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01];
+        assert_eq!(ok(&max64, &[0], &[0], &[3], 3), Ok((u64::MAX, 0, 3)));
+        let mut wide = max64;
+        wide[9] = 0x02;
+        let mut long = max64.to_vec();
+        long[9] = 0x81;
+        long.push(0x00);
+        for i in [&wide[..], &long, &[0x80, 0x00], &[0x89, 0x80, 0x00]] {
+            assert_eq!(
+                ok(i, &[0], &[0], &[3], 3),
+                Err(DecodeError::Payload),
+                "{i:x?}"
+            );
+        }
+        // u16 (flags): 3 bytes at most, the last ≤ 03.
+        assert_eq!(
+            ok(&[0], &[0xFF, 0xFF, 0x03], &[0], &[3], 3),
+            Ok((0, 0xFFFF, 3))
+        );
+        for f in [
+            &[0xFF, 0xFF, 0x04][..],
+            &[0x80, 0x80, 0x80, 0x00],
+            &[0x90, 0x00],
+        ] {
+            assert_eq!(
+                ok(&[0], f, &[0], &[3], 3),
+                Err(DecodeError::Payload),
+                "{f:x?}"
+            );
+        }
+        // Lengths: a non-shortest form, or above the maximum (Θ̂ 11, modes
+        // 3), is invalid.
+        assert_eq!(ok(&[0], &[0], &[0], &[11], 11), Ok((0, 0, 11)));
+        for (m, t, n) in [
+            (&[0u8][..], &[0x83, 0x00][..], 3),
+            (&[0], &[12], 12),
+            (&[0x80, 0x00], &[3], 3),
+            (&[4], &[3], 3),
+        ] {
+            assert_eq!(
+                ok(&[0], &[0], m, t, n),
+                Err(DecodeError::Payload),
+                "{m:x?} {t:x?}"
+            );
+        }
+        // u32 (an Ack's command_seq): 5 bytes at most, the last ≤ 0F.
+        let ack = |seq: &[u8]| {
+            let mut p = seq.to_vec();
+            p.push(0);
+            frame(Kind::Ack, &p).map(|f| f.message)
+        };
+        assert_eq!(
+            ack(&[0xFF, 0xFF, 0xFF, 0xFF, 0x0F]),
+            Ok(Message::Ack(Ack {
+                command_seq: u32::MAX,
+                result: AckResult::Accepted
+            }))
+        );
+        for seq in [
+            &[0xFF, 0xFF, 0xFF, 0xFF, 0x10][..],
+            &[0x80, 0x80, 0x80, 0x80, 0x80, 0x00],
+            &[0x81, 0x00],
+        ] {
+            assert_eq!(ack(seq), Err(DecodeError::Payload), "{seq:x?}");
+        }
+    }
+
     /// The worst status's payload bytes.
     fn worst_status_payload() -> Vec<u8> {
         let mut out = [0u8; MAX_PAYLOAD_LEN];

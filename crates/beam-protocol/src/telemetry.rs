@@ -14,6 +14,9 @@ use super::{MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA};
 /// (varint). Bits 13–15 are reserved: sent as 0, ignored by receivers.
 /// (Bits 10–12 were reserved in the first release of version 1; a
 /// receiver of that release ignores them, docs/PROTOCOL.md §4.1.)
+/// "Since the last estimate" below: since the previous Estimate the device
+/// sent (an event is flagged on exactly one estimate); the other bits are
+/// a state at the estimate's sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[serde(transparent)]
@@ -29,8 +32,9 @@ impl StatusFlags {
     pub const EXCITED: Self = Self(1 << 0);
     /// Adaptation is frozen by a [`Command::Freeze`](super::Command::Freeze).
     pub const FROZEN_BY_COMMAND: Self = Self(1 << 1);
-    /// Adaptation is frozen by the firmware itself: quarantine after a
-    /// rejected sample, or too little excitation.
+    /// The law was held by the firmware at some sample since the last
+    /// estimate, or is frozen by it now (after a rejected sample, for new
+    /// filters' settling time, while the input is gone).
     pub const FROZEN_AUTO: Self = Self(1 << 2);
     /// The estimate has settled, by the firmware's convergence test.
     pub const CONVERGED: Self = Self(1 << 3);
@@ -43,7 +47,8 @@ impl StatusFlags {
     pub const ADC_SATURATED: Self = Self(1 << 6);
     /// The DAC clipped the excitation since the last estimate.
     pub const DAC_SATURATED: Self = Self(1 << 7);
-    /// Telemetry records were dropped (queue full) since the last estimate.
+    /// Telemetry was dropped on the device (a queue full) since the last
+    /// estimate.
     pub const TELEMETRY_DROPPED: Self = Self(1 << 8);
     /// The estimator's internal state check failed (`Health::state_ok`).
     pub const STATE_DEGRADED: Self = Self(1 << 9);

@@ -307,6 +307,32 @@ fn budget_table() -> String {
     s
 }
 
+/// The walk through the Estimate example's COBS encoding names the code
+/// bytes and the bytes they cover exactly as the wire has them.
+#[test]
+fn cobs_walk_through_matches_the_estimate_example() {
+    let (title, msg, seq) = golden().into_iter().next().unwrap();
+    assert_eq!(title, "Estimate");
+    let (_, wire) = block(title, &msg, seq);
+    let first = usize::from(wire[0]);
+    let second = usize::from(wire[first]);
+    let walk = format!(
+        "the first code byte `{:02X}` covers the {} bytes `{}` and stands for the `00` \
+         that follows them (the high byte of seq); the next code `{:02X}` covers `{}` and \
+         the `00` of the estimator field",
+        wire[0],
+        first - 1,
+        hex(&wire[1..first]),
+        wire[first],
+        hex(&wire[first + 1..first + second]),
+    );
+    let doc = DOC.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        doc.contains(&walk),
+        "docs/PROTOCOL.md §6 should say: {walk}"
+    );
+}
+
 #[test]
 fn link_budget_table_is_documented() {
     let t = budget_table();

@@ -40,7 +40,7 @@
     clippy::indexing_slicing
 )]
 
-use beam_protocol::{encode, EstimatorKind, Message, MAX_ENCODED_LEN};
+use beam_protocol::{encode, EstimatorKind, Message, StatusFlags, MAX_ENCODED_LEN};
 use beamest::bench;
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
@@ -445,6 +445,7 @@ fn frame_cost(r: &Record, ipt: f32) {
         rules: &rules,
         previous: &r.counters,
         dropped_elsewhere: false,
+        earlier_events: StatusFlags::default(),
         no_update_yet: false,
     };
     let mut ring: Queue<u8, 256> = Queue::new();

@@ -626,6 +626,106 @@ fn no_modes_before_the_laws_first_update() {
     assert_eq!(modes, [0, 2, 0, 0, 2, 2]);
 }
 
+/// PROTOCOL.md §4.1: SENSOR_FAULT, ADC_SATURATED, DAC_SATURATED,
+/// CHANGE_DETECTED, SENSOR_LEVEL and FROZEN_AUTO's holds are "since the
+/// previous estimate": an event in a record that made no estimate (Status
+/// faster than the estimates) or whose estimate was lost on a full TX ring
+/// shows on the next estimate, once.
+#[test]
+fn events_between_estimates_show_on_the_next_estimate() {
+    use beam_protocol::StatusFlags as F;
+    let mut q: Queue<u8, 4096> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let (mut l, mut d, mut h) = (link(), device(), Host::new());
+    let w = [-2.0f32, 2.0];
+    d.p.next = 0;
+    start(&mut l, &mut d);
+    // Estimates at 10 Hz, Status at 25 Hz: a record every 400 samples, an
+    // estimate at every 1000th sample (the first record at or after it).
+    let rates = TelemetryRates {
+        estimate_rate_hz: 10.0,
+        raw_decimation: 0,
+        status_rate_hz: 25.0,
+    };
+    l.execute(&Command::SetTelemetry(rates), &mut d).unwrap();
+    assert_eq!(l.record_every(), 400);
+    let event_bits = F::CHANGE_DETECTED
+        .with(F::SENSOR_LEVEL)
+        .with(F::FROZEN_AUTO);
+    let mut counters = Counters::default();
+    // (record's sample index, estimates expected from it, an event in it)
+    let mut seen = Vec::new();
+    for k in 0..15u64 {
+        let index = 10_000 + k * 400;
+        // An ADC CRC error, a saturation, a DAC clamp and the record's own
+        // event bits in the records at 10_400 and 13_600, neither of which
+        // makes an estimate.
+        let event = index == 10_400 || index == 13_600;
+        if event {
+            counters.adc_crc += 1;
+            counters.bridge_saturated += 1;
+            counters.excitation_clamped += 1;
+        }
+        let r = TelemetryRecord {
+            flags: if event { event_bits } else { F::default() },
+            ..record(index, counters)
+        };
+        l.on_record(&r, &w, &mut tx);
+        for e in estimates(&h.drain(&mut rx)) {
+            seen.push((e.sample_index, e.flags));
+        }
+    }
+    let all = F::SENSOR_FAULT
+        .with(F::ADC_SATURATED)
+        .with(F::DAC_SATURATED)
+        .with(event_bits);
+    let flagged: Vec<u64> = seen
+        .iter()
+        .filter(|(_, f)| f.contains(all))
+        .map(|(i, _)| *i)
+        .collect();
+    let quiet = seen.iter().filter(|(_, f)| f.0 & all.0 == 0).count();
+    assert_eq!(flagged, [11_200, 14_000], "{seen:?}");
+    assert_eq!(quiet + 2, seen.len(), "{seen:?}");
+
+    // An estimate lost on a full TX ring: its record's events go with the
+    // next estimate that gets through.
+    let mut q: Queue<u8, 512> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let (mut l, mut d, mut h) = (link(), device(), Host::new());
+    d.p.next = 0;
+    start(&mut l, &mut d);
+    let mut counters = Counters::default();
+    // Nobody drains: from some record on, the estimates are dropped.
+    for k in 1..=20u64 {
+        if k == 15 {
+            counters.adc_crc += 1;
+        }
+        let r = TelemetryRecord {
+            flags: if k == 15 {
+                F::CHANGE_DETECTED
+            } else {
+                F::default()
+            },
+            ..record(k * 100, counters)
+        };
+        l.on_record(&r, &w, &mut tx);
+    }
+    assert!(l.tx_stats().frames_dropped > 10);
+    let _ = h.drain(&mut rx);
+    l.on_record(&record(2_100, counters), &w, &mut tx);
+    let e = estimates(&h.drain(&mut rx));
+    assert_eq!(e.len(), 1);
+    assert!(e[0].flags.contains(
+        F::SENSOR_FAULT
+            .with(F::CHANGE_DETECTED)
+            .with(F::TELEMETRY_DROPPED)
+    ));
+    l.on_record(&record(2_200, counters), &w, &mut tx);
+    let e = estimates(&h.drain(&mut rx));
+    assert_eq!(e[0].flags.0 & F::SENSOR_FAULT.with(F::CHANGE_DETECTED).0, 0);
+}
+
 #[test]
 fn full_tx_ring_drops_whole_frames_counted_as_gaps_and_flagged() {
     let mut q: Queue<u8, 512> = Queue::new();
