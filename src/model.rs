@@ -15,6 +15,7 @@
 //! [`MAX_ORDER`].
 
 use crate::scalar::Real;
+use beam_protocol::OutputKind;
 
 /// Largest number of modes the core supports.
 pub const MAX_MODES: usize = 3;
@@ -50,8 +51,11 @@ pub struct ModalParams<T> {
     pub output_weight: [T; MAX_MODES],
 }
 
-/// A strictly proper transfer function B(s)/A(s) of order 2n with monic
-/// denominator (eq. 25, generalised).
+/// The transfer function s^r·B(s)/A(s) of order 2n with monic denominator
+/// (eq. 25, generalised): B/A of the modes as eq. 25 has it, read by a
+/// sensor of the kind `output` (r = 0 for strain or displacement: strictly
+/// proper, the paper's case; r = 1 velocity; r = 2 acceleration, a direct
+/// term). A, B and so ω, ζ and b̄ (eqs. 30–32) do not depend on `output`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TransferFunction<T> {
@@ -59,8 +63,11 @@ pub struct TransferFunction<T> {
     pub modes: usize,
     /// Denominator coefficients `[a_{2n−1}, …, a_0]` (monic s^{2n} implied).
     pub a: [T; MAX_ORDER],
-    /// Numerator coefficients `[b_{2n−2}, …, b_0]` (2n−1 of them).
+    /// Numerator coefficients `[b_{2n−2}, …, b_0]` of B (2n−1 of them).
     pub b: [T; MAX_ORDER],
+    /// What the sensor measures: G = s^r·B/A with r =
+    /// [`OutputKind::numerator_shift`].
+    pub output: OutputKind,
 }
 
 impl<T: Real> TransferFunction<T> {
@@ -93,7 +100,10 @@ impl<T: Real> TransferFunction<T> {
     }
 
     /// Inverse of [`to_theta`](Self::to_theta): read a and b back from Θ.
-    /// `theta.len()` must be 4n − 1 with 1 ≤ n ≤ [`MAX_MODES`].
+    /// `theta.len()` must be 4n − 1 with 1 ≤ n ≤ [`MAX_MODES`]. Θ does not
+    /// say what the sensor measures: `output` is [`OutputKind::Strain`]
+    /// (set it if the estimator's was another; the modes and b̄ do not
+    /// depend on it).
     pub fn from_theta(theta: &[T], lambda: f64) -> Option<Self> {
         let np = theta.len();
         if np < 3 || (np + 1) % 4 != 0 || (np + 1) / 4 > MAX_MODES {
@@ -106,6 +116,7 @@ impl<T: Real> TransferFunction<T> {
             modes,
             a: [T::ZERO; MAX_ORDER],
             b: [T::ZERO; MAX_ORDER],
+            output: OutputKind::Strain,
         };
         let nb = d - 1;
         tf.b[..nb].copy_from_slice(&theta[..nb]);
@@ -115,8 +126,8 @@ impl<T: Real> TransferFunction<T> {
         Some(tf)
     }
 
-    /// Frequency response G(jω) as (re, im); NaN for an empty or invalid
-    /// model.
+    /// Frequency response G(jω) = (jω)^r·B(jω)/A(jω) as (re, im); NaN for
+    /// an empty or invalid model.
     pub fn freq_response(&self, omega_rad_s: f64) -> (f64, f64) {
         let d = self.order();
         if d == 0 || d > MAX_ORDER {
@@ -134,6 +145,10 @@ impl<T: Real> TransferFunction<T> {
             let (r, i) = (-bi * omega_rad_s, br * omega_rad_s);
             br = r + self.b[j].to_f64();
             bi = i;
+        }
+        // s^r at s = jω.
+        for _ in 0..self.output.numerator_shift() {
+            (br, bi) = (-bi * omega_rad_s, br * omega_rad_s);
         }
         let den = ar * ar + ai * ai;
         ((br * ar + bi * ai) / den, (bi * ar - br * ai) / den)
@@ -229,7 +244,8 @@ impl<T: Real> ModalParams<T> {
         [T::ONE, two * self.zeta[i] * w, w * w]
     }
 
-    /// Transfer function by eq. 26 generalised to n modes.
+    /// Transfer function by eq. 26 generalised to n modes (a strain or
+    /// displacement output; set `output` for another sensor).
     /// A `modes` outside 1..=[`MAX_MODES`] (the fields are public) is
     /// clamped; 0 gives the empty model.
     pub fn transfer_function(&self) -> TransferFunction<T> {
@@ -239,6 +255,7 @@ impl<T: Real> ModalParams<T> {
                 modes: 0,
                 a: [T::ZERO; MAX_ORDER],
                 b: [T::ZERO; MAX_ORDER],
+                output: OutputKind::Strain,
             };
         }
         let d = 2 * n;
@@ -270,6 +287,7 @@ impl<T: Real> ModalParams<T> {
             modes: n,
             a: [T::ZERO; MAX_ORDER],
             b: [T::ZERO; MAX_ORDER],
+            output: OutputKind::Strain,
         };
         tf.a[..d].copy_from_slice(&den[1..=d]);
         tf.b[..d - 1].copy_from_slice(&num[..d - 1]);

@@ -185,8 +185,9 @@ impl FisherAccumulator {
         Self::new(&model, &m.output_weight[..n], ts_s)
     }
 
-    /// A plant (or an estimate) given as a transfer function B(s)/A(s)
-    /// (eq. 25), e.g. the paper's eq. 46 or [`crate::estimator::Estimator::transfer_function`],
+    /// A plant (or an estimate) given as a transfer function s^r·B(s)/A(s)
+    /// (eq. 25, read by a sensor of the kind `tf.output`), e.g. the paper's
+    /// eq. 46 or [`crate::estimator::Estimator::transfer_function`],
     /// with output weights c (the paper's C̄ = [−2, 2]). Each mode must be a
     /// stable oscillatory pole pair; the numerator is split into position
     /// and velocity weights by residues: (α_i + β_i·p_i) = B(p_i)/Π_{j≠i}q_j(p_i).
@@ -233,7 +234,8 @@ impl FisherAccumulator {
             &modes.zeta[..n],
             &alpha[..n],
             &beta[..n],
-        )?;
+        )?
+        .with_output(tf.output);
         Self::new(&model, output_weight, ts_s)
     }
 

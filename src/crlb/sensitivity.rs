@@ -18,9 +18,16 @@
 //! once by the matrix exponential of its 7×7 augmented matrix
 //! (`linalg::expm`), so the sensitivities are exact at any Ts, like the
 //! simulated plant (`plant`). Nothing is differenced numerically.
+//!
+//! A velocity or acceleration sensor ([`ModalOutputModel::output`]) reads
+//! the r-th derivative of y (r = 1, 2); its sensitivities are the same
+//! combinations of the states' r-th derivatives, x^{(r)} = A^{r−1}(A·x +
+//! b·u) with the input held before the sample (the sample is read before
+//! the new input is applied, as `plant::ModalPlant` reads it).
 
 use crate::linalg::{expm, EXPM_MAX};
 use crate::model::MAX_MODES;
+use beam_protocol::OutputKind;
 
 /// States per mode: η, η', ∂η/∂ω, ∂η'/∂ω, ∂η/∂ζ, ∂η'/∂ζ.
 const MODE_STATES: usize = 6;
@@ -58,6 +65,8 @@ pub struct ModalOutputModel {
     pub alpha: [f64; MAX_MODES],
     /// Velocity weights β_i (zero in the paper's model (23)).
     pub beta: [f64; MAX_MODES],
+    /// What the sensor reads: y, its first or its second derivative.
+    pub output: OutputKind,
 }
 
 impl ModalOutputModel {
@@ -81,6 +90,7 @@ impl ModalOutputModel {
             zeta: [0.0; MAX_MODES],
             alpha: [0.0; MAX_MODES],
             beta: [0.0; MAX_MODES],
+            output: OutputKind::Strain,
         };
         m.omega_rad_s[..n].copy_from_slice(omega_rad_s);
         m.zeta[..n].copy_from_slice(zeta);
@@ -88,6 +98,12 @@ impl ModalOutputModel {
         m.beta[..n].copy_from_slice(beta);
         m.validate()?;
         Ok(m)
+    }
+
+    /// The same model read by a sensor of kind `output` (module docs).
+    pub fn with_output(mut self, output: OutputKind) -> Self {
+        self.output = output;
+        self
     }
 
     fn validate(&self) -> Result<(), SensitivityError> {
@@ -132,7 +148,25 @@ pub struct SensitivitySample {
 struct ModeSim {
     phi: [[f64; MODE_STATES]; MODE_STATES],
     gamma: [f64; MODE_STATES],
+    /// The continuous system x' = A·x + b·u (for a derivative output).
+    a: [[f64; MODE_STATES]; MODE_STATES],
+    b: [f64; MODE_STATES],
     x: [f64; MODE_STATES],
+}
+
+impl ModeSim {
+    /// The states' `r`-th time derivative just before the sample, under
+    /// the input `held` since the sample before (module docs).
+    fn derivative(&self, r: usize, held: f64) -> [f64; MODE_STATES] {
+        let mut x = self.x;
+        for k in 0..r {
+            let input = if k == 0 { held } else { 0.0 };
+            x = core::array::from_fn(|i| {
+                (0..MODE_STATES).fold(self.b[i] * input, |s, j| s + self.a[i][j] * x[j])
+            });
+        }
+        x
+    }
 }
 
 /// Exact per-sample simulator of y and ∂y/∂(ω, ζ, α, β) for a held input.
@@ -140,6 +174,8 @@ struct ModeSim {
 pub struct OutputSensitivity {
     model: ModalOutputModel,
     modes: [ModeSim; MAX_MODES],
+    /// The input held since the last sample.
+    held: f64,
 }
 
 impl OutputSensitivity {
@@ -155,6 +191,8 @@ impl OutputSensitivity {
         let zero = ModeSim {
             phi: [[0.0; MODE_STATES]; MODE_STATES],
             gamma: [0.0; MODE_STATES],
+            a: [[0.0; MODE_STATES]; MODE_STATES],
+            b: [0.0; MODE_STATES],
             x: [0.0; MODE_STATES],
         };
         let mut modes = [zero; MAX_MODES];
@@ -178,13 +216,16 @@ impl OutputSensitivity {
             for r in 0..MODE_STATES {
                 for c in 0..MODE_STATES {
                     sim.phi[r][c] = e[r][c];
+                    sim.a[r][c] = a[r][c] / ts_s;
                 }
                 sim.gamma[r] = e[r][MODE_STATES];
+                sim.b[r] = a[r][MODE_STATES] / ts_s;
             }
         }
         Ok(Self {
             model: *model,
             modes,
+            held: 0.0,
         })
     }
 
@@ -205,14 +246,16 @@ impl OutputSensitivity {
             d_zeta: [0.0; MAX_MODES],
         };
         let m = &self.model;
+        let r = m.output.numerator_shift();
         for (i, sim) in self.modes.iter_mut().enumerate().take(m.modes) {
-            let x = sim.x;
+            let x = sim.derivative(r, self.held);
             let (al, be) = (m.alpha[i], m.beta[i]);
             s.eta[i] = x[0];
             s.eta_dot[i] = x[1];
             s.y += al * x[0] + be * x[1];
             s.d_omega[i] = al * x[2] + be * x[3];
             s.d_zeta[i] = al * x[4] + be * x[5];
+            let x = sim.x;
             let mut next = [0.0; MODE_STATES];
             for (r, nr) in next.iter_mut().enumerate() {
                 let mut acc = sim.gamma[r] * u;
@@ -223,6 +266,7 @@ impl OutputSensitivity {
             }
             sim.x = next;
         }
+        self.held = u;
         s
     }
 
@@ -231,6 +275,7 @@ impl OutputSensitivity {
         for sim in self.modes.iter_mut() {
             sim.x = [0.0; MODE_STATES];
         }
+        self.held = 0.0;
     }
 }
 
@@ -251,8 +296,15 @@ mod tests {
 
     #[test]
     fn sensitivities_match_central_differences() {
+        for output in OutputKind::ALL {
+            sensitivities_match_central_differences_for(output);
+        }
+    }
+
+    fn sensitivities_match_central_differences_for(output: OutputKind) {
         let m = ModalOutputModel::new(&[30.0, 140.0], &[0.03, 0.1], &[-2.0, 5.0], &[0.01, -0.01])
-            .unwrap();
+            .unwrap()
+            .with_output(output);
         let s = run(&m, 2000);
         for i in 0..2 {
             for which in 0..4 {
@@ -276,7 +328,7 @@ mod tests {
                 let exact = [s.d_omega[i], s.d_zeta[i], s.eta[i], s.eta_dot[i]][which];
                 assert!(
                     (fd - exact).abs() <= 1e-6 * exact.abs().max(1e-6),
-                    "mode {i} param {which}: fd {fd} exact {exact}"
+                    "{output}: mode {i} param {which}: fd {fd} exact {exact}"
                 );
             }
         }
@@ -294,12 +346,18 @@ mod tests {
             &[0.0, 0.0],
         )
         .unwrap();
-        let mut plant = ModalPlant::<f64>::from_modal(&mp, 1e-3).unwrap();
-        let mut sens = OutputSensitivity::new(&m, 1e-3).unwrap();
-        for k in 0..3000 {
-            let u = if (k / 97) % 2 == 0 { 0.3 } else { -0.3 };
-            let (a, b) = (plant.sample(u), sens.push(u).y);
-            assert!((a - b).abs() <= 1e-12 * (1.0 + a.abs()), "k={k}");
+        for output in OutputKind::ALL {
+            let mut plant = ModalPlant::<f64>::from_modal(&mp, 1e-3)
+                .unwrap()
+                .with_output(output)
+                .unwrap();
+            let mut sens = OutputSensitivity::new(&m.with_output(output), 1e-3).unwrap();
+            let scale = [1.0, 100.0, 1e4][output.numerator_shift()];
+            for k in 0..3000 {
+                let u = if (k / 97) % 2 == 0 { 0.3 } else { -0.3 };
+                let (a, b) = (plant.sample(u), sens.push(u).y);
+                assert!((a - b).abs() <= 1e-12 * (scale + a.abs()), "{output} k={k}");
+            }
         }
     }
 

@@ -37,6 +37,9 @@ pub(crate) struct Learner<T> {
     /// byte, which shares the padding of the two flags: the two-mode `f32`
     /// estimator's size is pinned, host test `precision`).
     supervise_phase: u8,
+    /// Samples since the information monitor last took the regressor's
+    /// power (< `INFORM_EVERY`).
+    inform_phase: u8,
     /// Samples pushed.
     pub samples: u64,
     /// Law updates that failed (saturating).
@@ -72,8 +75,25 @@ impl<T: Real> Learner<T> {
             inv_u_scale: T::from_f64(1.0 / filter.scales.u_scale),
             pending_discount: false,
             supervise_phase: 0,
+            inform_phase: 0,
             samples: 0,
             skipped: 0,
+        }
+    }
+
+    /// The regressor `phi` of a good sample (the law's, learnt from or
+    /// not): its power to the supervisor's information monitor every
+    /// `INFORM_EVERY` samples.
+    #[inline]
+    pub(crate) fn observe(&mut self, phi: &[T]) {
+        if !self.supervised {
+            return;
+        }
+        self.inform_phase += 1;
+        if u32::from(self.inform_phase) >= crate::supervise::INFORM_EVERY {
+            self.inform_phase = 0;
+            let power = phi.iter().fold(T::ZERO, |s, v| s + *v * *v);
+            self.supervisor.inform(power);
         }
     }
 
@@ -125,6 +145,7 @@ impl<T: Real> Learner<T> {
         u: T,
     ) -> StepStatus {
         if self.supervised {
+            self.observe(&reg.phi);
             if !self.admit(u) {
                 return StepStatus::Frozen;
             }
@@ -196,6 +217,7 @@ impl<T: Real> Learner<T> {
         self.supervisor.reset();
         self.pending_discount = false;
         self.supervise_phase = 0;
+        self.inform_phase = 0;
         self.samples = 0;
         self.skipped = 0;
     }

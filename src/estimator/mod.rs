@@ -58,6 +58,7 @@ use crate::filter_bank::{FilterBank, FilterConfig, FilterConfigError, Regressor,
 use crate::model::TransferFunction;
 use crate::scalar::Real;
 use crate::supervise::{excitation_min_eig, Supervision, SupervisorConfig};
+use beam_protocol::OutputKind;
 
 pub use adaptive::{AdaptiveConfig, AdaptiveLaw};
 pub use either::Either;
@@ -357,6 +358,8 @@ pub struct PaperRegression<T, const D: usize, const NP: usize> {
     /// Θ_j = θ_s,j·unscale_j (Y0·E_j of [`Scaling`]), in working precision.
     unscale: [T; NP],
     lambda_rad_s: f64,
+    /// What the sensor measures (the reported model's `output`).
+    output: OutputKind,
 }
 
 impl<T: Real, const D: usize, const NP: usize> Regression<T, NP, NP> for PaperRegression<T, D, NP> {
@@ -365,6 +368,7 @@ impl<T: Real, const D: usize, const NP: usize> Regression<T, NP, NP> for PaperRe
             bank: FilterBank::new(filter)?,
             unscale: Scaling::<NP>::new(filter).to_physical(&[T::ONE; NP]),
             lambda_rad_s: filter.lambda_rad_s,
+            output: filter.output,
         })
     }
 
@@ -392,11 +396,15 @@ impl<T: Real, const D: usize, const NP: usize> Regression<T, NP, NP> for PaperRe
     fn transfer_function(&self, theta_s: &[T; NP]) -> TransferFunction<T> {
         let th = self.theta(theta_s);
         // NP = 4n − 1 with n ≤ MAX_MODES is guaranteed by FilterConfig::validate.
-        TransferFunction::from_theta(&th, self.lambda_rad_s).unwrap_or(TransferFunction {
-            modes: 0,
-            a: Default::default(),
-            b: Default::default(),
-        })
+        let mut tf =
+            TransferFunction::from_theta(&th, self.lambda_rad_s).unwrap_or(TransferFunction {
+                modes: 0,
+                a: Default::default(),
+                b: Default::default(),
+                output: OutputKind::Strain,
+            });
+        tf.output = self.output;
+        tf
     }
 
     fn information(p: [[T; NP]; NP]) -> Option<[[T; NP]; NP]> {
@@ -576,6 +584,9 @@ pub(crate) fn all_finite_f64(xs: &[f64]) -> Result<(), ConfigError> {
         Err(ConfigError::Gain)
     }
 }
+
+#[cfg(test)]
+mod output_tests;
 
 #[cfg(test)]
 mod tests {

@@ -122,6 +122,26 @@ impl OutputTiming {
         self.delay_samples == 0.0 && self.average == OutputAverage::Point
     }
 
+    /// Weights w_j of the u history (`u_hist[j]` = u_{n−j}) that give the
+    /// timing's input u_eff(t) = Σ_k u_k·K((t − t_k)/Ts) just before
+    /// t_{n−2}, the instant of the bank's regressor: what a direct term of
+    /// the model (an accelerometer's, `FilterConfig::output`) adds to
+    /// y_{n−2}. The left limit, because y is read before the input of its
+    /// own sample takes effect: [`Self::IDEAL`] gives u_{n−3} (w_3 = 1).
+    pub(crate) fn direct_weights(&self) -> [f64; U_HIST] {
+        let (pieces, a) = self.kernel();
+        core::array::from_fn(|j| {
+            // Age of u_{n−j} at t_{n−2} in samples, as the kernel's argument.
+            let x = j as f64 - 2.0 - a;
+            // The piece holding x from the left: x ∈ (p, p + 1].
+            let p = libm::ceil(x) - 1.0;
+            if p < 0.0 || p >= pieces.len() as f64 {
+                return 0.0;
+            }
+            derivatives(&pieces[p as usize], x)[0]
+        })
+    }
+
     /// The kernel's polynomial pieces on [p, p + 1) (coefficients of x^0..x^3)
     /// and its shift a (K(s) = P(s − a)).
     fn kernel(&self) -> (&'static [[f64; 4]], f64) {

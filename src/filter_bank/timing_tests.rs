@@ -161,3 +161,31 @@ fn tap_counts_and_bad_timing() {
         );
     }
 }
+
+/// The direct term's input (an accelerometer's, `FilterConfig::output`):
+/// the kernel's left limit at the regressor's instant t_{n−2}.
+#[test]
+fn direct_weights_are_the_input_as_the_sample_sees_it() {
+    // Ideal: u_{n−3}, the input held before y_{n−2} was read.
+    let w = OutputTiming::IDEAL.direct_weights();
+    assert_eq!(w[3], 1.0);
+    assert_eq!(w.iter().sum::<f64>(), 1.0);
+    // A point sample one period late: u_{n−4}.
+    let late = OutputTiming {
+        delay_samples: 1.0,
+        average: OutputAverage::Point,
+    };
+    assert_eq!(late.direct_weights()[4], 1.0);
+    // Half a period late: u_{n−3}, whose age 1 lies in the box [0.5, 1.5).
+    let half = OutputTiming {
+        delay_samples: 0.5,
+        average: OutputAverage::Point,
+    };
+    assert_eq!(half.direct_weights()[3], 1.0);
+    // The sinc³ at its group delay: the cubic B-spline's 1/6, 4/6, 1/6.
+    let sinc3 = OutputTiming::sinc3_adc(0.0, 1e-4).direct_weights();
+    for (j, want) in [(3, 1.0 / 6.0), (4, 4.0 / 6.0), (5, 1.0 / 6.0)] {
+        assert!((sinc3[j] - want).abs() < 1e-15, "{j}: {}", sinc3[j]);
+    }
+    assert!((sinc3.iter().sum::<f64>() - 1.0).abs() < 1e-14);
+}

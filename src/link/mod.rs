@@ -602,6 +602,7 @@ impl DeviceLink {
                 scales: SignalScales::default(),
                 hold: base.hold,
                 timing: base.timing,
+                output: base.output,
             };
             let est = dev.build_estimator(s, &trial, &[])?;
             dev.recycle_estimator(est);

@@ -50,6 +50,7 @@ impl Estimator<f64, 3> for Recorder {
             modes: 0,
             a: Default::default(),
             b: Default::default(),
+            output: Default::default(),
         }
     }
     fn reset(&mut self) {

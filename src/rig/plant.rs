@@ -13,10 +13,17 @@
 //! discretized once by the matrix exponential of [[A·Ts, B·Ts], [0, 0]], so
 //! the simulation is exact for a held input at any Ts and ω·Ts. The outputs
 //! are the samples y(t_k) — what an ADC sees.
+//!
+//! A velocity or acceleration sensor ([`ModalPlant::with_output`]) reads
+//! the first or second derivative of that output, s·G or s²·G: from the
+//! state and the input held before the sample (the sample is read before
+//! the new input is applied), y(t_k) = o·[η, η'] + o_u·u_{k−1} per mode,
+//! with η'' = g·u − 2ζωη' − ω²η and, under the hold, η''' = −2ζωη'' − ω²η'.
 
 use crate::linalg::{expm, solve_dense, EXPM_MAX};
 use crate::model::{ModalParams, TransferFunction, MAX_MODES, MAX_ORDER};
 use crate::scalar::Real;
+use beam_protocol::OutputKind;
 
 /// Invalid plant description.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,7 +61,10 @@ impl core::error::Error for PlantError {}
 struct DiscreteMode<T> {
     phi: [[T; 2]; 2],
     gamma: [T; 2],
+    /// Output weights on [η, η'] for the plant's output kind.
     out: [T; 2],
+    /// Output weight on the held input (velocity, acceleration outputs).
+    out_u: T,
     x: [T; 2],
 }
 
@@ -78,6 +88,12 @@ pub struct ModalPlant<T> {
     /// [`super::timing::TimedPlant`], which discretizes them its own way).
     spec: [ModeSpec; MAX_MODES],
     ts_s: f64,
+    /// What the sensor reads: the output (strain), its first or its second
+    /// derivative.
+    output: OutputKind,
+    /// The input held since the last sample (a velocity or acceleration
+    /// output reads it).
+    held: T,
 }
 
 impl<T: Real> ModalPlant<T> {
@@ -179,6 +195,7 @@ impl<T: Real> ModalPlant<T> {
             phi: [[T::ZERO; 2]; 2],
             gamma: [T::ZERO; 2],
             out: [T::ZERO; 2],
+            out_u: T::ZERO,
             x: [T::ZERO; 2],
         };
         let mut m = [zero; MAX_MODES];
@@ -194,14 +211,37 @@ impl<T: Real> ModalPlant<T> {
                 pos: c,
                 vel: v,
             };
-            *mode = discretize(sp, ts)?;
+            *mode = discretize(sp, ts, OutputKind::Strain)?;
         }
         Ok(Self {
             modes: n,
             m,
             spec,
             ts_s: ts,
+            output: OutputKind::Strain,
+            held: T::ZERO,
         })
+    }
+
+    /// The same beam read by a sensor of another kind: the output's first
+    /// (velocity) or second (acceleration) derivative, s·G or s²·G (module
+    /// docs). The state is kept.
+    ///
+    /// # Errors
+    /// As construction (it cannot fail for a plant that was built).
+    pub fn with_output(mut self, output: OutputKind) -> Result<Self, PlantError> {
+        for (md, sp) in self.m.iter_mut().zip(self.spec.iter()).take(self.modes) {
+            let x = md.x;
+            *md = discretize(sp, self.ts_s, output)?;
+            md.x = x;
+        }
+        self.output = output;
+        Ok(self)
+    }
+
+    /// What the sensor reads ([`ModalPlant::with_output`]).
+    pub fn output_kind(&self) -> OutputKind {
+        self.output
     }
 
     /// Change the modes' ω and ζ (and, if given, their input gains b̄) with
@@ -236,7 +276,7 @@ impl<T: Real> ModalPlant<T> {
                 sp.gain = b.get(i).copied().unwrap_or(f64::NAN);
             }
             let x = md.x;
-            *md = discretize(sp, self.ts_s)?;
+            *md = discretize(sp, self.ts_s, self.output)?;
             md.x = x;
         }
         self.spec = spec;
@@ -244,15 +284,17 @@ impl<T: Real> ModalPlant<T> {
         Ok(())
     }
 
-    /// The continuous transfer function B(s)/A(s) being simulated (eq. 25–26):
-    /// Σ_i g_i·(α_i + β_i·s)/(s² + 2ζ_iω_i·s + ω_i²) — the truth a run is
-    /// scored against (after a [`ModalPlant::retune`], the new plant's).
+    /// The continuous transfer function s^r·B(s)/A(s) being simulated (eq.
+    /// 25–26): B/A = Σ_i g_i·(α_i + β_i·s)/(s² + 2ζ_iω_i·s + ω_i²), r of the
+    /// output kind — the truth a run is scored against (after a
+    /// [`ModalPlant::retune`], the new plant's).
     pub fn transfer_function(&self) -> TransferFunction<f64> {
         let n = self.modes;
         let mut tf = TransferFunction {
             modes: n,
             a: [0.0; MAX_ORDER],
             b: [0.0; MAX_ORDER],
+            output: self.output,
         };
         let q = |sp: &ModeSpec| [1.0, 2.0 * sp.zeta * sp.omega, sp.omega * sp.omega];
         let mut den = [0.0f64; MAX_ORDER + 1];
@@ -319,11 +361,12 @@ impl<T: Real> ModalPlant<T> {
         self.m.iter().take(self.modes).map(|md| md.x)
     }
 
-    /// Output y at the current sample instant.
+    /// Output y at the current sample instant (read before the next input
+    /// is applied).
     pub fn output(&self) -> T {
         let mut y = T::ZERO;
         for md in self.m.iter().take(self.modes) {
-            y += md.out[0] * md.x[0] + md.out[1] * md.x[1];
+            y += md.out[0] * md.x[0] + md.out[1] * md.x[1] + md.out_u * self.held;
         }
         y
     }
@@ -335,6 +378,7 @@ impl<T: Real> ModalPlant<T> {
             let x1 = md.phi[1][0] * md.x[0] + md.phi[1][1] * md.x[1] + md.gamma[1] * u;
             md.x = [x0, x1];
         }
+        self.held = u;
     }
 
     /// Sample y(t_k), then hold `u` over [t_k, t_{k+1}). Returns y(t_k).
@@ -349,12 +393,18 @@ impl<T: Real> ModalPlant<T> {
         for md in self.m.iter_mut() {
             md.x = [T::ZERO; 2];
         }
+        self.held = T::ZERO;
     }
 }
 
 /// Exact discretization of one mode (matrix exponential of
-/// [[A·Ts, B·Ts], [0, 0]]), at rest.
-fn discretize<T: Real>(sp: &ModeSpec, ts: f64) -> Result<DiscreteMode<T>, PlantError> {
+/// [[A·Ts, B·Ts], [0, 0]]), at rest, with its output weights for the
+/// sensor `output` (module docs).
+fn discretize<T: Real>(
+    sp: &ModeSpec,
+    ts: f64,
+    output: OutputKind,
+) -> Result<DiscreteMode<T>, PlantError> {
     let (w, z, g, c, v) = (sp.omega, sp.zeta, sp.gain, sp.pos, sp.vel);
     let finite = [w, z, g, c, v].iter().all(|v| v.is_finite());
     if !finite || !(w > 0.0) || z < 0.0 {
@@ -366,13 +416,26 @@ fn discretize<T: Real>(sp: &ModeSpec, ts: f64) -> Result<DiscreteMode<T>, PlantE
     aug[1][1] = -2.0 * z * w * ts;
     aug[1][2] = g * ts;
     let e = expm(&aug, 3);
+    // y = c·η + v·η' and its derivatives: η'' = g·u − 2ζωη' − ω²η, and
+    // under the hold η''' = −2ζωη'' − ω²η'.
+    let (k, d) = (w * w, 2.0 * z * w);
+    let (o0, o1, ou) = match output {
+        OutputKind::Strain => (c, v, 0.0),
+        OutputKind::Velocity => (-v * k, c - v * d, v * g),
+        OutputKind::Acceleration => (
+            -c * k + v * d * k,
+            -c * d + v * (d * d - k),
+            (c - v * d) * g,
+        ),
+    };
     Ok(DiscreteMode {
         phi: [
             [T::from_f64(e[0][0]), T::from_f64(e[0][1])],
             [T::from_f64(e[1][0]), T::from_f64(e[1][1])],
         ],
         gamma: [T::from_f64(e[0][2]), T::from_f64(e[1][2])],
-        out: [T::from_f64(c), T::from_f64(v)],
+        out: [T::from_f64(o0), T::from_f64(o1)],
+        out_u: T::from_f64(ou),
         x: [T::ZERO; 2],
     })
 }

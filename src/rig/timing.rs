@@ -221,7 +221,15 @@ impl TimedPlant {
     /// `plant`'s modes (and state) with the converters' `timing`. The
     /// sinc³'s memory starts at zero (a just-reset ADC: its first three
     /// conversions are not settled, as on the chip).
+    ///
+    /// # Errors
+    /// [`PlantError::Value`] for a plant read by a velocity or
+    /// acceleration sensor ([`ModalPlant::with_output`]): the converters'
+    /// timing is modelled for a strain (or displacement) output only.
     pub fn new(plant: &ModalPlant<f64>, timing: ConverterTiming) -> Result<Self, PlantError> {
+        if plant.output_kind() != beam_protocol::OutputKind::Strain {
+            return Err(PlantError::Value);
+        }
         let mut specs = [ModeSpec::default(); MAX_MODES];
         let mut states = [[0.0; 2]; MAX_MODES];
         for ((sp, st), (ps, px)) in specs

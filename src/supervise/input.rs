@@ -103,6 +103,84 @@ impl<T: Real> InputMonitor<T> {
     }
 }
 
+/// Is the data still informative? The power of the law's regressor
+/// (|φ|², the trace of the information P gains per sample, eq. 33) over a
+/// short window ([`INPUT_WINDOW_S`]) against its level while the input
+/// was present (a mean over [`INPUT_REFERENCE_S`], frozen while the input
+/// is gone), with the input monitor's thresholds: informative while it is
+/// within −20 dB ([`INPUT_GONE_RATIO`]) of that level.
+///
+/// # Why
+/// An impact and the free decay after it, or the ring-down after a drive
+/// stops, carry information on the modes for as long as the response
+/// stands above the noise (a lightly damped mode rings for seconds), while
+/// the input is "gone" within milliseconds ([`InputMonitor`]). Freezing on
+/// the input alone threw that decay away (a hammer test gave no estimate).
+/// What anti-windup must prevent is adaptation on data that carries no
+/// information on the model, when P would accumulate only noise: with the
+/// response decayed 20 dB below its level under excitation, the regressor
+/// carries a hundredth of the information it did, and the law freezes.
+/// The reference starts at zero and follows only while the input is
+/// present: an input of a few milliseconds (an impact) leaves a reference
+/// a few percent of the response's peak, so the free decay counts as
+/// informative until it is some 35 dB down; a drive that stopped after
+/// seconds leaves the full level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct InformationMonitor<T> {
+    alpha_short: T,
+    alpha_ref: T,
+    gone_ratio: T,
+    back_ratio: T,
+    level: T,
+    reference: T,
+    informative: bool,
+}
+
+impl<T: Real> InformationMonitor<T> {
+    /// A monitor fed every `every_s` seconds.
+    pub fn new(every_s: f64) -> Self {
+        let alpha = |tau: f64| T::from_f64(1.0 - libm::exp(-every_s / tau));
+        Self {
+            alpha_short: alpha(INPUT_WINDOW_S),
+            alpha_ref: alpha(INPUT_REFERENCE_S),
+            gone_ratio: T::from_f64(INPUT_GONE_RATIO),
+            back_ratio: T::from_f64(INPUT_BACK_RATIO),
+            level: T::ZERO,
+            reference: T::ZERO,
+            informative: true,
+        }
+    }
+
+    /// Take the regressor's power |φ|² of a sample; `input_present`: the
+    /// reference follows it. Returns whether the data is informative.
+    #[inline]
+    pub fn push(&mut self, power: T, input_present: bool) -> bool {
+        self.level += self.alpha_short * (power - self.level);
+        if input_present {
+            self.reference += self.alpha_ref * (self.level - self.reference);
+        }
+        let ratio = if self.informative {
+            self.gone_ratio
+        } else {
+            self.back_ratio
+        };
+        self.informative = self.level >= ratio * self.reference;
+        self.informative
+    }
+
+    /// As of the last sample.
+    pub fn informative(&self) -> bool {
+        self.informative
+    }
+
+    /// Back to the start.
+    pub fn reset(&mut self) {
+        self.level = T::ZERO;
+        self.reference = T::ZERO;
+        self.informative = true;
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
@@ -143,5 +221,39 @@ mod tests {
         );
         m.reset();
         assert!(m.present());
+    }
+
+    /// A response that decays after a short input stays informative until
+    /// it is far below its level under the input; one that decays after a
+    /// long drive, until 20 dB below.
+    #[test]
+    fn a_free_decay_is_informative_until_it_has_decayed() {
+        let every = 1e-3;
+        // Two seconds of drive at power 1, then e^{−4t}.
+        let mut m = InformationMonitor::<f64>::new(every);
+        for _ in 0..2000 {
+            assert!(m.push(1.0, true));
+        }
+        let off = (0..5000)
+            .position(|k| !m.push((-4.0 * k as f64 * every).exp(), false))
+            .unwrap();
+        // The reference holds 1 − e^{−1} of the level after 2 s: −20 dB of
+        // that is 0.63e-2 (1.26 s at e^{−4t}), with the window's lag.
+        assert!((1200..1350).contains(&off), "{off}");
+        // An impact: 5 ms of input, then the same decay from power 1.
+        let mut m = InformationMonitor::<f64>::new(every);
+        for _ in 0..5 {
+            m.push(1.0, true);
+        }
+        let off = (0..5000)
+            .position(|k| !m.push((-4.0 * k as f64 * every).exp(), false))
+            .unwrap();
+        assert!(off > 2000, "{off}");
+        // Nothing comes back without input.
+        for _ in 0..1000 {
+            assert!(!m.push(0.0, false));
+        }
+        m.reset();
+        assert!(m.informative());
     }
 }

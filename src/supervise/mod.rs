@@ -6,8 +6,13 @@
 //!   (`lemma1_excited`), computed in the loop as a by-product of the
 //!   law's θ step (`InLoopLemma1`) and at the telemetry rate
 //!   ([`excitation_min_eig`]); and `input.rs`: a per-sample "input gone"
-//!   detector (`InputMonitor`); the **anti-windup**: adaptation is frozen while the
-//!   input is gone (P, Q, R, θ̂ neither accumulate nor decay, the filters
+//!   detector (`InputMonitor`) and an "information gone" detector on the
+//!   regressor's power (`InformationMonitor`: the trace of what P gains);
+//!   the **anti-windup**: adaptation is frozen while the input is gone and
+//!   the data no longer informative — a free decay after an impact, or
+//!   the ring-down after the drive stops, is learnt from until it has
+//!   decayed 20 dB below the regressor's power under the input (P, Q, R,
+//!   θ̂ then neither accumulate nor decay, the filters
 //!   keep running on the real samples so nothing needs to settle when it
 //!   returns), and forgetting is suspended while Lemma 1 fails after having
 //!   passed (the directions the input no longer excites keep what they
@@ -38,7 +43,7 @@ mod lemma1;
 
 pub use change::TrackingConfig;
 pub(crate) use change::{ChangeDetector, DISCOUNT};
-pub(crate) use input::InputMonitor;
+pub(crate) use input::{InformationMonitor, InputMonitor};
 pub(crate) use lemma1::InLoopLemma1;
 pub(crate) use lemma1::EXCITATION_REL_THRESHOLD;
 pub use lemma1::{excitation_min_eig, excitation_ratio};
@@ -53,7 +58,8 @@ pub enum ExcitationReason {
     #[default]
     Excited,
     /// The input's short-window energy fell more than 20 dB below its
-    /// level: adaptation is frozen.
+    /// level and so has the information the data brings (the regressor's
+    /// power, `InformationMonitor`): adaptation is frozen.
     InputGone,
     /// The input is there but λmin(P)/tr(P) is below the threshold: some
     /// direction of Θ is not excited; forgetting is suspended so it cannot
@@ -62,6 +68,10 @@ pub enum ExcitationReason {
     /// The input is there, Lemma 1 not measured yet (no θ step since the
     /// estimator started).
     Starting,
+    /// The input is gone, but the response still carries information (a
+    /// free decay after an impact or after the drive stopped, within 20 dB
+    /// of the regressor's power under the input): adaptation goes on.
+    FreeResponse,
 }
 
 impl ExcitationReason {
@@ -71,13 +81,14 @@ impl ExcitationReason {
     }
 
     /// A short lowercase name (`"excited"`, `"input_gone"`,
-    /// `"not_persistent"`, `"starting"`).
+    /// `"not_persistent"`, `"starting"`, `"free_response"`).
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Excited => "excited",
             Self::InputGone => "input_gone",
             Self::NotPersistent => "not_persistent",
             Self::Starting => "starting",
+            Self::FreeResponse => "free_response",
         }
     }
 }
@@ -87,6 +98,10 @@ impl core::fmt::Display for ExcitationReason {
         f.write_str(self.as_str())
     }
 }
+
+/// The information monitor takes the regressor's power of every this
+/// many samples ([`Supervisor::inform`]; its windows are in seconds).
+pub(crate) const INFORM_EVERY: u32 = 10;
 
 /// What the supervisor does.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -158,6 +173,8 @@ impl<T: Real> Supervision<T> {
 pub(crate) struct Supervisor<T> {
     cfg: SupervisorConfig,
     input: InputMonitor<T>,
+    /// Whether the data is still informative (the regressor's power).
+    info: InformationMonitor<T>,
     change: ChangeDetector<T>,
     discount: T,
     lemma1_ratio: Option<T>,
@@ -176,6 +193,7 @@ impl<T: Real> Supervisor<T> {
         Self {
             cfg: *cfg,
             input: InputMonitor::new(ts_s),
+            info: InformationMonitor::new(ts_s * f64::from(INFORM_EVERY)),
             change: ChangeDetector::new(&cfg.tracking, ts_s),
             discount: T::from_f64(DISCOUNT),
             lemma1_ratio: None,
@@ -206,12 +224,20 @@ impl<T: Real> Supervisor<T> {
     }
 
     /// Take the scaled input u/U0 of a sample; false if adaptation must be
-    /// frozen for it (input gone).
+    /// frozen for it (input gone and the data no longer informative, as
+    /// of the last [`Supervisor::inform`]).
     #[inline]
     pub(crate) fn admit(&mut self, u_scaled: T) -> bool {
         let present = self.input.push(u_scaled);
-        self.frozen = self.cfg.freeze_without_input && !present;
+        self.frozen = self.cfg.freeze_without_input && !present && !self.info.informative();
         !self.frozen
+    }
+
+    /// Take the power |φ|² of the regressor the law is given (every
+    /// [`INFORM_EVERY`]-th sample): the information monitor.
+    #[inline]
+    pub(crate) fn inform(&mut self, power: T) {
+        self.info.push(power, self.input.present());
     }
 
     /// Take the law's a-priori prediction error of a sample it is about to
@@ -253,7 +279,11 @@ impl<T: Real> Supervisor<T> {
             .lemma1_ratio
             .is_some_and(|r| !(r >= T::from_f64(EXCITATION_REL_THRESHOLD)));
         let reason = if !self.input.present() {
-            ExcitationReason::InputGone
+            if self.info.informative() {
+                ExcitationReason::FreeResponse
+            } else {
+                ExcitationReason::InputGone
+            }
         } else if lemma_fails {
             ExcitationReason::NotPersistent
         } else if self.lemma1_measured && self.lemma1_ratio.is_none() {
@@ -287,6 +317,11 @@ impl<T: Real> Supervisor<T> {
         *self = Self {
             input: {
                 let mut m = self.input;
+                m.reset();
+                m
+            },
+            info: {
+                let mut m = self.info;
                 m.reset();
                 m
             },

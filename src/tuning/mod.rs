@@ -82,6 +82,7 @@ use crate::filter_bank::{FilterConfig, OutputHold, OutputTiming, Scaling, Signal
 use crate::modal::modes_from_denominator;
 use crate::model::{TransferFunction, MAX_MODES};
 use crate::scalar::Real;
+use beam_protocol::OutputKind;
 
 /// Default start-up window (s): a little more than one period of the
 /// paper's 7 Hz excitation.
@@ -125,6 +126,9 @@ pub struct TuningConfig {
     /// The converters' timing the filter bank compensates
     /// ([`FilterConfig::timing`]; ideal by default).
     pub timing: OutputTiming,
+    /// What the sensor measures ([`FilterConfig::output`]; strain by
+    /// default).
+    pub output: OutputKind,
     /// First λ.
     pub lambda: LambdaSource,
     /// U0, Y0 if the user knows them; `None` = RMS over the start-up window.
@@ -157,6 +161,7 @@ impl TuningConfig {
             ts_s,
             hold: OutputHold::default(),
             timing: OutputTiming::IDEAL,
+            output: OutputKind::Strain,
             lambda,
             scales: None,
             startup_s: DEFAULT_STARTUP_S,
@@ -368,6 +373,7 @@ impl AutoTune {
             scales,
             hold: self.cfg.hold,
             timing: self.cfg.timing,
+            output: self.cfg.output,
         };
         self.phase = match self.cfg.lambda {
             LambdaSource::Fixed(_) => Phase::Settled(Settled::Fixed),
@@ -568,6 +574,7 @@ pub fn carry_over<T: Real, const NP: usize>(
         modes: tf.modes,
         a: tf.a.map(|v| v.to_f64()),
         b: tf.b.map(|v| v.to_f64()),
+        output: tf.output,
     };
     let mut theta = [0.0; NP];
     tf64.to_theta(filter.lambda_rad_s, &mut theta)?;

@@ -7,6 +7,7 @@
 
 use crate::cli::event_flags;
 use crate::run::estimator::EstimatorKind;
+use beam_protocol::OutputKind;
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -50,6 +51,55 @@ impl ValueEnum for EstimatorChoice {
                     .help("All four (adaptive, gradient, ls, robust), side by side"),
             ),
         }
+    }
+}
+
+/// What the sensor measures (`--output`): given, or chosen from the data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OutputChoice {
+    /// `replay`: chosen from the data, one dimension of the model
+    /// selection (docs/REPLAY.md, "Model selection"); `simulate`, `crlb`:
+    /// strain.
+    #[default]
+    Auto,
+    /// This kind.
+    Given(OutputKind),
+}
+
+impl OutputChoice {
+    /// The kind, strain for `auto` (where nothing chooses).
+    pub fn or_strain(self) -> OutputKind {
+        match self {
+            Self::Auto => OutputKind::Strain,
+            Self::Given(k) => k,
+        }
+    }
+}
+
+impl ValueEnum for OutputChoice {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            Self::Auto,
+            Self::Given(OutputKind::Strain),
+            Self::Given(OutputKind::Velocity),
+            Self::Given(OutputKind::Acceleration),
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(match self {
+            Self::Auto => PossibleValue::new("auto").help(
+                "replay: chosen from the data (a dimension of the model selection);                  simulate, crlb: strain",
+            ),
+            Self::Given(OutputKind::Strain) => PossibleValue::new("strain")
+                .alias("displacement")
+                .help("strain or displacement (relative degree 2): G = B/A, the paper's model"),
+            Self::Given(OutputKind::Velocity) => {
+                PossibleValue::new("velocity").help("velocity (relative degree 1): G = s·B/A")
+            }
+            Self::Given(OutputKind::Acceleration) => PossibleValue::new("acceleration")
+                .help("acceleration (relative degree 0, a direct term): G = s²·B/A"),
+        })
     }
 }
 
@@ -209,6 +259,12 @@ pub struct EstimatorArgs {
     /// --lambda/--band-hz/--beam is given; 2 modes only.
     #[arg(long)]
     pub paper_exp_gains: bool,
+
+    /// What the sensor measures: the model is s^r·B(s)/A(s), r = 0 for
+    /// strain or displacement, 1 for velocity, 2 for acceleration (ω, ζ
+    /// and b̄ keep their meaning); `simulate` also simulates that sensor.
+    #[arg(long, value_enum, value_name = "KIND", default_value_t = OutputChoice::Auto)]
+    pub output: OutputChoice,
 }
 
 /// The simulated plant (`simulate`, `crlb`).
@@ -543,6 +599,10 @@ pub struct CrlbArgs {
     /// The simulated plant.
     #[command(flatten)]
     pub plant: PlantArgs,
+
+    /// What the sensor measures (as `simulate --output`; `auto` is strain).
+    #[arg(long, value_enum, value_name = "KIND", default_value_t = OutputChoice::Auto)]
+    pub output: OutputChoice,
 
     /// Sample interval Ts in seconds (> 0), as `simulate --ts`.
     #[arg(

@@ -43,6 +43,7 @@ pub fn output_with(
         duration_s: args.duration,
         ts_s: args.ts,
         excitation: drive_excitation(&args.excitation)?,
+        output: args.output.or_strain(),
         ..RunConfig::default()
     };
     let noise = match (args.snr_db, args.noise_sd) {
@@ -52,7 +53,7 @@ pub fn output_with(
         (None, None) => return Err(CliError::usage("--snr-db", "or --noise-sd is required")),
     };
     let set = args.model_set.set();
-    let truth = cfg.plant.truth();
+    let truth = cfg.truth();
     let u = drive(&cfg).map_err(|e| CliError::usage("--wave", e))?;
     let n = samples(&cfg);
     let mut interrupt = Interrupt::new(interrupt);

@@ -1,7 +1,7 @@
 //! The estimator flags `simulate` and `replay` share (law, precision,
 //! gains, where λ comes from), validated into what the runs use.
 
-use crate::cli::args::{EstimatorArgs, EstimatorChoice, PrecisionChoice};
+use crate::cli::args::{EstimatorArgs, EstimatorChoice, OutputChoice, PrecisionChoice};
 use crate::error::CliError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::Precision;
@@ -25,6 +25,8 @@ pub struct EstimatorPlan {
     pub lambda: LambdaSource,
     /// How λ is chosen, for the report heading.
     pub lambda_label: String,
+    /// What the sensor measures (`replay` chooses `auto` from the data).
+    pub output: OutputChoice,
 }
 
 /// Validate the shared flags for an `modes`-mode model.
@@ -43,6 +45,17 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
             format!(
                 "the feedthrough estimator is defined for 2 modes only (this model has {modes})"
             ),
+        ));
+    }
+    if feedthrough
+        && !matches!(
+            args.output,
+            OutputChoice::Auto | OutputChoice::Given(beam_protocol::OutputKind::Strain)
+        )
+    {
+        return Err(CliError::usage(
+            "--estimator feedthrough",
+            "the feedthrough estimator models a strain (or displacement) output only: a velocity or acceleration sensor sees the modes above the band as s·D or s²·D, which a held input makes impulses between the samples",
         ));
     }
     if feedthrough && (args.paper_gains || args.paper_exp_gains) {
@@ -150,6 +163,7 @@ pub fn plan(args: &EstimatorArgs, modes: usize) -> Result<EstimatorPlan, CliErro
         gains,
         lambda,
         lambda_label,
+        output: args.output,
     })
 }
 

@@ -22,7 +22,7 @@
 //!   the other laws the RMS of y − ŷ of the model output fit (which also
 //!   holds their bias, so it over-states σ when they are biased).
 
-use crate::cli::args::{EstimatorChoice, ReplayArgs};
+use crate::cli::args::{EstimatorChoice, OutputChoice, ReplayArgs};
 use crate::cli::estimator_flags::{self, EstimatorPlan};
 use crate::error::{note, write_stdout};
 use crate::error::{CliError, EXIT_USAGE};
@@ -39,6 +39,7 @@ use crate::run::estimator::EstimatorKind;
 use crate::run::session::Outcome;
 use crate::run::session::{drift_every, guard_config, Session};
 use crate::run::{Precision, Trace};
+use beam_protocol::OutputKind;
 use beamest::crlb::ModelSet;
 use beamest::model::default_output_weight;
 use beamest::tuning::TuningConfig;
@@ -58,6 +59,8 @@ pub const BATCH: usize = 1 << 16;
 struct Plan {
     est: EstimatorPlan,
     modes: usize,
+    /// What the sensor measures (the model s^r·B/A).
+    output: OutputKind,
     weights: Vec<f64>,
     columns: Columns,
     ts_s: Option<f64>,
@@ -107,6 +110,9 @@ pub struct Candidate {
     pub modes: usize,
     /// The guard's level correction on.
     pub level_correction: bool,
+    /// What the sensor measures (the model s^r·B/A).
+    #[serde(serialize_with = "crate::run::session::output_name")]
+    pub output: OutputKind,
 }
 
 impl Candidate {
@@ -125,7 +131,9 @@ impl Candidate {
 
 /// With `--estimator auto`: every candidate model, in the rule's
 /// preference order (fewer modes, then no level correction, then the
-/// robust estimator, the adaptive law, the feedthrough model); the flags
+/// output kind — strain, velocity, acceleration — with the robust
+/// estimator before the adaptive law, then the feedthrough model, which
+/// has two parameters more and models a strain output only); the flags
 /// given fix their dimension. `None` when `--estimator` names a law.
 pub fn candidates(args: &ReplayArgs) -> Option<Vec<Candidate>> {
     if args.est.estimator != EstimatorChoice::Auto {
@@ -143,21 +151,30 @@ pub fn candidates(args: &ReplayArgs) -> Option<Vec<Candidate>> {
         (_, true) => &[false],
         _ => &[false, true],
     };
+    let outputs: &[OutputKind] = match args.est.output {
+        OutputChoice::Given(k) => &[k],
+        OutputChoice::Auto => &OutputKind::ALL,
+    };
     let mut out = Vec::new();
     for &m in &modes {
         for &level_correction in levels {
-            for estimator in [
-                EstimatorKind::Robust,
-                EstimatorKind::Adaptive,
-                EstimatorKind::Feedthrough,
-            ] {
-                if estimator == EstimatorKind::Feedthrough && m != 2 {
-                    continue;
+            for &output in outputs {
+                for estimator in [EstimatorKind::Robust, EstimatorKind::Adaptive] {
+                    out.push(Candidate {
+                        estimator,
+                        modes: m,
+                        level_correction,
+                        output,
+                    });
                 }
+            }
+            // Two more parameters: after the models of as many modes.
+            if m == 2 && outputs.contains(&OutputKind::Strain) {
                 out.push(Candidate {
-                    estimator,
+                    estimator: EstimatorKind::Feedthrough,
                     modes: m,
                     level_correction,
+                    output: OutputKind::Strain,
                 });
             }
         }
@@ -172,6 +189,7 @@ fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, Cli
         Some(c) => {
             let mut est = args.est.clone();
             est.estimator = EstimatorChoice::One(c.estimator);
+            est.output = OutputChoice::Given(c.output);
             (
                 c.modes,
                 c.level_correction,
@@ -187,6 +205,7 @@ fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, Cli
             )
         }
     };
+    let output = est.output.or_strain();
     if let Some(ts) = args.ts {
         if !(ts.is_finite() && ts > 0.0) {
             return Err(CliError::usage(
@@ -239,6 +258,7 @@ fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, Cli
     Ok(Plan {
         est,
         modes,
+        output,
         weights,
         columns,
         ts_s: args.ts,
@@ -742,6 +762,7 @@ fn execute_auto(
     fixed.modes = u8::try_from(pick.modes).ok();
     fixed.guard.level_correction = pick.level_correction;
     fixed.guard.no_level_correction = !pick.level_correction;
+    fixed.est.output = OutputChoice::Given(pick.output);
     let plan = plan_for(&fixed, None)?;
     // The candidate's run is that replay already, unless the report needs
     // more than a candidate computes (the CSV, the plot, the logs, the bound).
@@ -904,6 +925,7 @@ fn summary_model(o: &Outcome, ts: f64) -> Option<fit::Model> {
         modes: n,
         a: [0.0; beamest::model::MAX_ORDER],
         b: [0.0; beamest::model::MAX_ORDER],
+        output: e.output,
     };
     tf.a.get_mut(..e.a.len())?.copy_from_slice(&e.a);
     tf.b.get_mut(..e.b.len())?.copy_from_slice(&e.b);
@@ -1093,7 +1115,10 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
         want_plot: bool,
         log_every: Option<u64>,
     ) -> Result<Self, CliError> {
-        let tuning = TuningConfig::new(ts, plan.est.lambda);
+        let tuning = TuningConfig {
+            output: plan.output,
+            ..TuningConfig::new(ts, plan.est.lambda)
+        };
         let session =
             Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
                 .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
@@ -1591,13 +1616,14 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         return String::new();
     };
     let mut out = format!(
-        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {}, {}, {} gains\n",
+        "file:   {}\nrecord: {} samples at Ts = {} s ({} s), {} mode{}, {} output, {}, {}, {} gains\n",
         first.file,
         first.samples,
         first.ts_s,
         crate::io::table::short(first.duration_s, 6),
         first.modes,
         if first.modes == 1 { "" } else { "s" },
+        first.outcome.estimate.output,
         plan.est.lambda_label,
         match first.precision {
             Precision::F64 => "f64",
@@ -1687,10 +1713,11 @@ fn selection_line(sel: &Selection, report: &ReplayReport) -> String {
         .filter(|c| c.score.excluded.is_none())
         .count();
     let what = format!(
-        "{}, {} mode{}, level correction {}",
+        "{}, {} mode{}, {} output, level correction {}",
         report.estimator.name(),
         report.modes,
         if report.modes == 1 { "" } else { "s" },
+        report.outcome.estimate.output,
         if report.level_correction { "on" } else { "off" }
     );
     match sel.chosen {

@@ -62,23 +62,37 @@ pub struct Model {
 }
 
 impl Model {
-    /// Discretise `tf` at `ts_s`; `None` for an empty model, a pole at
-    /// s = 0, repeated poles or non-finite coefficients.
+    /// Discretise `tf` = s^r·B(s)/A(s) (r of its output kind) at `ts_s`;
+    /// `None` for an empty model, a pole at s = 0, repeated poles or
+    /// non-finite coefficients. An acceleration output (r = 2) is biproper:
+    /// its direct term is B's leading coefficient and the rest
+    /// s²·B − b_{2n−2}·A is of degree 2n − 1.
     pub fn new(tf: &TransferFunction<f64>, ts_s: f64) -> Option<Self> {
         let d = tf.order();
         let b = tf.b.get(..d.checked_sub(1)?)?;
-        Self::build(tf, ts_s, b, 0.0)
+        let mut num = b.to_vec();
+        num.extend(std::iter::repeat_n(0.0, tf.output.numerator_shift()));
+        if num.len() == d + 1 {
+            let direct = num[0];
+            let rest: Vec<f64> = (0..d).map(|i| num[i + 1] - direct * tf.a[i]).collect();
+            return Self::build(tf, ts_s, &rest, direct);
+        }
+        Self::build(tf, ts_s, &num, 0.0)
     }
 
     /// As [`Model::new`] for the model D + (s3·s^{d−1} + B(s))/A(s) of an
     /// estimator with residual terms (the feedthrough model: `s3` the
-    /// numerator coefficient its modes cannot hold, `direct` = D).
+    /// numerator coefficient its modes cannot hold, `direct` = D; a strain
+    /// output only, else `None`).
     pub fn with_residual(
         tf: &TransferFunction<f64>,
         ts_s: f64,
         s3: f64,
         direct: f64,
     ) -> Option<Self> {
+        if tf.output != beam_protocol::OutputKind::Strain {
+            return None;
+        }
         let d = tf.order();
         let mut b = vec![s3];
         b.extend_from_slice(tf.b.get(..d.checked_sub(1)?)?);
@@ -563,6 +577,37 @@ mod tests {
         assert!(f.initial.iter().all(|c| c.abs() < 1e-9), "{:?}", f.initial);
     }
 
+    /// A velocity or acceleration sensor's model s^r·B/A fits its own
+    /// output exactly (the acceleration output's direct term included).
+    #[test]
+    fn each_output_kind_fits_its_own_output() {
+        use beam_protocol::OutputKind;
+        for output in OutputKind::ALL {
+            let mut tf = paper_plant_tf();
+            tf.output = output;
+            let model = Model::new(&tf, 1e-4).unwrap();
+            let mut p =
+                ModalPlant::<f64>::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4)
+                    .unwrap()
+                    .with_output(output)
+                    .unwrap();
+            let mut sq = SquareWave::<f64>::paper();
+            let rec: Vec<(f64, f64)> = (0..30_000)
+                .map(|_| {
+                    let u = sq.next_sample();
+                    (u, p.sample(u))
+                })
+                .collect();
+            let f = fit(&model, || rec.iter().copied()).unwrap();
+            assert!(f.percent > 100.0 - 1e-6, "{output}: {}", f.percent);
+            // The strain model does not explain an accelerometer.
+            if output == OutputKind::Acceleration {
+                let wrong = Model::new(&paper_plant_tf(), 1e-4).unwrap();
+                assert!(fit(&wrong, || rec.iter().copied()).unwrap().percent < 50.0);
+            }
+        }
+    }
+
     #[test]
     fn a_record_that_starts_in_motion_still_fits() {
         // 0.3 s in: the beam is moving; the initial state is fitted.
@@ -602,6 +647,7 @@ mod tests {
             modes: 0,
             a: [0.0; 6],
             b: [0.0; 6],
+            output: Default::default(),
         };
         assert!(Model::new(&empty, 1e-4).is_none());
     }

@@ -272,6 +272,7 @@ mod tests {
             modes: 1,
             a: [0.0; MAX_ORDER],
             b: [0.0; MAX_ORDER],
+            output: Default::default(),
         };
         tf.a[..2].copy_from_slice(&[2.0 * z * w, w * w]);
         tf.b[0] = 3.0e3;

@@ -44,10 +44,11 @@ use crate::run::session::{
     drift_every, guard_config, Eval, ModalSummary, Session, SupervisionReport,
 };
 use crate::run::tuned::{Build, RobustStatus};
+use beam_protocol::OutputKind;
 use beamest::crlb::ModelSet;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::model::ModalParams;
-use beamest::rig::{noise_sd_for_snr, GaussianNoise, Rig, Sample, ScenarioRig};
+use beamest::rig::{noise_sd_for_snr, GaussianNoise, ModalPlant, Rig, Sample, ScenarioRig};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use beamest::Real;
 use disturbance::{DisturbedRig, HumLine, NoiseColour};
@@ -119,6 +120,10 @@ pub struct RunConfig {
     pub hum: Vec<HumLine>,
     /// The measurement noise's spectrum ([`disturbance`]).
     pub noise_colour: NoiseColour,
+    /// What the sensor measures: the simulated beam is read as strain (or
+    /// displacement), velocity or acceleration, and the estimators' model
+    /// is s^r·B/A accordingly.
+    pub output: OutputKind,
 }
 
 impl Default for RunConfig {
@@ -150,6 +155,7 @@ impl Default for RunConfig {
             residual_monitor: false,
             hum: Vec::new(),
             noise_colour: NoiseColour::White,
+            output: OutputKind::Strain,
         }
     }
 }
@@ -160,8 +166,28 @@ impl RunConfig {
         TuningConfig {
             hold: self.hold,
             scales: self.scales,
+            output: self.output,
             ..TuningConfig::new(self.ts_s, self.lambda)
         }
+    }
+
+    /// The true ω, ζ, b̄ and transfer function of the simulated beam as its
+    /// sensor reads it.
+    pub fn truth(&self) -> Truth {
+        let mut t = self.plant.truth();
+        t.tf.output = self.output;
+        t
+    }
+
+    /// An exact discrete simulator of the beam as its sensor reads it.
+    ///
+    /// # Errors
+    /// An invalid plant.
+    pub fn sim_plant(&self) -> Result<ModalPlant<f64>, RunError> {
+        self.plant
+            .plant(self.ts_s)
+            .and_then(|p| p.with_output(self.output))
+            .map_err(|e| RunError::Plant(format!("{e:?}")))
     }
 }
 
@@ -388,17 +414,14 @@ pub fn tuned_filter(cfg: &RunConfig) -> Result<FilterConfig, RunError> {
             y_scale: b.y_scale,
         },
         hold: cfg.hold,
+        output: cfg.output,
         ..FilterConfig::default()
     })
 }
 
 /// The noise-free rig of a run: plant and drive ([`drive()`]).
 pub(crate) fn clean_rig(cfg: &RunConfig) -> Result<Rig<f64, Drive>, RunError> {
-    let plant = cfg
-        .plant
-        .plant(cfg.ts_s)
-        .map_err(|e| RunError::Plant(format!("{e:?}")))?;
-    Ok(Rig::new(plant, drive(cfg)?))
+    Ok(Rig::new(cfg.sim_plant()?, drive(cfg)?))
 }
 
 /// σ of the run's measurement noise: `noise_sd` if given, else (with an
@@ -479,7 +502,7 @@ pub fn run_bound(cfg: &RunConfig, set: ModelSet) -> Result<Option<ExperimentBoun
     let Some(sd) = noise_sd(cfg)? else {
         return Ok(None);
     };
-    let truth = cfg.plant.truth();
+    let truth = cfg.truth();
     let u = drive(cfg)?;
     let n = samples(cfg);
     experiment_bound(
@@ -502,7 +525,7 @@ pub(crate) fn events_rig(
 ) -> Result<ScenarioRig<f64, Drive>, RunError> {
     let rig = crate::run::clean_rig(cfg)?;
     let ev = &cfg.events;
-    let truth = cfg.plant.truth();
+    let truth = cfg.truth();
     let setup = |e: String| RunError::Setup(e);
     let mut sc = scenario(ev, rig.plant(), &truth, cfg.ts_s, 1.0, cfg.range).map_err(setup)?;
     if with_fault && ev.fault.is_some() {
@@ -518,6 +541,7 @@ pub(crate) fn events_rig(
     let mut r = ScenarioRig::new(rig, sc).map_err(|e| RunError::Setup(e.to_string()))?;
     if let Some(m) = &ev.extra_modes {
         let p = beamest::rig::ModalPlant::from_modal(m, cfg.ts_s)
+            .and_then(|p| p.with_output(cfg.output))
             .map_err(|e| RunError::Plant(format!("extra modes: {e}")))?;
         r = r
             .with_extra_modes(p)
@@ -540,14 +564,11 @@ impl Truths {
     /// # Errors
     /// An invalid plant or step.
     pub fn new(cfg: &RunConfig) -> Result<Self, RunError> {
-        let before = cfg.plant.truth();
+        let before = cfg.truth();
         let after = match &cfg.events.step {
             Some(step) => {
                 let n = before.modal.modes;
-                let plant = cfg
-                    .plant
-                    .plant(cfg.ts_s)
-                    .map_err(|e| RunError::Plant(format!("{e:?}")))?;
+                let plant = cfg.sim_plant()?;
                 let p = stepped_plant(&plant, step, &before).map_err(RunError::Setup)?;
                 let t = truth_of(&p, &before.modal.output_weight[..n]).map_err(RunError::Setup)?;
                 Some((sample_at(step.at_s, cfg.ts_s), t))

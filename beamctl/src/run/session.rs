@@ -13,6 +13,7 @@ use crate::run::error::RunError;
 use crate::run::estimator::{EstimatorKind, Gains};
 use crate::run::feed::Feed;
 use crate::run::tuned::{Build, RobustStatus, Totals, Tuned};
+use beam_protocol::OutputKind;
 use beamest::filter_bank::{FilterConfig, OutputHold, SignalScales};
 use beamest::guard::{
     model_for_monitor, GuardConfig, GuardCounts, GuardError, LevelEvent, ResidualMonitor,
@@ -38,6 +39,15 @@ pub struct ModalSummary {
     pub a: Vec<f64>,
     /// [b_{2n−2}, …, b_0].
     pub b: Vec<f64>,
+    /// What the sensor measures: the model is s^r·B(s)/A(s) (`strain`:
+    /// r = 0, `velocity`: 1, `acceleration`: 2).
+    #[serde(serialize_with = "output_name")]
+    pub output: OutputKind,
+}
+
+/// An output kind as its name (`strain`, `velocity`, `acceleration`).
+pub fn output_name<S: serde::Serializer>(k: &OutputKind, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(k.name())
 }
 
 impl ModalSummary {
@@ -58,17 +68,20 @@ impl ModalSummary {
             bbar,
             a: tf.a[..2 * n].to_vec(),
             b: tf.b[..2 * n - 1].to_vec(),
+            output: tf.output,
         }
     }
 
-    /// No estimate at all for an `n`-mode model (all NaN).
-    pub fn empty(n: usize) -> Self {
+    /// No estimate at all for an `n`-mode model (all NaN) of a sensor of
+    /// kind `output`.
+    pub fn empty(n: usize, output: OutputKind) -> Self {
         Self {
             omega: vec![f64::NAN; n],
             zeta: vec![f64::NAN; n],
             bbar: vec![f64::NAN; n],
             a: vec![f64::NAN; 2 * n],
             b: vec![f64::NAN; 2 * n - 1],
+            output,
         }
     }
 
@@ -84,6 +97,7 @@ pub fn to_f64_tf<T: Real>(tf: &TransferFunction<T>) -> TransferFunction<f64> {
         modes: tf.modes,
         a: tf.a.map(|v| v.to_f64()),
         b: tf.b.map(|v| v.to_f64()),
+        output: tf.output,
     }
 }
 
@@ -372,6 +386,8 @@ pub struct Session<T: Real, const D: usize, const NP: usize, const NS: usize> {
     /// Each estimator's detected plant changes when last looked at (for
     /// the guard's change hold, [`SensorGuard::change_hold`]).
     changes_held: Vec<u32>,
+    /// What the sensor measures (the estimators' model).
+    output: OutputKind,
 }
 
 /// The residual monitor of a session and the build of the first estimator
@@ -409,6 +425,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             hold: tuning.hold,
             model_every: (MONITOR_MODEL_PERIOD_S / tuning.ts_s).round().max(1.0) as u64,
             changes_held: vec![0; kinds.len()],
+            output: tuning.output,
         })
     }
 
@@ -620,7 +637,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
                 )
             }
             None => (
-                ModalSummary::empty(n),
+                ModalSummary::empty(n, self.output),
                 None,
                 true,
                 Validity::NOT_RECOVERED,

@@ -90,6 +90,92 @@ impl FromStr for EstimatorKind {
     }
 }
 
+/// What the sensor measures, as the estimator's model sees it: the
+/// output's relative degree. With A(s) the modes' denominator and B(s)
+/// their numerator of degree ≤ 2n − 2 (PROTOCOL.md §4.0), the model is
+/// G(s) = s^r·B(s)/A(s) with r = 2 − relative degree: a strain gauge or a
+/// displacement sensor reads B/A (relative degree 2), a velocity sensor
+/// s·B/A (1), an accelerometer s²·B/A (0: numerator and denominator of the
+/// same degree, a direct term). B, the modes and b̄ keep their meaning
+/// whatever the kind. Wire value: the discriminant. Default: `Strain`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum OutputKind {
+    /// Strain or displacement (relative degree 2): G = B/A.
+    #[default]
+    Strain = 0,
+    /// Velocity (relative degree 1): G = s·B/A.
+    Velocity = 1,
+    /// Acceleration (relative degree 0): G = s²·B/A.
+    Acceleration = 2,
+}
+
+impl MaxSize for OutputKind {
+    /// The enum tag.
+    const MAX_SIZE: usize = tag_len(Self::ALL.len());
+}
+
+impl OutputKind {
+    /// Every kind, in wire order.
+    pub const ALL: [Self; 3] = [Self::Strain, Self::Velocity, Self::Acceleration];
+
+    /// The kind's name, as the host tools write it: `strain`, `velocity`,
+    /// `acceleration` (they also read `displacement` as `strain`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Strain => "strain",
+            Self::Velocity => "velocity",
+            Self::Acceleration => "acceleration",
+        }
+    }
+
+    /// The output's relative degree: 2, 1 or 0.
+    pub const fn relative_degree(self) -> usize {
+        2 - self.numerator_shift()
+    }
+
+    /// r of G = s^r·B/A: 0, 1 or 2.
+    pub const fn numerator_shift(self) -> usize {
+        self as usize
+    }
+}
+
+impl fmt::Display for OutputKind {
+    /// The [`name`](Self::name).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is no [`OutputKind`]'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownOutput;
+
+impl fmt::Display for UnknownOutput {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("not a sensor output kind (strain, displacement, velocity, acceleration)")
+    }
+}
+
+impl core::error::Error for UnknownOutput {}
+
+impl FromStr for OutputKind {
+    type Err = UnknownOutput;
+
+    /// The kind of this [`name`](Self::name), or `displacement` for
+    /// [`OutputKind::Strain`] (exact match).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "displacement" {
+            return Ok(Self::Strain);
+        }
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or(UnknownOutput)
+    }
+}
+
 /// The excitation waveform. Wire value of the variant: its index below
 /// (postcard enum tag), then its fields.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

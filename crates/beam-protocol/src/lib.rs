@@ -83,8 +83,8 @@ pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates,
-    UnknownEstimator, Waveform, WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, OutputKind, RejectReason,
+    TelemetryRates, UnknownEstimator, UnknownOutput, Waveform, WaveformKind,
 };
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{

@@ -35,6 +35,7 @@ use super::{
 use crate::filter_bank::{OutputHold, OutputTiming};
 use crate::scalar::compensated::CompensatedArray;
 use crate::scalar::Real;
+use beam_protocol::OutputKind;
 
 /// What a model update needs of the estimator, copied out of it (~1 KB for
 /// two modes in `f32`): [`RobustEstimator::update_seed`], then
@@ -51,6 +52,7 @@ pub struct UpdateSeed<T, const D: usize, const NP: usize, const NS: usize> {
     rho_ts: f64,
     hold: OutputHold,
     timing: OutputTiming,
+    output: OutputKind,
 }
 
 impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D, NP, NS> {
@@ -76,8 +78,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
         };
         // (The timing was accepted by `RobustEstimator::new`, for Λ; the
         // same kernel on another stable 1/Â fails only if it is not causal.)
-        let f =
-            Filters::new(&c, self.rho_ts, self.hold, &self.timing).ok_or(UpdateError::Unstable)?;
+        let f = Filters::new(&c, self.rho_ts, self.hold, &self.timing, self.output)
+            .ok_or(UpdateError::Unstable)?;
         let oe = OeModel::new(f, &theta);
         let mut law = self.law;
         law.restart(&theta);
@@ -136,6 +138,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             rho_ts: self.filter.lambda_rad_s * self.filter.ts_s,
             hold: self.filter.hold,
             timing: self.filter.timing,
+            output: self.filter.output,
         })
     }
 

@@ -401,9 +401,13 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         let rho_ts = filter.lambda_rad_s * filter.ts_s;
         // The output-error model runs forward without look-ahead: a timing
         // whose kernel reaches a later input is refused.
-        let Some(lambda_filters) =
-            Filters::new(&lambda_coeffs::<D>(), rho_ts, filter.hold, &filter.timing)
-        else {
+        let Some(lambda_filters) = Filters::new(
+            &lambda_coeffs::<D>(),
+            rho_ts,
+            filter.hold,
+            &filter.timing,
+            filter.output,
+        ) else {
             return Err(ConfigError::Filter(FilterConfigError::Timing));
         };
         let startup = AdaptiveLaw::new(&cfg.startup, filter.ts_s)?;
@@ -671,7 +675,12 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             InitialState::Rest => None,
             InitialState::Estimate => Some((T::MAX, true)),
             InitialState::Auto => Some(
-                start_test(&self.rec_y[..self.rec_len]).map_or((T::MAX, true), |chi2| {
+                start_test(
+                    &self.rec_y[..self.rec_len],
+                    &self.rec_u[..self.rec_len],
+                    self.filter.output.numerator_shift(),
+                )
+                .map_or((T::MAX, true), |chi2| {
                     (chi2, chi2 >= T::from_f64(START_TEST_CHI2))
                 }),
             ),
@@ -715,6 +724,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         match self.phase {
             Phase::Startup => {
                 let reg = self.bank.push(u, y);
+                if y_valid {
+                    self.learner.observe(&reg.phi);
+                }
                 if update {
                     self.startup.update(&reg)?;
                     self.adapted = self.adapted.saturating_add(1);
@@ -722,6 +734,9 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
             }
             Phase::Refining | Phase::Steady => {
                 let s = self.oe.push(us, ys);
+                if y_valid {
+                    self.learner.observe(&s.psi);
+                }
                 if update {
                     if self.phase == Phase::Steady
                         && self
@@ -792,6 +807,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> 
             modes: D / 2,
             a: [T::ZERO; MAX_ORDER],
             b: [T::ZERO; MAX_ORDER],
+            output: self.filter.output,
         };
         for j in 0..D - 1 {
             tf.b[j] = th[j] * self.unscale[j];

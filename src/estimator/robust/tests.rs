@@ -308,6 +308,13 @@ fn rejected_readings_in_the_record_are_missing_not_substituted() {
     }
     y[3] = f64::NAN;
     y[17] = f64::NAN;
-    assert!(start_test(&y).unwrap() < 1.0);
-    assert_eq!(start_test(&[f64::NAN; START_TEST_SAMPLES]), None);
+    assert!(start_test(&y, &[0.0; START_TEST_SAMPLES], 0).unwrap() < 1.0);
+    assert_eq!(
+        start_test(
+            &[f64::NAN; START_TEST_SAMPLES],
+            &[0.0; START_TEST_SAMPLES],
+            0
+        ),
+        None
+    );
 }

@@ -221,7 +221,7 @@ fn output_panel(
     };
     let models: Vec<Option<Model>> = reports
         .iter()
-        .map(|r| model_of(&r.estimate.a, &r.estimate.b, cfg.ts_s))
+        .map(|r| model_of(&r.estimate, cfg.ts_s))
         .collect();
     let mut frf_models = Vec::new();
     for (r, model) in reports.iter().zip(&models) {
@@ -268,8 +268,10 @@ fn output_panel(
     Ok((panel, frf))
 }
 
-/// The identified model from report coefficients, if they are finite.
-pub fn model_of(a: &[f64], b: &[f64], ts_s: f64) -> Option<Model> {
+/// The identified model from a report's estimate, if its coefficients
+/// are finite.
+pub fn model_of(e: &crate::run::session::ModalSummary, ts_s: f64) -> Option<Model> {
+    let (a, b) = (&e.a, &e.b);
     let n = a.len() / 2;
     if n == 0 || a.len() > MAX_ORDER || b.len() + 1 != a.len() {
         return None;
@@ -278,6 +280,7 @@ pub fn model_of(a: &[f64], b: &[f64], ts_s: f64) -> Option<Model> {
         modes: n,
         a: [0.0; MAX_ORDER],
         b: [0.0; MAX_ORDER],
+        output: e.output,
     };
     tf.a[..a.len()].copy_from_slice(a);
     tf.b[..b.len()].copy_from_slice(b);

@@ -197,6 +197,7 @@ pub fn plan(args: &SimulateArgs) -> Result<Plan, CliError> {
         residual_monitor: args.guard.residual_monitor,
         hum,
         noise_colour: colour,
+        output: est.output.or_strain(),
         ..base_default
     };
     if base.excitation.is_some() {
