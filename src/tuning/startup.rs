@@ -155,7 +155,7 @@ impl StartupStats {
 
     /// Noise-corrected frequency centroid of y in rad/s (see the module
     /// docs), or `None` if y has no measurable variation above its noise.
-    pub(crate) fn centroid_rad_s(&self, ts_s: f64) -> Option<f64> {
+    pub fn centroid_rad_s(&self, ts_s: f64) -> Option<f64> {
         if self.n < 2 || self.n_d1 == 0 || !(ts_s > 0.0) {
             return None;
         }

@@ -671,6 +671,8 @@ fn execute_auto(
     let range = crate::cli::event_flags::range(&args.guard)?;
     let lines: Vec<LineSpec> = args.removing.iter().map(|r| r.0).collect();
     let pairs = || u.iter().copied().zip(y.iter().copied());
+    let with_band = record_band(args, pairs(), ts);
+    let args = &with_band;
     let judged = conditioned(pairs(), ts, range, true, &lines)?;
     let measured = match lines.as_slice() {
         [] => None,
@@ -684,29 +686,40 @@ fn execute_auto(
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(candidates.len());
+    let work = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        let Some(&c) = candidates.get(i) else {
+            return;
+        };
+        let r = candidate_evidence(
+            args,
+            c,
+            label,
+            ts,
+            (u, y),
+            (measured.as_deref(), &judged),
+            &stop,
+        );
+        if let Ok(mut all) = results.lock() {
+            if let Some(slot) = all.get_mut(i) {
+                *slot = Some(r);
+            }
+        }
+        done.fetch_add(1, Ordering::Release);
+    };
     std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&c) = candidates.get(i) else {
-                    return;
-                };
-                let r = candidate_evidence(
-                    args,
-                    c,
-                    label,
-                    ts,
-                    (u, y),
-                    (measured.as_deref(), &judged),
-                    &stop,
-                );
-                if let Ok(mut all) = results.lock() {
-                    if let Some(slot) = all.get_mut(i) {
-                        *slot = Some(r);
-                    }
-                }
-                done.fetch_add(1, Ordering::Release);
-            });
+        // The robust estimator's record passes through the stack
+        // (`ROBUST_STACK_BYTES`).
+        let spawned = (0..workers)
+            .filter(|_| {
+                std::thread::Builder::new()
+                    .stack_size(crate::run::estimator::ROBUST_STACK_BYTES)
+                    .spawn_scoped(scope, &work)
+                    .is_ok()
+            })
+            .count();
+        if spawned == 0 {
+            work();
         }
         while done.load(Ordering::Acquire) < candidates.len() {
             if !stop.load(Ordering::Relaxed) && interrupt() {
@@ -804,6 +817,44 @@ fn execute_auto(
     Ok(out)
 }
 
+/// `args` with the first λ taken from the whole record when the flags
+/// leave it to the data: the tuning rule's data λ (docs/SETTINGS.md: twice
+/// the noise-corrected frequency centroid of y) over every sample instead
+/// of the first 0.2 s, given as `--band-hz F,F` (re-centred as any band).
+/// A record whose excitation sweeps (a chirp that starts below the modes)
+/// or starts with a pulse shows its modes only later; model selection has
+/// the record in memory, so it uses all of it.
+fn record_band(
+    args: &ReplayArgs,
+    samples: impl Iterator<Item = (f64, f64)>,
+    ts: f64,
+) -> ReplayArgs {
+    let mut out = args.clone();
+    let e = &args.est;
+    if e.lambda.is_some()
+        || e.band_hz.is_some()
+        || e.beam.is_some()
+        || e.paper_gains
+        || e.paper_exp_gains
+    {
+        return out;
+    }
+    let mut stats = beamest::tuning::StartupStats::new(ts);
+    for (u, y) in samples {
+        stats.push(u, y);
+    }
+    let tuning = TuningConfig::new(ts, beamest::tuning::LambdaSource::Data);
+    if let Some(c) = stats.centroid_rad_s(ts) {
+        let lambda = (tuning.data_lambda_factor * c).clamp(
+            beamest::tuning::MIN_LAMBDA_TS / ts,
+            beamest::tuning::MAX_LAMBDA_TS / ts,
+        );
+        let f = lambda / std::f64::consts::TAU;
+        out.est.band_hz = Some(vec![f, f]);
+    }
+    out
+}
+
 /// The record of `source` in memory: its u, y, batch size and interrupt
 /// poll (a file is read into `owned` and polls `never`).
 #[allow(clippy::type_complexity)]
@@ -886,6 +937,7 @@ fn candidate_evidence(
             .first()
             .copied()
             .or_else(|| select::overdamped(&e.zeta))
+            .or_else(|| select::slower_than_record(&e.omega, report.duration_s))
     };
     let model = excluded
         .is_none()
@@ -920,7 +972,8 @@ fn candidate_evidence(
 /// for a fit.
 fn summary_model(o: &Outcome, ts: f64) -> Option<fit::Model> {
     let e = &o.estimate;
-    let n = e.omega.len();
+    // The model's order (its modes above the band included).
+    let n = e.a.len() / 2;
     let mut tf = beamest::model::TransferFunction::<f64> {
         modes: n,
         a: [0.0; beamest::model::MAX_ORDER],
@@ -1686,7 +1739,23 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
         ));
     }
     out.push('\n');
-    out.push_str(&report::table(first.modes, None, None, &columns));
+    out.push_str(&report::table(
+        first.outcome.estimate.omega.len(),
+        None,
+        None,
+        &columns,
+    ));
+    for r in reports {
+        for m in &r.outcome.residual_modes {
+            out.push_str(&format!(
+                "{}: a mode above the band, not estimated: ω = {} rad/s, ζ = {} (the input does \
+                 not reveal it; it stands for the modes above the excited band)\n",
+                r.estimator.name(),
+                crate::io::table::sig(m.omega, 6),
+                crate::io::table::sig(m.zeta, 4)
+            ));
+        }
+    }
     out.push_str(&report::verdict_reasons(&columns));
     out.push_str(report::FOOTNOTE);
     out.push_str(report::FOOTNOTE_GUARD);

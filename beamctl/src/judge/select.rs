@@ -5,12 +5,14 @@
 //! # Rule
 //! 1. **Eligible**: the candidate produced an estimate, every mode is
 //!    physical (finite ω > 0, 0 < ζ < 1: no [`beamest::modal::Validity`]
-//!    flag) and a lightly damped bending mode (ζ ≤ [`MAX_ZETA`]), and its
+//!    flag), a lightly damped bending mode (ζ ≤ [`MAX_ZETA`]) and one the
+//!    record holds at least [`MIN_PERIODS`] periods of, and its
 //!    model output fit exists (a stable model). A heavily damped "mode" is
 //!    the model standing in for something that is not a mode of the beam:
 //!    measured on the committed records, a level correction's or an
 //!    offset step's transient (ζ ≈ 0.36 and 0.66) and an acceleration
-//!    output's direct term (ζ ≈ 0.75).
+//!    output's direct term fitted by a strain model (ζ ≈ 0.75); a mode
+//!    slower than the record stands in for a drift.
 //! 2. **Residual**: the model output fit ([`crate::judge::fit`], initial
 //!    state fitted) on the record as measured and on the record after the
 //!    sensor guard's level correction (offset steps removed, the same
@@ -58,6 +60,22 @@ pub fn overdamped(zeta: &[f64]) -> Option<&'static str> {
     zeta.iter()
         .any(|&z| z > MAX_ZETA)
         .then_some("overdamped_mode")
+}
+
+/// The fewest periods of each mode a record must hold (step 1).
+pub const MIN_PERIODS: f64 = 2.0;
+
+/// Why a candidate with these natural frequencies cannot be chosen from a
+/// record of `duration_s` (`mode_slower_than_record`: a mode completes
+/// fewer than [`MIN_PERIODS`] periods in it), if so. Such a "mode" is the
+/// model standing in for a drift of the sensor's level (measured: an
+/// acceleration model's third mode at 0.017 rad/s on a 10 s record with a
+/// thermal drift), not a mode the record shows.
+pub fn slower_than_record(omega: &[f64], duration_s: f64) -> Option<&'static str> {
+    omega
+        .iter()
+        .any(|&w| w * duration_s < MIN_PERIODS * std::f64::consts::TAU)
+        .then_some("mode_slower_than_record")
 }
 
 /// Relative difference of residual energy (RSS) below which two

@@ -42,7 +42,10 @@
 //!   (a line of u by the same test with at least [`COVERAGE_LIMIT`] of its
 //!   power within two bins: a residual line at one of u's lines is model
 //!   error, which `residual_structured` judges; a broadband u such as a
-//!   chirp through 50 Hz has no line there). Every
+//!   chirp through 50 Hz has no line there), and that stands out of the
+//!   spectrum of each half of the record as well (a disturbance is there
+//!   throughout; a peak of one half only is a transient, e.g. a model that
+//!   is wrong near a mode while a sweep passes it). Every
 //!   line found is listed (`lines`: frequency, RMS, the mode it lies on),
 //!   near a mode or not.
 
@@ -136,8 +139,8 @@ pub struct Evidence<'a> {
     pub drift: Option<f64>,
     /// The record's input spectrum.
     pub input: Option<&'a PowerSpectrum>,
-    /// The fit's residual spectrum ([`residual_spectrum`]).
-    pub residual: Option<&'a PowerSpectrum>,
+    /// The fit's residual spectra ([`residual_spectrum`]).
+    pub residual: Option<&'a ResidualSpectrum>,
 }
 
 /// What a record tells about an estimate: its model-output fit, the
@@ -148,11 +151,33 @@ pub struct RecordEvidence<'a> {
     pub fit: Option<&'a Fit>,
     /// The input's spectrum.
     pub input: Option<&'a PowerSpectrum>,
-    /// The fit residual's spectrum ([`residual_spectrum`]).
-    pub residual: Option<&'a PowerSpectrum>,
+    /// The fit residual's spectra ([`residual_spectrum`]).
+    pub residual: Option<&'a ResidualSpectrum>,
 }
 
-/// The spectrum of the residual of `fit` (of `model`) over the `n` samples
+/// The spectrum of a fit's residual over the record, and over each half
+/// of it (a line counts only where both halves show it: see
+/// `line_near_mode` in the module docs).
+#[derive(Debug, Clone)]
+pub struct ResidualSpectrum {
+    /// Over the whole record.
+    pub whole: PowerSpectrum,
+    /// Over its first and its second half (`None` for a record too short
+    /// to split).
+    pub halves: Option<[PowerSpectrum; 2]>,
+}
+
+impl ResidualSpectrum {
+    /// Whether a narrow line at `freq_hz` stands out of both halves (true
+    /// when there are no halves).
+    fn steady(&self, freq_hz: f64) -> bool {
+        self.halves
+            .as_ref()
+            .is_none_or(|h| h.iter().all(|s| s.has_line_at(freq_hz, LINE_RATIO)))
+    }
+}
+
+/// The spectra of the residual of `fit` (of `model`) over the `n` samples
 /// `samples` yields.
 pub fn residual_spectrum<I: IntoIterator<Item = (f64, f64)>>(
     model: &Model,
@@ -160,8 +185,18 @@ pub fn residual_spectrum<I: IntoIterator<Item = (f64, f64)>>(
     samples: I,
     n: usize,
     ts_s: f64,
-) -> Option<PowerSpectrum> {
-    PowerSpectrum::of(fit::residuals(model, fit, samples), n, ts_s)
+) -> Option<ResidualSpectrum> {
+    let r: Vec<f64> = fit::residuals(model, fit, samples).take(n).collect();
+    let whole = PowerSpectrum::of(r.iter().copied(), r.len(), ts_s)?;
+    let half = r.len() / 2;
+    let halves = match (
+        PowerSpectrum::of(r[..half].iter().copied(), half, ts_s),
+        PowerSpectrum::of(r[half..].iter().copied(), r.len() - half, ts_s),
+    ) {
+        (Some(a), Some(b)) => Some([a, b]),
+        _ => None,
+    };
+    Some(ResidualSpectrum { whole, halves })
 }
 
 impl Verdict {
@@ -248,7 +283,8 @@ impl Verdict {
             }
         }
         let mut lines = Vec::new();
-        if let (Some(spectrum), Some(f)) = (e.residual, e.fit) {
+        if let (Some(spectra), Some(f)) = (e.residual, e.fit) {
+            let spectrum = &spectra.whole;
             let df = spectrum.bin_hz();
             let y_rms = f.residual_rms / (1.0 - f.percent / 100.0).max(f64::MIN_POSITIVE);
             for (freq_hz, share) in spectrum.lines(LINE_RATIO) {
@@ -258,7 +294,7 @@ impl Verdict {
                         .is_some_and(|s| s >= COVERAGE_LIMIT)
                         && u.has_line_at(freq_hz, LINE_RATIO)
                 });
-                if driven || rms < LINE_LEVEL * y_rms {
+                if driven || rms < LINE_LEVEL * y_rms || !spectra.steady(freq_hz) {
                     continue;
                 }
                 let near_mode = e.omega.and_then(|omega| {
@@ -466,7 +502,19 @@ mod tests {
         let hum = white()
             .enumerate()
             .map(|(k, w)| w + amp * (std::f64::consts::TAU * 50.0 * k as f64 * ts).sin());
-        let s = PowerSpectrum::of(hum, n, ts).unwrap();
+        let hum: Vec<f64> = hum.collect();
+        let halves = |x: &[f64]| {
+            let h = x.len() / 2;
+            Some([
+                PowerSpectrum::of(x[..h].iter().copied(), h, ts).unwrap(),
+                PowerSpectrum::of(x[h..].iter().copied(), x.len() - h, ts).unwrap(),
+            ])
+        };
+        let s = PowerSpectrum::of(hum.iter().copied(), n, ts).unwrap();
+        let spectra = ResidualSpectrum {
+            whole: s.clone(),
+            halves: halves(&hum),
+        };
         let lines = s.lines(LINE_RATIO);
         assert_eq!(lines.len(), 1, "{lines:?}");
         assert!((lines[0].0 - 50.0).abs() <= s.bin_hz(), "{lines:?}");
@@ -486,12 +534,40 @@ mod tests {
                 fit: Some(&fit),
                 drift: None,
                 input: None,
-                residual: Some(&s),
+                residual: Some(&spectra),
             })
         };
         let near = v(std::f64::consts::TAU * 50.0);
         assert_eq!(near.lines[0].near_mode, Some(1));
         assert!(near.reasons.iter().any(|r| r.code == "line_near_mode"));
+        // The same line in the first half only (a transient: a mode the
+        // model gets wrong while a sweep passes it) is not a line.
+        let transient: Vec<f64> = white()
+            .enumerate()
+            .map(|(k, w)| {
+                let t = k as f64 * ts;
+                w + if k < n / 2 {
+                    2.0 * amp * (std::f64::consts::TAU * 50.0 * t).sin()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let passing = ResidualSpectrum {
+            whole: PowerSpectrum::of(transient.iter().copied(), n, ts).unwrap(),
+            halves: halves(&transient),
+        };
+        assert!(!passing.whole.lines(LINE_RATIO).is_empty());
+        let once = Verdict::of(&Evidence {
+            omega: Some(&[std::f64::consts::TAU * 50.0]),
+            zeta: &[0.02],
+            validity: &[],
+            fit: Some(&fit),
+            drift: None,
+            input: None,
+            residual: Some(&passing),
+        });
+        assert!(once.lines.is_empty() && once.trusted, "{once:?}");
         let far = v(std::f64::consts::TAU * 80.0);
         assert_eq!(far.lines[0].near_mode, None);
         assert!(

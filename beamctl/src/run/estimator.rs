@@ -10,7 +10,7 @@
 //! law keeps [`RobustConfig::default`]'s.
 
 use crate::run::error::RunError;
-use beamest::estimator::robust::{RobustConfig, RobustEstimator, DEFAULT_RECORD};
+use beamest::estimator::robust::{RobustConfig, RobustEstimator};
 use beamest::estimator::{
     AdaptiveConfig, AdaptiveEstimator, Estimator, Feedthrough, GradientConfig, GradientEstimator,
     LeastSquaresConfig, LeastSquaresEstimator,
@@ -126,14 +126,32 @@ fn adaptive_config<const NP: usize>(
     })
 }
 
-/// The robust estimator with its default 2 s start-up record.
-pub type HostRobust<T, const D: usize, const NP: usize, const NS: usize> =
-    RobustEstimator<T, D, NP, NS, DEFAULT_RECORD>;
+/// The host's robust estimator records up to this many samples, 13.1 s at
+/// 10 kHz (the firmware's record is [`beamest::estimator::robust::DEFAULT_RECORD`], 2 s): its
+/// model is re-linearised by replaying everything recorded, so a slow
+/// excitation (a chirp that reaches the modes only after seconds) is
+/// refined on the part that reveals them instead of being frozen at a
+/// linearisation point the first 2 s gave (measured on the committed
+/// records: docs/REPLAY.md, "Model selection"). The replays' spacing grows
+/// with the record ([`RobustConfig::update_relative`] = [`HOST_UPDATE_RELATIVE`]).
+pub const HOST_RECORD: usize = 1 << 17;
 
-/// Build the robust estimator for `filter` on the heap (its start-up
-/// record makes it ~160 KB in `f32`, ~320 KB in `f64`). With a paper
-/// preset its start-up law takes the preset's proposed-law gains (see the
-/// module docs).
+/// A model update every (samples recorded)/this, once that exceeds the
+/// default spacing ([`RobustConfig::update_relative`]).
+pub const HOST_UPDATE_RELATIVE: u32 = 8;
+
+/// The robust estimator with the host's record ([`HOST_RECORD`]).
+pub type HostRobust<T, const D: usize, const NP: usize, const NS: usize> =
+    RobustEstimator<T, D, NP, NS, HOST_RECORD>;
+
+/// Stack a thread needs to build a [`HostRobust`] (its record, 2 MiB in
+/// `f64`, passes through the stack on its way to the heap).
+pub const ROBUST_STACK_BYTES: usize = 32 << 20;
+
+/// Build the robust estimator for `filter` on the heap (its record makes it
+/// ~1 MB in `f32`, ~2 MB in `f64`: build it on a thread with
+/// [`ROBUST_STACK_BYTES`] of stack). With a paper preset its start-up law
+/// takes the preset's proposed-law gains (see the module docs).
 pub fn build_robust<T: Real, const D: usize, const NP: usize, const NS: usize>(
     gains: Gains,
     filter: &FilterConfig,
@@ -141,6 +159,7 @@ pub fn build_robust<T: Real, const D: usize, const NP: usize, const NS: usize>(
     let scaling = Scaling::<NP>::new(filter);
     let cfg = RobustConfig {
         startup: adaptive_config(gains, &scaling)?,
+        update_relative: HOST_UPDATE_RELATIVE,
         ..RobustConfig::default()
     };
     HostRobust::<T, D, NP, NS>::new(filter, &cfg)

@@ -741,14 +741,15 @@ fn run_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 residual: residual.as_ref(),
             },
         );
-        let modal = o.estimate.is_valid().then(|| {
-            let mut m = truth.modal;
-            let n = m.modes;
-            m.omega_rad_s[..n].copy_from_slice(&o.estimate.omega);
-            m.zeta[..n].copy_from_slice(&o.estimate.zeta);
-            m.bbar[..n].copy_from_slice(&o.estimate.bbar);
-            m
-        });
+        let modal =
+            (o.estimate.is_valid() && o.estimate.omega.len() == truth.modal.modes).then(|| {
+                let mut m = truth.modal;
+                let n = m.modes;
+                m.omega_rad_s[..n].copy_from_slice(&o.estimate.omega);
+                m.zeta[..n].copy_from_slice(&o.estimate.zeta);
+                m.bbar[..n].copy_from_slice(&o.estimate.bbar);
+                m
+            });
         let rel_error = rel_error(modal.as_ref(), &truth.modal);
         let error_over_crlb = bound
             .as_ref()
@@ -818,7 +819,7 @@ fn residual_on_rig(
     cfg: &RunConfig,
     model: &Model,
     fit: &fit::Fit,
-) -> Result<Option<PowerSpectrum>, RunError> {
+) -> Result<Option<crate::judge::verdict::ResidualSpectrum>, RunError> {
     let mut rig = scenario_rig(cfg)?;
     let n = samples(cfg);
     Ok(crate::judge::verdict::residual_spectrum(

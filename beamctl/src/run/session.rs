@@ -129,8 +129,15 @@ pub struct Eval<const NP: usize> {
 /// The part of a report that needs no truth.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Outcome {
-    /// Final estimate (NaN where there is none).
+    /// Final estimate (NaN where there is none): the modes the record
+    /// reveals (its a, b: the whole model's).
     pub estimate: ModalSummary,
+    /// The model's modes above every mode the record reveals that the
+    /// record does not reveal itself (no input power within an octave, no
+    /// free response): they stand for the structure's modes above the
+    /// excited band (their quasi-static response in it) and are reported
+    /// apart, not as estimates ([`above_band`]); empty otherwise.
+    pub residual_modes: Vec<ResidualMode>,
     /// λmin of the scaled P at the end (Lemma 1), None for the baselines.
     pub excitation_min_eig: Option<f64>,
     /// The feedthrough D of a model with a residual term
@@ -191,6 +198,68 @@ pub struct Outcome {
     /// Whether the estimate can be trusted, and why not
     /// ([`crate::judge::verdict`]).
     pub verdict: Verdict,
+}
+
+/// A mode of the model that the record does not reveal and that lies
+/// above every mode it does (`Outcome::residual_modes`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualMode {
+    /// ω (rad/s).
+    pub omega: f64,
+    /// ζ.
+    pub zeta: f64,
+    /// b̄.
+    pub bbar: f64,
+    /// Why it is reported apart: `above_band`.
+    pub reason: &'static str,
+}
+
+/// The modes to keep as estimated when the model's highest modes are
+/// ones the record does not reveal (the verdict's `identifiable` false:
+/// no input power within an octave of them, no free response) and every
+/// mode it does reveal lies below them: the indices of the revealed ones.
+/// `None` when every mode is revealed, none is, or an unrevealed mode lies
+/// below a revealed one (a mode the input misses inside the band is no
+/// residual: the verdict says it is not identifiable).
+pub fn above_band(verdict: &Verdict, estimate: &ModalSummary) -> Option<Vec<usize>> {
+    let id = &verdict.identifiable;
+    if id.len() != estimate.omega.len() || id.iter().all(|&b| b) || !id.iter().any(|&b| b) {
+        return None;
+    }
+    let top = id
+        .iter()
+        .zip(&estimate.omega)
+        .filter(|(b, _)| **b)
+        .map(|(_, w)| *w)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let above = id
+        .iter()
+        .zip(&estimate.omega)
+        .filter(|(b, _)| !**b)
+        .all(|(_, &w)| w > top);
+    above.then(|| (0..id.len()).filter(|&i| id[i]).collect())
+}
+
+/// `estimate` with only the modes `keep` (its a, b, the model's, kept
+/// whole), and the others as residual modes.
+fn split_modes(estimate: &ModalSummary, keep: &[usize]) -> (ModalSummary, Vec<ResidualMode>) {
+    let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<_>>();
+    let kept = ModalSummary {
+        omega: pick(&estimate.omega),
+        zeta: pick(&estimate.zeta),
+        bbar: pick(&estimate.bbar),
+        ..estimate.clone()
+    };
+    let residual = (0..estimate.omega.len())
+        .filter(|i| !keep.contains(i))
+        .map(|i| ResidualMode {
+            omega: estimate.omega[i],
+            zeta: estimate.zeta[i],
+            bbar: estimate.bbar[i],
+            reason: "above_band",
+        })
+        .collect();
+    (kept, residual)
 }
 
 /// The supervisor's state ([`beamest::supervise::Supervision`]) as
@@ -329,8 +398,9 @@ impl History {
         }));
     }
 
-    /// See [`Outcome::drift_last_10pct`].
-    fn drift(&self, end_s: f64) -> Option<f64> {
+    /// See [`Outcome::drift_last_10pct`]; over the modes `keep` only (their
+    /// ω and ζ) if given.
+    fn drift(&self, end_s: f64, keep: Option<&[usize]>) -> Option<f64> {
         let from = 0.9 * end_s;
         let start = self.t.partition_point(|&t| t < from);
         let window = &self.values[start..];
@@ -356,7 +426,12 @@ impl History {
             })
         };
         let mut worst = 0.0f64;
-        for j in 0..rows.last()?.len() {
+        let width = rows.last()?.len();
+        let n = width / 2;
+        for j in 0..width {
+            if keep.is_some_and(|k| !k.contains(&(j % n.max(1)))) {
+                continue;
+            }
             let (a, b) = (median_of(earlier, j)?, median_of(later, j)?);
             worst = worst.max((b - a).abs() / b.abs());
         }
@@ -646,18 +721,29 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         };
         let totals = run.totals();
         let validity: Vec<&'static str> = validity.names().collect();
-        let drift = self.history[i].drift(end_s);
-        let verdict = Verdict::of(&Evidence {
-            omega: estimate.is_valid().then_some(&estimate.omega[..]),
-            zeta: &estimate.zeta,
-            validity: &validity,
-            fit,
-            drift,
-            input: record.input,
-            residual: record.residual,
-        });
+        let judge = |estimate: &ModalSummary, drift: Option<f64>| {
+            Verdict::of(&Evidence {
+                omega: estimate.is_valid().then_some(&estimate.omega[..]),
+                zeta: &estimate.zeta,
+                validity: &validity,
+                fit,
+                drift,
+                input: record.input,
+                residual: record.residual,
+            })
+        };
+        let mut drift = self.history[i].drift(end_s, None);
+        let mut verdict = judge(&estimate, drift);
+        let mut estimate = estimate;
+        let mut residual_modes = Vec::new();
+        if let Some(keep) = above_band(&verdict, &estimate) {
+            (estimate, residual_modes) = split_modes(&estimate, &keep);
+            drift = self.history[i].drift(end_s, Some(&keep));
+            verdict = judge(&estimate, drift);
+        }
         Outcome {
             estimate,
+            residual_modes,
             excitation_min_eig: exc,
             feedthrough: residual.map(|r| r.0),
             numerator_s3: residual.map(|r| r.1),
@@ -698,11 +784,11 @@ mod tests {
             h.push(t, Some(&m(w)));
         }
         // The 11 evaluations from 9.0 s: medians at 9.2 s and 9.75 s.
-        let d = h.drift(10.0).unwrap();
+        let d = h.drift(10.0, None).unwrap();
         let expected = 0.0055 / 101.0075;
         assert!((d - expected).abs() < 1e-9, "{d}");
         h.push(10.1, None);
-        assert_eq!(h.drift(10.1), None);
+        assert_eq!(h.drift(10.1, None), None);
     }
 
     #[test]
@@ -719,7 +805,7 @@ mod tests {
                 }
                 h.push(t, Some(&m(w)));
             }
-            h.drift(10.0).unwrap()
+            h.drift(10.0, None).unwrap()
         };
         assert_eq!(run(None, 0.0), 0.0);
         assert_eq!(run(Some(93), 0.0), 0.0, "one outlying evaluation");

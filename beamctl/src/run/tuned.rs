@@ -17,7 +17,7 @@
 //! the first 2 s are lost; `beamest::crlb`). Building it 0.2 s late and
 //! rebuilding it at every re-centring, as the paper's laws are, would throw
 //! that away. So the driver keeps every sample from the first one while
-//! they fit in the estimator's record ([`DEFAULT_RECORD`], 2 s at 10 kHz),
+//! they fit in the estimator's record ([`HOST_RECORD`], 13.1 s at 10 kHz),
 //! and every build of the robust estimator — the first one after the
 //! start-up window, and each re-centring — replays them all before it takes
 //! the next sample: it sees the record from sample 0, as if λ and the
@@ -42,8 +42,10 @@
 //! measurements.
 
 use crate::run::error::RunError;
-use crate::run::estimator::{build_estimator, build_robust, EstimatorKind, Gains, HostRobust};
-use beamest::estimator::robust::{Phase as RobustPhase, DEFAULT_RECORD};
+use crate::run::estimator::{
+    build_estimator, build_robust, EstimatorKind, Gains, HostRobust, HOST_RECORD,
+};
+use beamest::estimator::robust::Phase as RobustPhase;
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::filter_bank::FilterConfig;
 use beamest::modal::modes_from_denominator;
@@ -247,7 +249,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         if !self.history_complete {
             return;
         }
-        if self.history.len() < DEFAULT_RECORD {
+        if self.history.len() < HOST_RECORD {
             self.history.push((u, y));
         } else {
             self.history_complete = false;
@@ -275,7 +277,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Tuned<T, D, NP, 
         if status == StepStatus::Updated {
             self.updates += 1;
         }
-        if self.history_complete && self.history.len() == DEFAULT_RECORD {
+        if self.history_complete && self.history.len() == HOST_RECORD {
             // The last sample the history can replay: the last chance to
             // restart from sample 0. (Re-centring stops after it.)
             self.restart_if_unusable();

@@ -29,8 +29,8 @@
 //! result is bit-identical however it is chunked (tests below).
 
 use super::{
-    stable_candidate, Filters, InitialFit, OeLaw, OeModel, Pending, Phase, RobustEstimator,
-    UpdateError, REFINE_STEPS,
+    reflected_candidate, stable_candidate, Filters, InitialFit, OeLaw, OeModel, Pending, Phase,
+    RobustEstimator, UpdateError, REFINE_STEPS,
 };
 use crate::filter_bank::{OutputHold, OutputTiming};
 use crate::scalar::compensated::CompensatedArray;
@@ -74,7 +74,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
                 let c = stable_candidate::<T, D, NP>(&m).ok_or(UpdateError::Unstable)?;
                 (m, c)
             }
-            None => return Err(UpdateError::Unstable),
+            // The start-up law's estimate, its unstable roots reflected.
+            None => reflected_candidate::<T, D, NP>(&self.theta).ok_or(UpdateError::Unstable)?,
         };
         // (The timing was accepted by `RobustEstimator::new`, for Λ; the
         // same kernel on another stable 1/Â fails only if it is not causal.)

@@ -204,6 +204,12 @@ pub struct RobustConfig<const NP: usize> {
     /// while the start-up record lasts; 0 = only when the caller applies a
     /// [`Pending`].
     pub update_every: u32,
+    /// With this > 0 the interval between automatic updates grows to
+    /// (samples recorded)/`update_relative` once that is longer than
+    /// `update_every`: the replays of a long record (the host's) then cost
+    /// O(B·log B) in all instead of O(B²/`update_every`). 0 (the default):
+    /// every `update_every` samples.
+    pub update_relative: u32,
     /// Start-up ends when two consecutive candidate denominators, with at
     /// least `START_MIN_ADAPT_S` of adaptation between them, differ by
     /// less than this (Σ|Δc_k|/Σ|c_k|, normalized coefficients), or when ¾ of
@@ -227,6 +233,7 @@ impl<const NP: usize> Default for RobustConfig<NP> {
             theta_update_every: 10,
             startup: AdaptiveConfig::default(),
             update_every: 1_000,
+            update_relative: 0,
             start_tolerance: 1e-2,
             initial_state: InitialState::Auto,
             supervision: SupervisorConfig {
@@ -334,6 +341,49 @@ fn stable_candidate<T: Real, const D: usize, const NP: usize>(
     }
     let modes = modes_from_denominator(&a[..D]).ok()?;
     modes.is_stable().then_some(c)
+}
+
+/// θ with the unstable roots of its normalized denominator reflected into
+/// the left half-plane (Re p → −Re p; a root on the imaginary axis gets
+/// the damping ratio 1e-3), and that denominator (indexed by power);
+/// `None` if the roots cannot be found. The start-up law's equation-error
+/// estimate can put a lightly damped mode on the wrong side when the data
+/// hold dynamics the model does not (a mode above the band): the
+/// reflected model has the same |A(jω)| and the output-error refinement
+/// starts from it (the usual treatment of an unstable starting model in
+/// output-error identification) instead of never leaving the start-up.
+fn reflected_candidate<T: Real, const D: usize, const NP: usize>(
+    theta: &CompensatedArray<T, NP>,
+) -> Option<(CompensatedArray<T, NP>, [f64; D])> {
+    let th = theta.values();
+    // θ index D−1+j ↔ power D−1−j; roots_monic takes the highest power first.
+    let a: [f64; D] = core::array::from_fn(|i| th[D - 1 + i].to_f64());
+    let roots = crate::poly::roots_monic(&a).ok()?;
+    // Π (s − p) over the reflected roots, highest power first.
+    let mut p = [crate::poly::Complex::<f64>::default(); MAX_ORDER + 1];
+    p[0] = crate::poly::Complex::from_real(1.0);
+    for (n, &z) in roots.as_slice().iter().enumerate() {
+        let re = if z.re < 0.0 {
+            z.re
+        } else if z.re > 0.0 {
+            -z.re
+        } else {
+            -1e-3 * z.norm()
+        };
+        let r = crate::poly::Complex::new(re, z.im);
+        for i in (1..=n + 1).rev() {
+            p[i] = p[i] - r * p[i - 1];
+        }
+    }
+    let c: [f64; D] = core::array::from_fn(|k| p[D - k].re);
+    if !c.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut out = *theta;
+    for (k, ck) in c.iter().enumerate() {
+        out.set(NP - 1 - k, T::from_f64(*ck));
+    }
+    stable_candidate::<T, D, NP>(&out).map(|c| (out, c))
 }
 
 /// Normalized Λ coefficients C(D, k), indexed by power.
@@ -651,7 +701,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         if self.countdown > 0 || self.learner.screen.in_quarantine() {
             return;
         }
-        self.countdown = self.cfg.update_every;
+        let grown = match self.cfg.update_relative {
+            0 => 0,
+            r => u32::try_from(self.rec_len / r as usize).unwrap_or(u32::MAX),
+        };
+        self.countdown = self.cfg.update_every.max(grown);
         if let Ok(p) = self.prepare_update() {
             // NotConverged/Stale just wait for the next period.
             let _ = self.apply(p);
