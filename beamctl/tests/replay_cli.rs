@@ -303,24 +303,93 @@ fn no_flags_chooses_the_model_order_and_the_level_correction() {
         let chosen = &sel["candidates"][sel["chosen"].as_u64().expect("chosen") as usize];
         assert_eq!(chosen["modes"], modes, "{name}");
         assert_eq!(chosen["excluded"], Value::Null, "{name}");
-        let acc = &reference["acceptance"];
-        for (k, key, tol) in [
-            ("omega", "omega_rad_s", "omega_rel_tol"),
-            ("zeta", "zeta", "zeta_rel_tol"),
-        ] {
-            for i in 0..modes {
-                let est = num(&r["estimate"][k][i]);
-                let tru = num(&reference["truth"][key][i]);
-                let e = (est / tru - 1.0).abs();
-                let t = num(&acc[tol][i]);
-                assert!(e <= t, "{name} {k}{}: {est} vs {tru}: {e:e} > {t:e}", i + 1);
-            }
-        }
+        assert_within_reference(name, &r, &reference, modes);
         assert_eq!(r["verdict"]["trusted"], true, "{name}");
         // The fit is of the samples the estimator saw: with the level
         // correction, the corrected ones (the measured y holds the offset
         // step, which no model explains).
         assert!(num(&r["fit_percent"]) > fit, "{name}: {}", r["fit_percent"]);
+    }
+}
+
+/// Every scored ω̂_i, ζ̂_i of report `r` within the reference's tolerance
+/// (reference.json's `acceptance`), for its first `modes` modes.
+fn assert_within_reference(name: &str, r: &Value, reference: &Value, modes: usize) {
+    let acc = &reference["acceptance"];
+    for (k, key, tol) in [
+        ("omega", "omega_rad_s", "omega_rel_tol"),
+        ("zeta", "zeta", "zeta_rel_tol"),
+    ] {
+        for i in 0..modes {
+            let est = num(&r["estimate"][k][i]);
+            let tru = num(&reference["truth"][key][i]);
+            let e = (est / tru - 1.0).abs();
+            let t = num(&acc[tol][i]);
+            assert!(e <= t, "{name} {k}{}: {est} vs {tru}: {e:e} > {t:e}", i + 1);
+        }
+    }
+}
+
+/// The sensor's output kind is chosen from the data (a dimension of the
+/// model selection, docs/REPLAY.md): an accelerometer under a multisine,
+/// an accelerometer after one impact (1 ms half-sine, then free decay) and
+/// a velocity sensor under a PRBS (numpy/scipy records) are each read as
+/// what they are, with ω, ζ within max(3σ_CRB, 1e-4) of the truth and a
+/// trusted verdict; the impact record read as a strain output by
+/// `--output strain` is not trusted (exit status 1).
+#[test]
+fn no_flags_finds_the_sensors_output_kind_and_an_impact_is_estimated() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data/records");
+    for (name, kind) in [
+        ("lab_accel_multisine", "acceleration"),
+        ("lab_impact_accel", "acceleration"),
+        ("lab_velocity_prbs", "velocity"),
+    ] {
+        let reference: Value = serde_json::from_str(
+            &std::fs::read_to_string(format!("{dir}/{name}/reference.json")).expect("reference"),
+        )
+        .expect("reference JSON");
+        let path = format!("{dir}/{name}/record.csv.gz");
+        let r = json(&beamctl(&["replay", &path, "--json"]));
+        assert_eq!(r["estimate"]["output"], kind, "{name}");
+        assert_eq!(r["modes"], 2, "{name}");
+        assert_within_reference(name, &r, &reference, 2);
+        assert_eq!(r["verdict"]["trusted"], true, "{name}");
+        // b̄ keeps its meaning (y = s^r·Σ c_i b̄_i/q_i·u): within 1e-3.
+        for i in 0..2 {
+            let (est, tru) = (
+                num(&r["estimate"]["bbar"][i]),
+                num(&reference["truth"]["bbar"][i]),
+            );
+            assert!((est / tru - 1.0).abs() < 1e-3, "{name} b̄{}: {est} vs {tru}", i + 1);
+        }
+    }
+    let path = format!("{dir}/lab_impact_accel/record.csv.gz");
+    let o = beamctl(&["replay", &path, "--output", "strain", "--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let r: Value = serde_json::from_slice(&o.stdout).expect("the report");
+    assert_eq!(r["verdict"]["trusted"], false);
+    assert_eq!(r["estimate"]["output"], "strain");
+}
+
+/// A third mode above the two the input reaches (a chirp to 120 Hz, the
+/// mode at 260 Hz, its static response 1.5× mode 2's) and an offset plus
+/// a thermal drift of the gauge's level: each right with no flags within
+/// its tolerance (model mismatch: ω ≤ 1%, ζ ≤ 5%; the offset record:
+/// max(3σ_CRB, 1e-4)) and trusted.
+#[test]
+fn no_flags_handles_a_mode_above_the_band_and_a_drifting_level() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data/records");
+    for name in ["lab_mode3_above_chirp", "lab_offset_drift_square"] {
+        let reference: Value = serde_json::from_str(
+            &std::fs::read_to_string(format!("{dir}/{name}/reference.json")).expect("reference"),
+        )
+        .expect("reference JSON");
+        let path = format!("{dir}/{name}/record.csv.gz");
+        let r = json(&beamctl(&["replay", &path, "--json"]));
+        assert_eq!(r["estimate"]["output"], "strain", "{name}");
+        assert_within_reference(name, &r, &reference, 2);
+        assert_eq!(r["verdict"]["trusted"], true, "{name}: {}", r["verdict"]);
     }
 }
 
@@ -383,7 +452,7 @@ fn no_flags_removes_the_mains_lines() {
     assert_eq!(clean["line_removal"]["removed"], serde_json::json!([]));
 }
 
-/// The flags fix their part of the choice: `--modes` and
+/// The flags fix their part of the choice: `--modes`, `--output` and
 /// `--no-level-correction` leave only the estimator to choose, and a named
 /// estimator runs with no selection at all.
 #[test]
@@ -398,6 +467,8 @@ fn flags_fix_their_part_of_the_model() {
         "--modes",
         "1",
         "--no-level-correction",
+        "--output",
+        "displacement",
         "--json",
     ]);
     // One mode and no correction of the offset step: nothing to trust, so
@@ -415,6 +486,7 @@ fn flags_fix_their_part_of_the_model() {
     for c in cands {
         assert_eq!(c["modes"], 1);
         assert_eq!(c["level_correction"], false);
+        assert_eq!(c["output"], "strain");
     }
     assert_eq!(r["modes"], 1);
     assert_eq!(r["level_correction"], false);

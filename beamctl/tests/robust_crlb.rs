@@ -41,8 +41,8 @@ fn robust_runs_in_both_precisions_and_reports_its_fields() {
                 }
             }
             let rb = &r["robust"];
-            // 3 s: the 2 s record is full, the model final.
-            assert_eq!(rb["phase"], "steady", "{rb}");
+            // 3 s: within the host's 13.1 s record, still refining.
+            assert_eq!(rb["phase"], "refining", "{rb}");
             assert!(num(&rb["model_updates"]) >= 1.0);
             assert_eq!(rb["started_moving"], false, "simulated from rest");
             // Noise-free: the output-error residual is rounding, relative
@@ -552,12 +552,15 @@ fn help_documents_the_new_flags() {
     }
 }
 
-/// docs/SETTINGS.md, "Failure modes": at 20 dB the data's λ0 leaves the
-/// robust estimator of seed 4 without a usable model at the end of its 2 s
-/// record; the driver restarts it at other λ and keeps the most likely
-/// usable start (before that policy this run had no estimate).
+/// docs/SETTINGS.md, "Failure modes": at 20 dB the data's λ0 left the
+/// robust estimator of seed 4 without a usable model at the end of a 2 s
+/// record (before the restart policy this run had no estimate; with it the
+/// driver restarted at other λ). With the host's 13.1 s record and the
+/// start from a reflected model the same run is usable at 3 s without a
+/// restart; a record that fills with the estimate unusable is still
+/// restarted (`crate::run::tuned`).
 #[test]
-fn an_unusable_robust_start_is_restarted() {
+fn a_20_db_robust_start_is_usable_without_a_restart() {
     let r = json(&beamctl(&[
         "simulate",
         "--json",
@@ -570,10 +573,8 @@ fn an_unusable_robust_start_is_restarted() {
         "--duration",
         "3",
     ]));
-    assert_eq!(r["tuning"], "restarted", "{}", r["builds"]);
+    assert_ne!(r["tuning"], "restarted", "{}", r["builds"]);
     assert_eq!(r["validity"], Value::Array(vec![]));
-    let last = r["builds"].as_array().unwrap().last().unwrap().clone();
-    assert_eq!(last["replayed_samples"], 20_000, "{last}");
     for k in ["omega", "zeta"] {
         for e in r["rel_error"][k].as_array().unwrap() {
             assert!(num(e) < 0.1, "{k}: {}", r["rel_error"]);

@@ -140,10 +140,17 @@ fn a_step_of_zeta_alone_keeps_omega() {
     assert!(r["scenario"]["tracking_1pct_s"].is_number());
 }
 
+/// The drive stops: the law learns from the ring-down while it carries
+/// information (the paper's mode 1 loses 20 dB in 2.8 s), then freezes.
 #[test]
 fn an_excitation_pause_is_flagged_and_frozen() {
-    // Ends while the drive is off: the supervisor says why.
-    let r = sim(&["--duration", "4", "--excitation-off", "2,4"]);
+    // Half a second into the pause: the free response is still learnt from.
+    let r = sim(&["--duration", "2.5", "--excitation-off", "2,2.5"]);
+    let s = &r["supervision"];
+    assert_eq!(s["excitation_reason"], "free_response", "{s}");
+    assert_eq!(s["frozen"], false);
+    // Ends 4 s into the pause: the supervisor says why it froze.
+    let r = sim(&["--duration", "6", "--excitation-off", "2,6"]);
     let s = &r["supervision"];
     assert_eq!(s["excited"], false, "{s}");
     assert_eq!(s["excitation_reason"], "input_gone");
@@ -151,7 +158,7 @@ fn an_excitation_pause_is_flagged_and_frozen() {
     assert!(max_error(&r) < 1e-3, "estimate held: {}", r["rel_error"]);
     assert_eq!(
         r["scenario"]["excitation_off_s"],
-        serde_json::json!([2.0, 4.0])
+        serde_json::json!([2.0, 6.0])
     );
     // And comes back when the drive does.
     let r = sim(&["--duration", "5", "--excitation-off", "2,3"]);

@@ -160,11 +160,12 @@ pub(crate) const LEVEL_S: f64 = 0.25;
 /// before and after the gap, which no plant input/output pair explains; the
 /// mismatch starts at the filter's low-frequency share of y (~ω_c/ω of it,
 /// ~20% for the paper's 7 Hz drive at the default corner) and decays as
-/// (1 + ω_c·t)·e^{−ω_c·t}: to 1e-4 of that after 12/ω_c (1.2 s at
-/// 10 rad/s). Measured (at 3 rad/s): resuming after 7/ω_c left a 0.2%
-/// error on the paper's plant for a second; after 12/ω_c 2.6e-5
-/// (docs/ROBUSTNESS.md).
-pub(crate) const GAP_SETTLE_TIME_CONSTANTS: f64 = 12.0;
+/// the four-stage filter's tail (1 + x + x²/2 + x³/6)·e^{−x}, x = ω_c·t:
+/// to 1e-4 of that after 18/ω_c (1.8 s at 10 rad/s; the two-stage filter's
+/// (1 + x)·e^{−x} got there after 12/ω_c). Measured with two stages (at
+/// 3 rad/s): resuming after 7/ω_c left a 0.2% error on the paper's plant
+/// for a second; after 12/ω_c 2.6e-5 (docs/ROBUSTNESS.md).
+pub(crate) const GAP_SETTLE_TIME_CONSTANTS: f64 = 18.0;
 
 /// Why a sample was not passed on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -928,6 +928,10 @@ fn candidate_evidence(
         .first()
         .ok_or_else(|| CliError::failure("replay: a candidate made no report"))?;
     let e = &report.outcome.estimate;
+    // Every mode of the model, those reported apart above the band too.
+    let above = &report.outcome.residual_modes;
+    let zeta: Vec<f64> = e.zeta.iter().copied().chain(above.iter().map(|m| m.zeta)).collect();
+    let omega: Vec<f64> = e.omega.iter().copied().chain(above.iter().map(|m| m.omega)).collect();
     let excluded = if !e.is_valid() {
         Some("no_estimate")
     } else {
@@ -936,8 +940,8 @@ fn candidate_evidence(
             .validity
             .first()
             .copied()
-            .or_else(|| select::overdamped(&e.zeta))
-            .or_else(|| select::slower_than_record(&e.omega, report.duration_s))
+            .or_else(|| select::overdamped(&zeta))
+            .or_else(|| select::slower_than_record(&omega, report.duration_s))
     };
     let model = excluded
         .is_none()

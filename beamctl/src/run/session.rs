@@ -769,6 +769,42 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
 mod tests {
     use super::*;
 
+    /// Modes the record does not reveal are reported apart only when they
+    /// lie above every revealed one.
+    #[test]
+    fn only_unrevealed_modes_above_the_band_are_residual() {
+        let est = ModalSummary {
+            omega: vec![50.0, 280.0, 1500.0],
+            zeta: vec![0.02, 0.015, 0.01],
+            bbar: vec![12.0, 30.0, 1500.0],
+            a: vec![0.0; 6],
+            b: vec![0.0; 5],
+            output: OutputKind::Strain,
+        };
+        let verdict = |id: [bool; 3]| Verdict {
+            trusted: false,
+            reasons: Vec::new(),
+            identifiable: id.to_vec(),
+            input_power_near_mode: Vec::new(),
+            free_response_share: Vec::new(),
+            residual_prediction_gain: None,
+            residual_structure: None,
+            lines: Vec::new(),
+        };
+        let keep = above_band(&verdict([true, true, false]), &est).unwrap();
+        assert_eq!(keep, vec![0, 1]);
+        let (kept, residual) = split_modes(&est, &keep);
+        assert_eq!(kept.omega, vec![50.0, 280.0]);
+        assert_eq!(kept.a.len(), 6, "the model's coefficients stay whole");
+        assert_eq!(residual.len(), 1);
+        assert_eq!((residual[0].omega, residual[0].reason), (1500.0, "above_band"));
+        // A mode the input misses below a revealed one, all or none revealed.
+        assert_eq!(above_band(&verdict([false, true, true]), &est), None);
+        assert_eq!(above_band(&verdict([true, false, true]), &est), None);
+        assert_eq!(above_band(&verdict([true; 3]), &est), None);
+        assert_eq!(above_band(&verdict([false; 3]), &est), None);
+    }
+
     #[test]
     fn drift_spans_the_last_tenth() {
         let mut h = History::default();
