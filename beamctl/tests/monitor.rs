@@ -213,6 +213,65 @@ fn capture_with_corruption_counts_as_the_decoder_does() {
 }
 
 #[test]
+fn the_verdict_judges_the_stream_and_says_why() {
+    // Three seconds of the fake device with every sample sent. Its y is a
+    // fixed two-tone signal that its own estimates do not explain: the
+    // verdict over the stream must say so.
+    let mut dev = FakeDevice::new(FakeConfig {
+        rates: TelemetryRates {
+            estimate_rate_hz: 10.0,
+            raw_decimation: 1,
+            status_rate_hz: 1.0,
+        },
+        ..FakeConfig::default()
+    });
+    let mut bytes = Vec::new();
+    dev.advance(30_000, &mut bytes);
+    let capture = scratch("verdict.bin");
+    std::fs::write(&capture, &bytes).expect("write capture");
+    let o = beamctl(&[
+        "monitor",
+        "--file",
+        s(&capture),
+        "--plain",
+        "--verdict-window",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // stdout: one line per estimate; the verdict lines go to stderr.
+    assert!(stdout(&o).lines().all(|l| l.starts_with("sample=")));
+    let err = stderr(&o);
+    let verdicts: Vec<&str> = err.lines().filter(|l| l.starts_with("verdict sample=")).collect();
+    assert!(!verdicts.is_empty(), "{err}");
+    let last = verdicts.last().unwrap();
+    assert_eq!(field(last, "trusted"), "no", "{last}");
+    assert!(
+        field(last, "reasons").contains("residual_structured"),
+        "{last}"
+    );
+    assert!(
+        err.contains("over the last 2 s: 20000 raw samples): trusted no:"),
+        "{err}"
+    );
+    assert!(
+        err.contains("  residual_structured: the residual y − ŷ is not white"),
+        "{err}"
+    );
+    // Decimated raw samples: no fit, and the summary says how to get one.
+    let mut dev = FakeDevice::new(raw_on());
+    let mut bytes = Vec::new();
+    dev.advance(30_000, &mut bytes);
+    std::fs::write(&capture, &bytes).expect("write capture");
+    let o = beamctl(&["monitor", "--file", s(&capture), "--plain"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no_fit: no model-output fit: the raw samples are decimated"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn tcp_end_to_end_plain_record_raw_and_plot() {
     let (addr, dev) = fake_tcp(raw_on(), None);
     let record = scratch("e2e.csv");
