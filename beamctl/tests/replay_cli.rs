@@ -361,7 +361,11 @@ fn no_flags_finds_the_sensors_output_kind_and_an_impact_is_estimated() {
                 num(&r["estimate"]["bbar"][i]),
                 num(&reference["truth"]["bbar"][i]),
             );
-            assert!((est / tru - 1.0).abs() < 1e-3, "{name} b̄{}: {est} vs {tru}", i + 1);
+            assert!(
+                (est / tru - 1.0).abs() < 1e-3,
+                "{name} b̄{}: {est} vs {tru}",
+                i + 1
+            );
         }
     }
     let path = format!("{dir}/lab_impact_accel/record.csv.gz");

@@ -99,6 +99,7 @@ impl<T: Real> Workload<T> {
             modes: truth.tf.modes,
             a: truth.tf.a.map(T::from_f64),
             b: truth.tf.b.map(T::from_f64),
+            output: truth.tf.output,
         };
         let weights = truth.modal.output_weight[..truth.modal.modes]
             .iter()

@@ -8,6 +8,7 @@
 //! make the roots ill-conditioned (error ~ √ε), which no root finder fixes,
 //! and interleaved real pairs make the modal pairing non-unique.
 
+use beam_protocol::OutputKind;
 use beamest::modal::{
     modal_from_tf, modal_from_tf_weighted, modal_from_theta, modes_from_denominator, GainWeighting,
     ModalError,
@@ -221,7 +222,7 @@ proptest! {
     fn modal_round_trip_f32(c in case_strategy()) {
         let n = c.n;
         let tf = c.modal().transfer_function();
-        let tf32 = TransferFunction { modes: tf.modes, a: tf.a.map(|v| v as f32), b: tf.b.map(|v| v as f32) };
+        let tf32 = TransferFunction { modes: tf.modes, a: tf.a.map(|v| v as f32), b: tf.b.map(|v| v as f32), output: tf.output };
         let w32 = [-2.0f32, 2.0, -2.0];
         let modes = modes_from_denominator(&tf32.a[..2 * n])
             .map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
@@ -274,7 +275,7 @@ proptest! {
         for (i, x) in v.iter().enumerate() {
             if i < MAX_ORDER { a[i] = *x } else if i < 2 * MAX_ORDER { b[i - MAX_ORDER] = *x }
         }
-        let tf = TransferFunction { modes, a, b };
+        let tf = TransferFunction { modes, a, b, output: OutputKind::Strain };
         let w = [-2.0, 2.0, -2.0, 2.0];
         for weights in [&w[..modes.min(4)], &w[..1]] {
             if let Ok(m) = modal_from_tf(&tf, weights) {
@@ -284,7 +285,7 @@ proptest! {
                 }
             }
         }
-        let tf32 = TransferFunction { modes, a: a.map(|x| x as f32), b: b.map(|x| x as f32) };
+        let tf32 = TransferFunction { modes, a: a.map(|x| x as f32), b: b.map(|x| x as f32), output: OutputKind::Strain };
         let _ = modal_from_tf(&tf32, &[-2.0f32, 2.0, -2.0][..modes.clamp(1, 3)]);
         let _ = modal_from_theta(&v[..], lambda, &w[..(v.len() + 1) / 4]);
         let _ = modal_from_theta(&v32[..], lambda, &[-2.0f32, 2.0, -2.0][..modes.clamp(1, 3)]);
@@ -333,6 +334,7 @@ fn accuracy_summary() {
                 modes: tf.modes,
                 a: tf.a.map(|v| v as f32),
                 b: tf.b.map(|v| v as f32),
+                output: tf.output,
             };
             let wf = [-2.0f32, 2.0, -2.0];
             let m = modes_from_denominator(&tf32.a[..2 * n]).unwrap();

@@ -930,8 +930,18 @@ fn candidate_evidence(
     let e = &report.outcome.estimate;
     // Every mode of the model, those reported apart above the band too.
     let above = &report.outcome.residual_modes;
-    let zeta: Vec<f64> = e.zeta.iter().copied().chain(above.iter().map(|m| m.zeta)).collect();
-    let omega: Vec<f64> = e.omega.iter().copied().chain(above.iter().map(|m| m.omega)).collect();
+    let zeta: Vec<f64> = e
+        .zeta
+        .iter()
+        .copied()
+        .chain(above.iter().map(|m| m.zeta))
+        .collect();
+    let omega: Vec<f64> = e
+        .omega
+        .iter()
+        .copied()
+        .chain(above.iter().map(|m| m.omega))
+        .collect();
     let excluded = if !e.is_valid() {
         Some("no_estimate")
     } else {

@@ -737,7 +737,10 @@ mod tests {
         assert_eq!(kept.omega, vec![50.0, 280.0]);
         assert_eq!(kept.a.len(), 6, "the model's coefficients stay whole");
         assert_eq!(residual.len(), 1);
-        assert_eq!((residual[0].omega, residual[0].reason), (1500.0, "above_band"));
+        assert_eq!(
+            (residual[0].omega, residual[0].reason),
+            (1500.0, "above_band")
+        );
         // A mode the input misses below a revealed one, all or none revealed.
         assert_eq!(above_band(&verdict([false, true, true]), &est), None);
         assert_eq!(above_band(&verdict([true, false, true]), &est), None);
