@@ -241,7 +241,10 @@ fn the_verdict_judges_the_stream_and_says_why() {
     // stdout: one line per estimate; the verdict lines go to stderr.
     assert!(stdout(&o).lines().all(|l| l.starts_with("sample=")));
     let err = stderr(&o);
-    let verdicts: Vec<&str> = err.lines().filter(|l| l.starts_with("verdict sample=")).collect();
+    let verdicts: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("verdict sample="))
+        .collect();
     assert!(!verdicts.is_empty(), "{err}");
     let last = verdicts.last().unwrap();
     assert_eq!(field(last, "trusted"), "no", "{last}");
@@ -547,6 +550,28 @@ fn send_accepted_changes_only_what_is_given() {
     assert_eq!(cmds.len(), 2);
 }
 
+/// `send estimator --output KIND` sets the sensor output kind and keeps
+/// every other setting the device reports.
+#[test]
+fn send_estimator_output_sets_the_sensor_kind() {
+    let (addr, dev) = fake_tcp(FakeConfig::default(), None);
+    let o = beamctl(&["send", "--tcp", &addr, "estimator", "--output", "velocity"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with(
+            "accepted: estimator --law adaptive --gain 10000 --forgetting-p 0.05 \
+             --forgetting-h 0.05 --initial-gain 1000000000 --lambda 100 --output velocity"
+        ),
+        "{}",
+        stdout(&o)
+    );
+    let dev = dev.join().unwrap();
+    assert_eq!(
+        dev.status().estimator.output,
+        beam_protocol::OutputKind::Velocity
+    );
+}
+
 #[test]
 fn send_rejected_prints_the_reason_and_changes_nothing() {
     let (addr, dev) = fake_tcp(FakeConfig::default(), None);
@@ -610,7 +635,7 @@ fn send_status_prints_the_status() {
     for want in [
         "firmware 0.1.0, 2 mode(s), sample rate 10000 Hz",
         "excitation --wave square --freq 7 --amplitude 0.1 --offset 0",
-        "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda 100",
+        "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda 100 --output strain",
         "telemetry --estimates 100 --raw-decimation 0 --status 1",
         "commands accepted 1",
     ] {

@@ -84,6 +84,8 @@ class Status:
     initial_gain: float
     #: the λ in use (rad/s), None before the automatic rule has chosen
     lambda_rad_s: Optional[float]
+    #: the sensor output kind the estimator models: strain, velocity, acceleration
+    output: str
     estimate_rate_hz: float
     raw_decimation: int
     status_rate_hz: float

@@ -80,6 +80,7 @@ fn frame_dict<'py>(py: Python<'py>, f: &Frame) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("forgetting_h", f64::from(e.forgetting_h))?;
             d.set_item("initial_gain", f64::from(e.initial_gain))?;
             d.set_item("lambda_rad_s", e.lambda_rad_s.map(f64::from))?;
+            d.set_item("output", e.output.name())?;
             let t = &s.telemetry;
             d.set_item("estimate_rate_hz", f64::from(t.estimate_rate_hz))?;
             d.set_item("raw_decimation", t.raw_decimation)?;

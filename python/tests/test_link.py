@@ -128,6 +128,7 @@ def decode_as_monitor_does(beamctl, data, tmp_path):
             assert f.firmware == r["firmware"] and f.modes == int(r["modes"])
             assert f.counters["overruns"] == int(r["overruns"])
             assert int(f.lambda_automatic) == int(r["lambda_automatic"])
+            assert f.output == r["output"] == "strain"
     c = d.counters
     assert c.frames_ok == sum(f.kind != "error" for f in frames)
     # Dropped: errors, and duplicates (not delivered twice, PROTOCOL.md §1.6).

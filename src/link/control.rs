@@ -132,7 +132,8 @@ pub trait Device {
 /// The core's estimator settings for the protocol's: the board's filter
 /// bank `base` (its sample period, signal scales, output hold and
 /// converter timing: properties of the device, not of the command) at
-/// `lambda_rad_s`, and the adaptive law with
+/// `lambda_rad_s` for the commanded sensor output kind
+/// ([`FilterConfig::output`]: the model s^r·B/A), and the adaptive law with
 /// Γ = gain, l = forgetting_p, γ = forgetting_h, R(0) = H(0)⁻¹ =
 /// I/initial_gain (eqs. 33–41), θ(0) = 0 and the default θ-step interval
 /// ([`AdaptiveConfig::default`]). Nothing of the running estimator is
@@ -145,6 +146,7 @@ pub fn estimator_configs<const NP: usize>(
 ) -> (FilterConfig, AdaptiveConfig<NP>) {
     let filter = FilterConfig {
         lambda_rad_s,
+        output: settings.output,
         ..*base
     };
     let law = AdaptiveConfig {
@@ -321,6 +323,7 @@ mod tests {
     use super::*;
     use crate::excitation::SafeWindow;
     use crate::filter_bank::SignalScales;
+    use beam_protocol::OutputKind;
 
     const FS: f64 = 10_000.0;
 
@@ -476,6 +479,12 @@ mod tests {
         let (f, l) = estimator_configs::<7>(&s, 150.0, &base);
         assert_eq!(f.lambda_rad_s, 150.0);
         assert_eq!(f.scales, scales);
+        assert_eq!(f.output, OutputKind::Strain);
+        for output in OutputKind::ALL {
+            let s = EstimatorSettings { output, ..s };
+            assert_eq!(estimator_configs::<7>(&s, 150.0, &base).0.output, output);
+            assert_eq!(robust_configs::<7>(&s, 150.0, &base).0.output, output);
+        }
         assert_eq!(l.gain, 2e4);
         assert_eq!(l.forgetting_p, f64::from(0.1f32));
         assert_eq!(l.forgetting_h, f64::from(0.2f32));

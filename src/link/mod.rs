@@ -245,11 +245,17 @@ impl DeviceLink {
         settings: Settings,
         tuning: &TuningConfig,
     ) -> Result<Self, TuningError> {
+        // The settings name the sensor's output kind; the rule's filters
+        // carry it.
+        let tuning = TuningConfig {
+            output: settings.estimator.output,
+            ..*tuning
+        };
         Ok(Self {
             config,
             settings,
             filter: None,
-            tuner: Tuner::new(tuning)?,
+            tuner: Tuner::new(&tuning)?,
             tx: Transmitter::new(),
             rx: Decoder::new(),
             accepted: 0,
@@ -602,15 +608,17 @@ impl DeviceLink {
                 scales: SignalScales::default(),
                 hold: base.hold,
                 timing: base.timing,
-                output: base.output,
+                output: s.output,
             };
             let est = dev.build_estimator(s, &trial, &[])?;
             dev.recycle_estimator(est);
             self.settings.estimator = *s;
+            self.tuner.set_output(s.output);
             return Ok(());
         };
         let filter = FilterConfig {
             lambda_rad_s: s.lambda_rad_s.map_or(current.lambda_rad_s, f64::from),
+            output: s.output,
             ..current
         };
         let est = dev.build_estimator(s, &filter, &[])?;
@@ -630,6 +638,7 @@ impl DeviceLink {
         self.restarted(at);
         self.filter = Some(filter);
         self.settings.estimator = *s;
+        self.tuner.set_output(s.output);
         if s.lambda_rad_s.is_none() {
             self.tuner.rebuilt(filter, at);
         } else {

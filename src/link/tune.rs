@@ -26,7 +26,7 @@ use crate::model::TransferFunction;
 use crate::pipeline::{RawBlock, RAW_BLOCK_LEN};
 use crate::scalar::Real;
 use crate::tuning::{carry_over, AutoTune, Phase, TuningConfig, TuningError};
-use beam_protocol::MAX_THETA;
+use beam_protocol::{OutputKind, MAX_THETA};
 
 /// Why an estimator is to be built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -159,6 +159,21 @@ impl Tuner {
         self.cancel_pending();
         self.rule.rebuilt(filter);
         self.swapped_in(at);
+    }
+
+    /// The estimator's settings name another sensor output kind: the
+    /// rule's filters carry it from now on, a pending first build too, and
+    /// a pending re-centring (its θ(0) in the old kind's coordinates) is
+    /// dropped.
+    pub(crate) fn set_output(&mut self, output: OutputKind) {
+        if self.rule.config().output == output {
+            return;
+        }
+        self.cancel_pending();
+        if let Some(p) = self.pending.as_mut() {
+            p.filter.output = output;
+        }
+        self.rule.set_output(output);
     }
 
     /// Samples up to `index` are not counted (adaptation frozen by command,

@@ -456,6 +456,16 @@ impl AutoTune {
         self.built(filter, true);
     }
 
+    /// What the sensor measures changed (a command): every filter the
+    /// rule gives from now on, and the current one, models `output`
+    /// ([`FilterConfig::output`]; it sets the scaled coordinates of θ(0)).
+    pub(crate) fn set_output(&mut self, output: OutputKind) {
+        self.cfg.output = output;
+        if let Some(f) = self.filter.as_mut() {
+            f.output = output;
+        }
+    }
+
     /// Review the current estimate. Returns the new filter configuration
     /// when λ is to be re-centred: build it with θ(0) = [`carry_over`] of
     /// `tf`, hold it for settling and use it from the next sample on.

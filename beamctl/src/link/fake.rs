@@ -669,4 +669,31 @@ mod tests {
         assert_eq!(e0.modes, e1.modes);
         assert!(e1.flags.contains(StatusFlags::FROZEN_BY_COMMAND));
     }
+
+    #[test]
+    fn the_sensor_output_kind_is_a_setting_it_reports() {
+        let mut dev = FakeDevice::new(FakeConfig::default());
+        assert_eq!(
+            dev.status().estimator.output,
+            beam_protocol::OutputKind::Strain
+        );
+        let mut out = Vec::new();
+        let s = EstimatorSettings {
+            output: beam_protocol::OutputKind::Acceleration,
+            ..EstimatorSettings::default()
+        };
+        dev.receive(&command_bytes(0, Command::SetEstimator(s)), &mut out);
+        let acks: Vec<AckResult> = decode(&out)
+            .iter()
+            .filter_map(|f| match f.message {
+                Message::Ack(a) => Some(a.result),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(acks, [AckResult::Accepted]);
+        assert_eq!(
+            dev.status().estimator.output,
+            beam_protocol::OutputKind::Acceleration
+        );
+    }
 }

@@ -7,8 +7,8 @@
 //! sent again as is.
 
 use beam_protocol::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, Status, TelemetryRates, Waveform,
-    WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, OutputKind, Status, TelemetryRates,
+    Waveform, WaveformKind,
 };
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
@@ -98,6 +98,25 @@ fn law_parser() -> impl TypedValueParser<Value = EstimatorKind> {
     .try_map(|name| name.parse::<EstimatorKind>())
 }
 
+/// `estimator --output`: the protocol's [`OutputKind`] by its name
+/// (`displacement` reads as `strain`), each with its help line.
+fn output_parser() -> impl TypedValueParser<Value = OutputKind> {
+    let help = |k: OutputKind| match k {
+        OutputKind::Strain => "Strain or displacement (relative degree 2): G = B/A",
+        OutputKind::Velocity => "Velocity (relative degree 1): G = s·B/A",
+        OutputKind::Acceleration => "Acceleration (relative degree 0): G = s²·B/A",
+    };
+    let mut values: Vec<PossibleValue> = OutputKind::ALL
+        .iter()
+        .map(|&k| PossibleValue::new(k.name()).help(help(k)))
+        .collect();
+    values.insert(
+        1,
+        PossibleValue::new("displacement").help("The same as strain"),
+    );
+    PossibleValuesParser::new(values).try_map(|name| name.parse::<OutputKind>())
+}
+
 /// Options of `estimator`.
 #[derive(Debug, Clone, Default, Args)]
 pub struct EstimatorArgs {
@@ -120,6 +139,9 @@ pub struct EstimatorArgs {
     /// the λ in use, from the device's Status].
     #[arg(long, value_name = "RAD_S|auto", value_parser = parse_lambda, allow_hyphen_values = true)]
     pub lambda: Option<Lambda>,
+    /// What the sensor measures: the model's numerator degree.
+    #[arg(long, value_name = "KIND", value_parser = output_parser())]
+    pub output: Option<OutputKind>,
 }
 
 /// `--lambda`: a value or the automatic rule.
@@ -401,6 +423,7 @@ impl EstimatorArgs {
                 Some(Lambda::Value(v)) => Some(v),
                 None => pick(None, current.map(|c| c.lambda_rad_s), "--lambda")?,
             },
+            output: pick(self.output, current.map(|c| c.output), "--output")?,
         })
     }
 }
@@ -460,18 +483,19 @@ pub fn excitation_text(e: &Excitation) -> String {
 }
 
 /// `estimator --law … --gain … --forgetting-p … --forgetting-h …
-/// --initial-gain … --lambda …`.
+/// --initial-gain … --lambda … --output …`.
 pub fn estimator_text(e: &EstimatorSettings) -> String {
     let lambda = e
         .lambda_rad_s
         .map_or_else(|| "auto".to_string(), |l| l.to_string());
     format!(
-        "estimator --law {} --gain {} --forgetting-p {} --forgetting-h {} --initial-gain {} --lambda {lambda}",
+        "estimator --law {} --gain {} --forgetting-p {} --forgetting-h {} --initial-gain {} --lambda {lambda} --output {}",
         e.kind.name(),
         e.gain,
         e.forgetting_p,
         e.forgetting_h,
         e.initial_gain,
+        e.output.name(),
     )
 }
 
@@ -593,6 +617,44 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn every_estimator_setting_reads_back_from_its_text() {
+        // Every law and every output kind, fixed and automatic λ.
+        for kind in EstimatorKind::ALL {
+            for output in OutputKind::ALL {
+                for lambda_rad_s in [None, Some(123.5)] {
+                    let c = Command::SetEstimator(EstimatorSettings {
+                        kind,
+                        gain: 2.5e4,
+                        forgetting_p: 0.125,
+                        forgetting_h: 0.0625,
+                        initial_gain: 1e8,
+                        lambda_rad_s,
+                        output,
+                    });
+                    let text = command_text(&c);
+                    assert_eq!(build(&text, None), Ok(c), "{text}");
+                }
+            }
+        }
+        // `--output` alone changes only the kind; `displacement` is strain.
+        let s = status();
+        let c = build("estimator --output acceleration", Some(&s)).unwrap();
+        assert_eq!(
+            c,
+            Command::SetEstimator(EstimatorSettings {
+                output: OutputKind::Acceleration,
+                ..s.estimator
+            })
+        );
+        let c = build("estimator --output displacement", Some(&s)).unwrap();
+        let Command::SetEstimator(e) = c else {
+            panic!()
+        };
+        assert_eq!(e.output, OutputKind::Strain);
+        assert!(parse_line("estimator --output jerk").is_err());
+    }
+
+    #[test]
     fn missing_and_misplaced_flags_are_named() {
         let s = status();
         assert_eq!(
@@ -639,7 +701,7 @@ pub(crate) mod tests {
         );
         assert_eq!(
             command_text(&Command::SetEstimator(EstimatorSettings::default())),
-            "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda auto"
+            "estimator --law adaptive --gain 10000 --forgetting-p 0.05 --forgetting-h 0.05 --initial-gain 1000000000 --lambda auto --output strain"
         );
         assert_eq!(
             command_text(&Command::SetTelemetry(TelemetryRates::default())),

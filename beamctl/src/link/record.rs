@@ -87,6 +87,7 @@ pub fn columns() -> Vec<String> {
             "initial_gain",
             "lambda_rad_s",
             "lambda_automatic",
+            "output",
             "estimate_rate_hz",
             "raw_decimation",
             "status_rate_hz",
@@ -449,6 +450,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
         row.set(cols, "lambda_rad_s", l);
     }
     row.set(cols, "lambda_automatic", u8::from(s.lambda_automatic));
+    row.set(cols, "output", e.output.name());
     let t = &s.telemetry;
     row.set(cols, "estimate_rate_hz", t.estimate_rate_hz);
     row.set(cols, "raw_decimation", t.raw_decimation);

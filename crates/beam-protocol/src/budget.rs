@@ -156,15 +156,15 @@ mod tests {
         assert_eq!(estimate_payload_max(2), 77);
         assert_eq!(estimate_payload_max(3), 105);
         assert_eq!(RAW_PAYLOAD_MAX, 526);
-        assert_eq!(STATUS_PAYLOAD_MAX, 129);
-        assert_eq!(COMMAND_PAYLOAD_MAX, 23);
+        assert_eq!(STATUS_PAYLOAD_MAX, 130);
+        assert_eq!(COMMAND_PAYLOAD_MAX, 24);
         assert_eq!(MAX_PAYLOAD_LEN, RAW_PAYLOAD_MAX);
         assert_eq!(MAX_FRAME_LEN, 538);
         // 538 bytes: COBS adds ⌈538/254⌉ = 3, then the delimiter.
         assert_eq!(MAX_ENCODED_LEN, 542);
         // Short frames: one COBS byte and the delimiter.
         assert_eq!(encoded_len_max(estimate_payload_max(2)), 8 + 77 + 4 + 2);
-        assert_eq!(MAX_COMMAND_ENCODED_LEN, 8 + 23 + 4 + 2);
+        assert_eq!(MAX_COMMAND_ENCODED_LEN, 8 + 24 + 4 + 2);
         assert_eq!(MAX_ACK_ENCODED_LEN, 8 + 6 + 4 + 2);
         assert_eq!(uart_bytes_per_s(921_600), 92_160);
     }
@@ -174,10 +174,10 @@ mod tests {
         let link = uart_bytes_per_s(921_600) as f32;
         let rates = TelemetryRates::default();
         let load = LinkLoad::new(&rates, 10_000.0, 2);
-        // 100 Hz · 91 B + 1 Hz · 143 B.
-        assert_eq!(load.total_b_s(), 9_243.0);
+        // 100 Hz · 91 B + 1 Hz · 144 B.
+        assert_eq!(load.total_b_s(), 9_244.0);
         // Next to them, raw samples fit at 5 kHz (d = 2), not at 10 kHz:
-        // 10 kHz · 542/64 B = 84,688 B/s + 9,243 > 92,160.
+        // 10 kHz · 542/64 B = 84,688 B/s + 9,244 > 92,160.
         assert_eq!(min_raw_decimation(&rates, 10_000.0, 2, link), Some(2));
         // Alone (estimates and status off), 10 kHz raw fits.
         let quiet = TelemetryRates {

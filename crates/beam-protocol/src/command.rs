@@ -381,6 +381,10 @@ pub struct EstimatorSettings {
     /// [`Status`](super::Status), the λ in use (`None` until the rule has
     /// chosen).
     pub lambda_rad_s: Option<f32>,
+    /// What the sensor measures: the model's numerator degree
+    /// (G = s^r·B/A, [`OutputKind`]). Every law of the firmware runs every
+    /// kind (protocol version 3).
+    pub output: OutputKind,
 }
 
 impl MaxSize for EstimatorSettings {
@@ -389,12 +393,14 @@ impl MaxSize for EstimatorSettings {
         + f32::MAX_SIZE
         + f32::MAX_SIZE
         + f32::MAX_SIZE
-        + Option::<f32>::MAX_SIZE;
+        + Option::<f32>::MAX_SIZE
+        + OutputKind::MAX_SIZE;
 }
 
 impl Default for EstimatorSettings {
     /// The core's defaults (`AdaptiveConfig::default`): Γ = 1e4,
-    /// l = γ = 0.05 /s, R(0) = 1e-9·I, automatic λ.
+    /// l = γ = 0.05 /s, R(0) = 1e-9·I, automatic λ, a strain (or
+    /// displacement) output.
     fn default() -> Self {
         Self {
             kind: EstimatorKind::Adaptive,
@@ -403,6 +409,7 @@ impl Default for EstimatorSettings {
             forgetting_h: 0.05,
             initial_gain: 1e9,
             lambda_rad_s: None,
+            output: OutputKind::Strain,
         }
     }
 }

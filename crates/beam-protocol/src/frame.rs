@@ -687,7 +687,7 @@ mod tests {
             parse_frame(&frame(&other, &[9, 0])),
             Err(DecodeError::BadMagic(0x1234))
         );
-        for v in [1, 3] {
+        for v in [VERSION - 1, VERSION + 1] {
             let other = Header { version: v, ..h };
             assert_eq!(
                 parse_frame(&frame(&other, &[])),
@@ -720,8 +720,8 @@ mod tests {
             );
         }
         // The same in a command: Freeze's variant index 4 as `84 00`;
-        // an undefined variant index (7) or waveform index (5); an Option
-        // tag or bool byte other than 00/01.
+        // an undefined variant index (7), waveform index (5) or output
+        // kind (3); an Option tag or bool byte other than 00/01.
         let c = Header::new(Kind::Command, 1);
         assert_eq!(
             parse_frame(&frame(&c, &[4])).unwrap().message,
@@ -734,8 +734,11 @@ mod tests {
         )
         .unwrap()
         .len();
+        // λ's Option tag, then the output kind's tag (0..=2) last.
         let mut bad_option = settings[..n].to_vec();
-        *bad_option.last_mut().unwrap() = 2;
+        bad_option[n - 2] = 2;
+        let mut bad_output = settings[..n].to_vec();
+        bad_output[n - 1] = 3;
         let mut bad_bool = worst_status_payload();
         let frozen_at = bad_bool.len() - worst_status_tail() - 1;
         bad_bool[frozen_at] = 2;
@@ -744,6 +747,7 @@ mod tests {
             vec![7],
             vec![0, 5, 0, 0, 0, 0, 0, 0, 0, 0],
             bad_option,
+            bad_output,
         ] {
             assert_eq!(
                 parse_frame(&frame(&c, &p)),
@@ -877,10 +881,10 @@ mod tests {
 
     /// Bytes after `adaptation_frozen` in [`worst_status_payload`]: the
     /// excitation (chirp: tag 1 + waveform tag 1 + 3 f32, amplitude,
-    /// offset), the estimator settings (kind 1, 4 f32, Some(λ) 5), the
+    /// offset), the estimator settings (kind 1, 4 f32, Some(λ) 5, output 1), the
     /// rates (f32, u16 max 3, f32) and lambda_automatic (1).
     fn worst_status_tail() -> usize {
-        (1 + 12 + 8) + (1 + 16 + 5) + (4 + 3 + 4) + 1
+        (1 + 12 + 8) + (1 + 16 + 5 + 1) + (4 + 3 + 4) + 1
     }
 
     #[test]

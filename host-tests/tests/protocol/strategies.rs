@@ -4,8 +4,8 @@
 
 use beam_protocol::{
     Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
-    Excitation, FirmwareVersion, Message, ModeEstimate, RawSamples, RejectReason, Status,
-    StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
+    Excitation, FirmwareVersion, Message, ModeEstimate, OutputKind, RawSamples, RejectReason,
+    Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
 };
 use proptest::collection::vec;
 use proptest::option;
@@ -132,9 +132,10 @@ pub fn estimator_settings() -> impl Strategy<Value = EstimatorSettings> {
         f32_bits(),
         f32_bits(),
         option::of(f32_bits()),
+        proptest::sample::select(OutputKind::ALL.to_vec()),
     )
         .prop_map(
-            |(kind, gain, forgetting_p, forgetting_h, initial_gain, lambda_rad_s)| {
+            |(kind, gain, forgetting_p, forgetting_h, initial_gain, lambda_rad_s, output)| {
                 EstimatorSettings {
                     kind,
                     gain,
@@ -142,6 +143,7 @@ pub fn estimator_settings() -> impl Strategy<Value = EstimatorSettings> {
                     forgetting_h,
                     initial_gain,
                     lambda_rad_s,
+                    output,
                 }
             },
         )

@@ -151,6 +151,56 @@ fn a_fixed_lambda_stops_the_rule_and_none_rearms_it() {
     assert!((t.filter.lambda_rad_s - 100.0).abs() < 1e-4, "{t:?}");
 }
 
+/// The sensor output kind of the settings reaches every build: the first
+/// one from the start-up window, a commanded one and the rule's
+/// re-centring (whose θ(0) is scaled for that kind, `Scaling::new`).
+#[test]
+fn the_output_kind_reaches_every_build() {
+    use beam_protocol::OutputKind;
+    let mut q: Queue<u8, 8192> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let accel = Settings {
+        estimator: EstimatorSettings {
+            output: OutputKind::Acceleration,
+            ..EstimatorSettings::default()
+        },
+        ..settings()
+    };
+    let (mut l, mut d, mut h) = (link_with(accel), device(), Host::new());
+    assert_eq!(l.tuner().rule().config().output, OutputKind::Acceleration);
+    start(&mut l, &mut d);
+    assert_eq!(d.built[0].0.output, OutputKind::Acceleration);
+    assert_eq!(l.filter().unwrap().output, OutputKind::Acceleration);
+    // A velocity sensor, λ still automatic.
+    d.p.next = 40_000;
+    let velocity = EstimatorSettings {
+        output: OutputKind::Velocity,
+        ..EstimatorSettings::default()
+    };
+    l.receive(h.command(Command::SetEstimator(velocity)), &mut d, &mut tx);
+    assert_eq!(acks(&h.drain(&mut rx)), [(0, AckResult::Accepted)]);
+    assert_eq!(l.filter().unwrap().output, OutputKind::Velocity);
+    assert_eq!(l.tuner().rule().config().output, OutputKind::Velocity);
+    assert_eq!(
+        l.status(0, &Counters::default()).estimator.output,
+        OutputKind::Velocity
+    );
+    let lambda = l.filter().unwrap().lambda_rad_s;
+    let mut got = None;
+    for k in 400..600u64 {
+        l.on_record(&record_of(k * 100 + 99, lambda), &[-2.0, 2.0], &mut tx);
+        h.drain(&mut rx);
+        if let Some(t) = l.poll(&mut d).unwrap() {
+            got = Some(t);
+            break;
+        }
+    }
+    let t = got.expect("re-centred");
+    assert_eq!(t.filter.output, OutputKind::Velocity);
+    let built = d.built.last().unwrap();
+    assert_eq!((built.0.output, built.4), (OutputKind::Velocity, 7));
+}
+
 #[test]
 fn dropped_startup_blocks_are_gaps_not_joins() {
     let mut c = StartupCollector::<f32>::new();
