@@ -3,7 +3,7 @@ numpy/scipy, not this project's code) replayed with no flags (the model
 chosen from the data, docs/REPLAY.md "Model selection"): the report's
 verdict trusts exactly the estimates the record's reference accepts
 (scored by the corpus's own baseline.py), except the known gaps listed
-here; and the CLI prints the same verdict. (The exit status does not
+here (none today); and the CLI prints the same verdict. (The exit status does not
 follow the verdict yet: a record with a plant change is judged over the
 whole record, before and after the change.)"""
 
@@ -16,12 +16,9 @@ import beamest
 
 RECORDS = "host-tests/data/records"
 
-# Trusted by the verdict though the reference rejects the estimate: the
-# verdict sees only the record, not the Cramér–Rao tolerance.
-KNOWN_GAPS = {
-    "lab_offset_drift_square": "the chosen model (robust, level correction on) is 1.2x the "
-                               "3-sigma CRB tolerance on zeta1 while its residual is white",
-}
+# Trusted by the verdict though the reference rejects the estimate (the
+# verdict sees only the record, not the Cramér–Rao tolerance): none today.
+KNOWN_GAPS = {}
 
 
 def records(repo):
@@ -40,6 +37,11 @@ def test_the_corpus_is_there(repo):
     names = records(repo)
     assert len(names) == 16, names
     assert set(RIGHT_WITH_NO_FLAGS) | set(KNOWN_GAPS) <= set(names)
+    # Every record with a scored reference is right with no flags.
+    scored = [n for n in names
+              if json.loads((repo / RECORDS / n / "reference.json").read_text())
+              ["acceptance"]["rule"] != "unidentifiable"]
+    assert sorted(RIGHT_WITH_NO_FLAGS) == scored
     for name in names:
         assert (repo / RECORDS / name / "reference.json").is_file(), name
 
@@ -68,12 +70,14 @@ def test_the_verdict_trusts_what_the_reference_accepts(repo, score, beamctl, nam
 
 
 # Replayed with no flags, right against their reference (baseline.py's
-# scoring): the records the model selection gets right today. The others
-# are wrong and say so (the test above), except KNOWN_GAPS.
+# scoring) and trusted: every scored lab record. The two unidentifiable
+# ones (lab_above_modes_beam, lab_above_modes_only) are reported not
+# trusted (the test above).
 RIGHT_WITH_NO_FLAGS = [
-    "lab_1mode_1khz", "lab_2mode_5khz", "lab_3mode_20khz", "lab_noise40_prbs",
-    "lab_noise60_multisine", "lab_offset_step_prbs", "lab_velocity_prbs",
-    "lab_hum50_chirp", "lab_hum60_prbs", "lab_hum50_harmonics_prbs",
+    "lab_1mode_1khz", "lab_2mode_5khz", "lab_3mode_20khz", "lab_accel_multisine",
+    "lab_hum50_chirp", "lab_hum50_harmonics_prbs", "lab_hum60_prbs", "lab_impact_accel",
+    "lab_mode3_above_chirp", "lab_noise40_prbs", "lab_noise60_multisine",
+    "lab_offset_drift_square", "lab_offset_step_prbs", "lab_velocity_prbs",
 ]
 
 

@@ -6,6 +6,13 @@ Prints a markdown table; with --json PATH also writes every result.
 
     cargo build --release -p beamctl
     python3 host-tests/data/records/baseline.py [--beamctl PATH] [--json PATH]
+        [--summary | --best] [--from PATH]
+
+--summary: one row per record (no flags, and the flag sets that pass);
+--best: one row per record, no flags against the best flag set, each
+with its error ÷ tolerance and the report's verdict (BENCHMARKS.md);
+--from PATH: read the results a run wrote with --json instead of
+replaying again.
 
 Scoring (the same for every flag set):
 - white_noise_crb, model_mismatch, real_reference: the scored reference
@@ -192,13 +199,76 @@ def summary(results):
               f"{'PASS' if s['pass'] else 'fail'} | {base['reported']} | {'; '.join(ok) or '–'} |")
 
 
+def verdict_text(r):
+    v = r.get("verdict")
+    if v is None:
+        return "no report"
+    if v["trusted"]:
+        return "trusted"
+    return "not trusted (" + ", ".join(x["code"] for x in v["reasons"]) + ")"
+
+
+def worst(r):
+    """The row's largest error ÷ tolerance (None without a scored estimate)."""
+    s = r["score"]
+    if s["e_omega"] is None:
+        return None
+    return max(s["e_omega"], s["e_zeta"] or 0.0)
+
+
+def best(results):
+    """Per record: no flags against the best flag set. Best: for a scored
+    record the passing flag set with the smallest error ÷ tolerance (or,
+    when none passes, the smallest of all); for an unidentifiable record
+    the first flag set the report does not trust."""
+    print("| record | rule | no flags: e_ω ÷ tol | e_ζ ÷ tol | verdict | best flags "
+          "| e_ω ÷ tol | e_ζ ÷ tol | verdict |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    recs = []
+    for r in results:
+        if r["record"] not in recs:
+            recs.append(r["record"])
+    for name in recs:
+        rows = [r for r in results if r["record"] == name]
+        base, others = rows[0], rows[1:]
+        assert base["flags"] == ""
+        if base["rule"] == "unidentifiable":
+            cands = [r for r in others if not (r.get("verdict") or {}).get("trusted", False)]
+            b = cands[0] if cands else None
+        else:
+            ok = [r for r in others if r["score"]["pass"] and worst(r) is not None]
+            scored = ok or [r for r in others if worst(r) is not None]
+            b = min(scored, key=worst) if scored else None
+        def cells(r):
+            if r is None:
+                return "–", "–", "–"
+            s = r["score"]
+            return fmt(s["e_omega"]), fmt(s["e_zeta"]), verdict_text(r)
+        n = cells(base)
+        f = cells(b)
+        flags = f"`{b['flags']}`" if b is not None else "none"
+        print(f"| {name} | {base['rule']} | {n[0]} | {n[1]} | {n[2]} | {flags} | "
+              f"{f[0]} | {f[1]} | {f[2]} |")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--beamctl", default=str(ROOT / "target/release/beamctl"))
     ap.add_argument("--json")
     ap.add_argument("--summary", action="store_true",
                     help="one row per record: no flags, and the flag sets that pass")
+    ap.add_argument("--best", action="store_true",
+                    help="one row per record: no flags against the best flag set")
+    ap.add_argument("--from", dest="source",
+                    help="read the results of an earlier --json run instead of replaying")
     args = ap.parse_args()
+    if args.source:
+        results = json.loads(Path(args.source).read_text())
+        if args.best:
+            best(results)
+        else:
+            summary(results)
+        return
     results = []
     for refp in sorted(HERE.glob("*/reference.json")):
         rec = refp.parent / "record.csv.gz"
@@ -212,9 +282,15 @@ def main():
                             "flags": " ".join(flags), "exit": rc, "score": s,
                             "reported": describe(rc, out, err),
                             "estimate": (out or {}).get("estimate"),
-                            "validity": (out or {}).get("validity")})
+                            "validity": (out or {}).get("validity"),
+                            "verdict": (out or {}).get("verdict")})
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
     if args.summary:
         summary(results)
+        return
+    if args.best:
+        best(results)
         return
     print("| record | rule | flags | e_ω ÷ tol | e_ζ ÷ tol | b̄ rel. err | pass | beamctl reported |")
     print("|---|---|---|---|---|---|---|---|")
@@ -223,8 +299,6 @@ def main():
         print(f"| {r['record']} | {r['rule']} | {r['flags'] or '(none)'} | {fmt(s['e_omega'])} | "
               f"{fmt(s['e_zeta'])} | {fmt(s.get('bbar_rel_err'))} | {'PASS' if s['pass'] else 'fail'} | "
               f"{r['reported']} |")
-    if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
 
 
 if __name__ == "__main__":
