@@ -2,13 +2,15 @@
 //! [`fit`]) and against the best any unbiased estimator can do (the
 //! Cramér–Rao bound, [`bound`]), and the measured frequency response
 //! ([`frf`]), and which of several candidate models a record supports
-//! best ([`select`]), and which lines of a residual to remove
-//! ([`lines`]). The tables and JSON that report it are
+//! best ([`select`]), which lines of a residual to remove
+//! ([`lines`]) and the AR noise model that prewhitens a record
+//! ([`noise`]). The tables and JSON that report it are
 //! [`crate::io::report`].
 
 pub mod bound;
 pub mod fit;
 pub mod frf;
 pub mod lines;
+pub mod noise;
 pub mod select;
 pub mod verdict;
