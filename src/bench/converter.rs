@@ -143,8 +143,15 @@ pub struct ConverterRig<'a> {
     front_end: AnalogFrontEnd,
     amplifier_gain: f64,
     noise: Option<GaussianNoise<f64>>,
+    /// Lines added to y (mains hum): amplitude, phase step per tick and
+    /// phase now (rad); `hum_len` of them.
+    hum: [(f64, f64, f64); MAX_HUM_LINES],
+    hum_len: usize,
     ticks: u64,
 }
+
+/// Lines a [`ConverterRig`] can add to y.
+const MAX_HUM_LINES: usize = 4;
 
 impl<'a> ConverterRig<'a> {
     /// A rig around `plant` (at its current state), converting y and u to
@@ -175,8 +182,23 @@ impl<'a> ConverterRig<'a> {
             front_end,
             amplifier_gain,
             noise: None,
+            hum: [(0.0, 0.0, 0.0); MAX_HUM_LINES],
+            hum_len: 0,
             ticks: 0,
         })
+    }
+
+    /// The same rig with lines in y that u does not drive, as a strain
+    /// gauge picks up the mains: each (frequency Hz, amplitude in units of
+    /// y, phase at the first tick rad) adds amplitude·sin(2πf·t + phase)
+    /// before the bridge, at sample period `ts_s`; at most
+    /// four (more are ignored).
+    pub fn with_hum(mut self, lines: &[(f64, f64, f64)], ts_s: f64) -> Self {
+        for (slot, &(f, a, p)) in self.hum.iter_mut().zip(lines) {
+            *slot = (a, core::f64::consts::TAU * f * ts_s, p);
+        }
+        self.hum_len = lines.len().min(MAX_HUM_LINES);
+        self
     }
 
     /// The same rig with white noise added to y before the bridge (an
@@ -217,6 +239,10 @@ impl<'a> ConverterRig<'a> {
         let mut y = self.plant.measured();
         if let Some(n) = self.noise.as_mut() {
             y += n.sample();
+        }
+        for (amp, step, phase) in self.hum.iter_mut().take(self.hum_len) {
+            y += *amp * libm::sin(*phase);
+            *phase = libm::fmod(*phase + *step, core::f64::consts::TAU);
         }
         let monitor_v = self.plant.measured_drive();
         adc.set_inputs([

@@ -20,10 +20,65 @@ use crate::estimator::robust::{RobustConfig, RobustEstimator};
 use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
 use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
+use crate::guard::lines::{LineCanceller, LineSpec, MAX_LINES};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::scalar::Real;
 use beam_protocol::{self as protocol, EstimatorSettings, RejectReason, Waveform, WaveformKind};
+
+/// The line canceller a [`protocol::LineRemoval`] asks for at sample rate
+/// `fs_hz` (validated already): the mains and its harmonics
+/// 1..=`harmonics` below the Nyquist frequency, weights from zero; `None`
+/// when off.
+///
+/// # Errors
+/// [`RejectReason::LineRemoval`] for settings the canceller refuses.
+pub(crate) fn line_canceller<T: Real>(
+    l: &protocol::LineRemoval,
+    fs_hz: f64,
+) -> Result<Option<LineCanceller<T, MAX_LINES>>, RejectReason> {
+    if l.is_off() {
+        return Ok(None);
+    }
+    let mains = f64::from(l.mains_hz);
+    let mut specs = [LineSpec {
+        freq_hz: mains,
+        y_phasor: [0.0, 0.0],
+    }; MAX_LINES];
+    let mut n = 0;
+    for k in 1..=l.harmonics.min(protocol::LineRemoval::MAX_HARMONICS) {
+        let f = f64::from(k) * mains;
+        if f < 0.5 * fs_hz {
+            if let Some(s) = specs.get_mut(n) {
+                s.freq_hz = f;
+                n += 1;
+            }
+        }
+    }
+    LineCanceller::new(
+        specs.get(..n).unwrap_or_default(),
+        1.0 / fs_hz,
+        f64::from(l.time_constant_s),
+    )
+    .map(Some)
+    .map_err(|_| RejectReason::LineRemoval)
+}
+
+/// How long the law is held after the line remover is switched
+/// (samples): five time constants (a line present at the switch is then
+/// down to e^(−5) ≈ 0.7% of itself in y, the weights starting from zero;
+/// [`crate::guard::lines`]). 0 when switched off.
+pub(crate) fn line_settling_samples(l: &protocol::LineRemoval, fs_hz: f64) -> u32 {
+    if l.is_off() {
+        return 0;
+    }
+    let n = libm::round(5.0 * f64::from(l.time_constant_s) * fs_hz);
+    if n >= f64::from(u32::MAX) {
+        u32::MAX
+    } else {
+        n as u32
+    }
+}
 
 /// What the link changes in the running sample task. Implemented by
 /// [`Pipeline`]; each call is made with the sample interrupt masked
@@ -54,6 +109,8 @@ pub trait Control<T> {
     fn counters(&self) -> Counters;
     /// [`Pipeline::next_sample_index`].
     fn next_sample_index(&self) -> u64;
+    /// [`Pipeline::set_line_removal`].
+    fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32);
 }
 
 impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Control<T>
@@ -87,6 +144,9 @@ where
     }
     fn excitation_mut(&mut self) -> &mut Excitation<T> {
         Pipeline::excitation_mut(self)
+    }
+    fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32) {
+        Pipeline::set_line_removal(self, lines, hold);
     }
     fn counters(&self) -> Counters {
         Pipeline::counters(self)

@@ -211,6 +211,8 @@ pub struct DeviceLink {
     accepted: u32,
     rejected: u32,
     frozen_by_command: bool,
+    /// The line remover as last commanded (off at boot).
+    line_removal: beam_protocol::LineRemoval,
     started_at: Option<u64>,
     /// The first sample of an estimator (re)start whose law has not
     /// updated yet (see `EstimateContext::no_update_yet`).
@@ -255,6 +257,7 @@ impl DeviceLink {
             accepted: 0,
             rejected: 0,
             frozen_by_command: false,
+            line_removal: beam_protocol::LineRemoval::OFF,
             started_at: None,
             fresh_since: None,
             last_record: None,
@@ -549,6 +552,11 @@ impl DeviceLink {
         }
     }
 
+    /// The line remover as last commanded ([`Command::SetLineRemoval`]).
+    pub fn line_removal(&self) -> beam_protocol::LineRemoval {
+        self.line_removal
+    }
+
     /// Send a Status with the counters read now (inside the lock).
     pub(crate) fn send_status_now<D: Device>(&mut self, dev: &mut D, tx: &mut impl TxSink) {
         let (counters, uptime) = dev.with_pipeline(|p| (p.counters(), p.next_sample_index()));
@@ -688,6 +696,12 @@ impl DeviceLink {
                 }
             }
             Command::RequestStatus => {}
+            Command::SetLineRemoval(l) => {
+                let canceller = control::line_canceller::<D::Real>(l, f64::from(fs))?;
+                let hold = control::line_settling_samples(l, f64::from(fs));
+                dev.with_pipeline(|p| p.set_line_removal(canceller, hold));
+                self.line_removal = *l;
+            }
         }
         Ok(())
     }

@@ -24,7 +24,9 @@
 //!    optionally eq. 17's deflection), monitor code → actuator volts.
 //! 5. **Pair u with y** as the estimator's contract requires ([`Estimator::step`]:
 //!    u held over the coming period, y sampled now) — see *Alignment*.
-//! 6. **Prefilter** u and y identically (optional, `prefilter`).
+//! 6. **Line remover** and **prefilter** on u and y identically (both
+//!    optional: the mains and its harmonics, [`Pipeline::set_line_removal`],
+//!    [`crate::guard::lines`]; a low-pass, `prefilter`).
 //! 7. **Estimator step**; an invalid sample is passed as NaN (see *Bad
 //!    samples*).
 //! 8. **Raw block** of the (u, y) pairs (optional, decimated) and, every K
@@ -130,6 +132,7 @@ pub use telemetry::{
 
 use crate::estimator::Estimator;
 use crate::excitation::Excitation;
+use crate::guard::lines::{LineCanceller, MAX_LINES};
 use crate::guard::MAX_DELAY;
 use crate::guard::{GuardConfig, GuardError, SensorGuard};
 use crate::scalar::Real;
@@ -149,6 +152,8 @@ pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
     excitation: Excitation<T>,
     conv: Conversion<T>,
     prefilter: Option<Prefilter<T>>,
+    /// The line remover on u and y after the guard (`None`: off).
+    lines: Option<LineCanceller<T, MAX_LINES>>,
     pf_u: PrefilterState<T>,
     pf_y: PrefilterState<T>,
     input: InputSource,
@@ -247,6 +252,7 @@ where
             excitation,
             conv,
             prefilter,
+            lines: None,
             pf_u: PrefilterState::default(),
             pf_y: PrefilterState::default(),
             input: config.input,
@@ -348,8 +354,8 @@ where
         };
         let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
-        // 6. Prefilter (fed the last good values across a bad sample; a
-        // known u is fed as it is).
+        // 6. Line remover and prefilter (fed the last good values across
+        // a bad sample; a known u is fed as it is).
         let (u_in, y_in) = if ok {
             self.last_good = (u, y);
             (u, y)
@@ -357,6 +363,10 @@ where
             (u, self.last_good.1)
         } else {
             self.last_good
+        };
+        let (u_in, y_in) = match self.lines.as_mut() {
+            Some(c) => c.push(u_in, y_in),
+            None => (u_in, y_in),
         };
         let (u_f, y_f) = match &self.prefilter {
             Some(p) => (
@@ -636,6 +646,23 @@ where
             }
             self.changes_held = sup.changes;
         }
+    }
+
+    /// The line remover (built outside the lock; `None`: off): from the
+    /// next tick u and y pass it after the guard, its weights from zero,
+    /// and the law is held for `hold` samples (with the estimator's
+    /// settling time, the longer), while a line already in y decays in
+    /// its output (`crate::link`'s rule: five time constants).
+    pub fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32) {
+        self.lines = lines;
+        let n = self.estimator.settling_samples().max(hold);
+        self.estimator.hold(n);
+    }
+
+    /// The line remover's view of each line it removes: the amplitude in y
+    /// its weights hold now, in the order of its lines (none when off).
+    pub fn line_amplitudes(&self) -> impl Iterator<Item = T> + '_ {
+        self.lines.iter().flat_map(|c| c.y_amplitudes())
     }
 
     /// Counters back to zero (the excitation's clamp counter is read

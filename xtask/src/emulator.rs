@@ -29,10 +29,19 @@ pub enum Serial {
 /// The QEMU command line for `elf` with UART0 on `serial`, running
 /// `seconds` of simulated time (the firmware's default 5 s if `None`).
 pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>) -> Command {
+    command_with(elf, serial, seconds, &[])
+}
+
+/// [`command`] with more words on the firmware's command line (`hum=1`).
+pub fn command_with(elf: &Path, serial: &Serial, seconds: Option<&str>, words: &[&str]) -> Command {
     let mut semihosting = String::from("enable=on,target=native,arg=qemu-rig");
     if let Some(s) = seconds {
         semihosting.push_str(",arg=seconds=");
         semihosting.push_str(s);
+    }
+    for w in words {
+        semihosting.push_str(",arg=");
+        semihosting.push_str(w);
     }
     let serial = match serial {
         Serial::File(p) => format!("file:{}", p.display()),
@@ -94,13 +103,24 @@ pub(crate) fn session(
     timeout: Duration,
     host: &mut impl LinkHost,
 ) -> Result<(std::process::ExitStatus, f64, String), String> {
+    session_with(elf, seconds, &[], timeout, host)
+}
+
+/// [`session`] with more words on the firmware's command line.
+pub(crate) fn session_with(
+    elf: &Path,
+    seconds: Option<&str>,
+    words: &[&str],
+    timeout: Duration,
+    host: &mut impl LinkHost,
+) -> Result<(std::process::ExitStatus, f64, String), String> {
     let listener =
         TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
     let port = listener
         .local_addr()
         .map_err(|e| format!("listening on loopback: {e}"))?
         .port();
-    let mut cmd = command(elf, &Serial::Connect(port), seconds);
+    let mut cmd = command_with(elf, &Serial::Connect(port), seconds, words);
     cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
     println!("running: {cmd:?}");
     let start = Instant::now();

@@ -13,8 +13,9 @@
 //!   sent on UART0 and check them; exit with QEMU's status (the
 //!   firmware's verdict). `--e2e`: the end-to-end test over a loopback
 //!   socket ([`e2e`]); `--robust`: the device switched to the robust
-//!   estimator over the link ([`e2e_robust`]); `--monitor`: `beamctl
-//!   monitor` attached ([`qemu`]).
+//!   estimator over the link ([`e2e_robust`]); `--hum`: mains hum in the
+//!   ADC model and the line remover selected over the link ([`e2e_hum`]);
+//!   `--monitor`: `beamctl monitor` attached ([`qemu`]).
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -27,6 +28,7 @@
 
 mod callgraph;
 mod e2e;
+mod e2e_hum;
 mod e2e_robust;
 mod e2e_tuning;
 mod emulator;
@@ -216,6 +218,12 @@ usage: cargo xtask <command>
                            (SetEstimator kind Robust) and the excitation again at 20.5 s;
                            checks its convergence, no overrun, its model updates' locks
                            bounded (the firmware's verdict), the link clean
+  qemu --hum [--timeout S]
+                           8 simulated s with mains hum (50 Hz 3%, 150 Hz 1%) added to
+                           the ADC model's input; the host selects the line remover
+                           (SetLineRemoval 50 Hz, 7 harmonics) over the link at once;
+                           checks the lines found (the remover's weights), the estimate
+                           within 1e-3 and the default run's checks
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor

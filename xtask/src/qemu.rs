@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use crate::emulator::{command, wait, Serial};
 use crate::{
-    build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
-    QEMU_IMAGE, QEMU_ROBUST_FEATURE,
+    build, e2e, e2e_hum, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES,
+    QEMU, QEMU_IMAGE, QEMU_ROBUST_FEATURE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
@@ -35,6 +35,7 @@ struct Options {
     seconds: Option<String>,
     e2e: bool,
     robust: bool,
+    hum: bool,
     monitor: bool,
     beamctl: Option<PathBuf>,
     monitor_args: Vec<String>,
@@ -47,6 +48,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         seconds: None,
         e2e: false,
         robust: false,
+        hum: false,
         monitor: false,
         beamctl: None,
         monitor_args: Vec::new(),
@@ -77,6 +79,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             }
             "--e2e" => o.e2e = true,
             "--robust" => o.robust = true,
+            "--hum" => o.hum = true,
             "--monitor" => o.monitor = true,
             "--beamctl" => {
                 o.beamctl = Some(PathBuf::from(it.next().ok_or("--beamctl needs a path")?))
@@ -94,6 +97,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
     }
     if o.robust && (o.e2e || o.monitor || o.seconds.is_some()) {
         return Err("qemu --robust runs alone (its own 27 s run on the link)".into());
+    }
+    if o.hum && (o.robust || o.e2e || o.monitor || o.seconds.is_some()) {
+        return Err("qemu --hum runs alone (its own 8 s run on the link)".into());
     }
     if o.e2e && o.monitor {
         return Err("qemu: --e2e and --monitor exclude each other".into());
@@ -130,6 +136,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let elf = build(image)?;
     if o.robust {
         e2e_robust::run(&elf, o.timeout)
+    } else if o.hum {
+        e2e_hum::run(&elf, o.timeout)
     } else if o.e2e {
         e2e::run(&elf, o.timeout)
     } else if o.monitor {

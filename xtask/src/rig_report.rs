@@ -127,6 +127,73 @@ fn expected_counters(faults: &[&Line]) -> HashMap<&'static str, u64> {
 
 /// Judge a run from its log (printing what it judged, as the firmware did
 /// before it only measured); `Err` lists the failed checks.
+/// `--hum`: the `rig: hum` line (the lines injected) and the line
+/// remover's `rig: lines` at the end. Every injected line (f, amplitude,
+/// phase) of `hum` must be a harmonic of the remover's mains whose weights
+/// hold its amplitude within `tolerance` (relative), and every other
+/// harmonic less than `empty_share` of the smallest injected line. `Ok`:
+/// what was found, in words.
+pub fn judge_hum(
+    log: &str,
+    hum: &[(f64, f64, f64)],
+    tolerance: f64,
+    empty_share: f64,
+) -> Result<String, String> {
+    let lines: Vec<Line> = log.lines().filter_map(Line::parse).collect();
+    if !lines.iter().any(|l| l.what == "hum") {
+        return Err("the firmware's log has no `rig: hum` line: no hum injected".into());
+    }
+    let Some(r) = lines.iter().rev().find(|l| l.what == "lines") else {
+        return Err("the firmware's log has no `rig: lines` line".into());
+    };
+    let n = r.u64("n") as usize;
+    let mains = r.f64("mains_hz");
+    if n == 0 || !(mains > 0.0) {
+        return Err(format!(
+            "the line remover is off at the end (n={n}, mains {mains} Hz)"
+        ));
+    }
+    let amp = |k: usize| r.f64(&format!("a{k}"));
+    let smallest = hum.iter().map(|h| h.1).fold(f64::INFINITY, f64::min);
+    let mut words = Vec::new();
+    let mut injected = vec![false; n + 1];
+    for &(f, a, _) in hum {
+        let k = (f / mains).round() as usize;
+        if k == 0 || k > n || (k as f64 * mains - f).abs() > 1e-6 * f {
+            return Err(format!(
+                "the injected {f} Hz line is no harmonic the remover holds"
+            ));
+        }
+        injected[k] = true;
+        let found = amp(k);
+        if !((found / a - 1.0).abs() <= tolerance) {
+            return Err(format!(
+                "{f} Hz: the remover holds amplitude {found:.4e}, injected {a:.4e} (more than \
+                 {:.0}% off)",
+                100.0 * tolerance
+            ));
+        }
+        words.push(format!("{f} Hz found at {found:.4e} (injected {a:.4e})"));
+    }
+    for (k, _) in injected.iter().enumerate().skip(1).filter(|(_, i)| !**i) {
+        let a = amp(k);
+        if !(a < empty_share * smallest) {
+            return Err(format!(
+                "harmonic {k} ({} Hz) carries no hum but the remover holds {a:.4e} (≥ {:.0}% of \
+                 {smallest:.4e})",
+                k as f64 * mains,
+                100.0 * empty_share
+            ));
+        }
+    }
+    words.push(format!(
+        "the other {} harmonics below {:.0}% of the smallest line",
+        n - hum.len(),
+        100.0 * empty_share
+    ));
+    Ok(words.join("; "))
+}
+
 pub fn judge(log: &str) -> Result<(), Vec<String>> {
     let lines: Vec<Line> = log.lines().filter_map(Line::parse).collect();
     let all = |what: &str| lines.iter().filter(|l| l.what == what).collect::<Vec<_>>();

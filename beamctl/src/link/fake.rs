@@ -441,7 +441,7 @@ impl FakeDevice {
             }
             Command::Freeze => self.frozen = true,
             Command::Resume => self.frozen = false,
-            Command::RequestStatus => {}
+            Command::RequestStatus | Command::SetLineRemoval(_) => {}
         }
         self.hold(k);
     }

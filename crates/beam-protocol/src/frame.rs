@@ -687,7 +687,7 @@ mod tests {
             parse_frame(&frame(&other, &[9, 0])),
             Err(DecodeError::BadMagic(0x1234))
         );
-        for v in [1, 3] {
+        for v in [2, 4] {
             let other = Header { version: v, ..h };
             assert_eq!(
                 parse_frame(&frame(&other, &[])),
@@ -702,13 +702,13 @@ mod tests {
             parse_frame(&frame(&k, &[])),
             Err(DecodeError::UnknownKind(0x7F))
         );
-        // Trailing byte, truncated payload, undefined result code (15 and
+        // Trailing byte, truncated payload, undefined result code (16 and
         // up), the command seq 9 as a non-shortest varint (`89 00`, `89 80
         // 00`): malformed.
         for p in [
             &[9u8, 0, 0][..],
             &[9],
-            &[9, 15],
+            &[9, 16],
             &[9, 0xFF],
             &[0x89, 0x00, 0],
             &[0x89, 0x80, 0x00, 0],

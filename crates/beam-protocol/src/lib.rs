@@ -83,8 +83,8 @@ pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates,
-    UnknownEstimator, Waveform, WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, LineRemoval, RejectReason,
+    TelemetryRates, UnknownEstimator, Waveform, WaveformKind,
 };
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{
@@ -101,7 +101,7 @@ pub const MAGIC: u16 = 0xBE57;
 /// The protocol version this build speaks. Any change to a message's
 /// layout or meaning increments it; a receiver meeting another version
 /// reports [`DecodeError::VersionMismatch`] and must not interpret the frame.
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 /// The frame delimiter (COBS removes every 0x00 from the frame body).
 pub const DELIMITER: u8 = 0x00;
 /// Header bytes: magic (2), version (1), kind (1), sequence number (4).

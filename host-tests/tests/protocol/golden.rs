@@ -158,15 +158,15 @@ fn golden() -> Vec<(&'static str, Message, u32)> {
 
 /// Pinned wire bytes of each golden frame (in `golden()` order).
 const PINNED: &[&str] = &[
-    "08 57 BE 02 01 40 7E 05 05 80 A2 95 11 0F 19 02 FB 9C 1C 42 0C 93 A9 3C 9D 11 1A 41 0C 5F 75 43 B8 1E 05 3E 99 2A 81 41 01 08 C8 42 07 EC 51 50 41 21 80 93 C4 80 7F 87 C9 92 4A A7 43 C9 6B E6 C4 04 37 68 4A 5D 1A EB 4A 01 0A D7 23 3B D2 D4 A4 4D 00",
-    "08 57 BE 02 02 41 7E 05 23 80 A2 95 11 01 03 CD CC CC 3D 52 49 9D 3A CD CC CC 3D 0A D7 A3 3A CD CC CC BD C3 64 AA 3A F0 E0 B3 79 00",
-    "08 57 BE 02 03 42 7E 05 05 80 A2 95 11 04 40 1C 46 02 01 02 02 02 03 01 01 01 02 03 03 02 01 01 02 01 01 07 E0 40 CD CC CC 3D 01 01 01 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 03 C8 42 01 03 C8 42 01 01 03 80 3F 05 C8 73 66 76 00",
-    "08 57 BE 02 04 43 7E 05 02 07 05 BF 8D 3F 39 00",
-    "08 57 BE 02 04 44 7E 05 07 08 03 72 F0 AB 3A 00",
-    "06 57 BE 02 80 07 01 01 01 02 04 01 03 80 3F 01 03 C8 42 01 07 20 41 CD CC 4C 3E 01 01 06 3F 87 7F 85 C9 00",
-    "06 57 BE 02 80 08 01 01 02 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 07 C8 42 0D 4C F6 87 00",
-    "06 57 BE 02 80 09 01 01 02 02 01 04 C8 42 02 01 07 80 3F 90 17 82 F9 00",
-    "06 57 BE 02 80 0A 01 01 06 04 CD 25 B4 F7 00",
+    "08 57 BE 03 01 40 7E 05 05 80 A2 95 11 0F 19 02 FB 9C 1C 42 0C 93 A9 3C 9D 11 1A 41 0C 5F 75 43 B8 1E 05 3E 99 2A 81 41 01 08 C8 42 07 EC 51 50 41 21 80 93 C4 80 7F 87 C9 92 4A A7 43 C9 6B E6 C4 04 37 68 4A 5D 1A EB 4A 01 0A D7 23 3B 4F 13 FA B1 00",
+    "08 57 BE 03 02 41 7E 05 23 80 A2 95 11 01 03 CD CC CC 3D 52 49 9D 3A CD CC CC 3D 0A D7 A3 3A CD CC CC BD C3 64 AA 3A 65 34 C3 EC 00",
+    "08 57 BE 03 03 42 7E 05 05 80 A2 95 11 04 40 1C 46 02 01 02 02 02 03 01 01 01 02 03 03 02 01 01 02 01 01 07 E0 40 CD CC CC 3D 01 01 01 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 03 C8 42 01 03 C8 42 01 01 03 80 3F 05 55 B4 38 8A 00",
+    "08 57 BE 03 04 43 7E 05 02 07 05 21 8D 95 F5 00",
+    "08 57 BE 03 04 44 7E 05 07 08 03 EC F0 01 F6 00",
+    "06 57 BE 03 80 07 01 01 01 02 04 01 03 80 3F 01 03 C8 42 01 07 20 41 CD CC 4C 3E 01 01 06 3F 9A 82 30 C8 00",
+    "06 57 BE 03 80 08 01 01 02 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 07 C8 42 29 95 F1 E4 00",
+    "06 57 BE 03 80 09 01 01 02 02 01 04 C8 42 02 01 07 80 3F 01 86 EA 57 00",
+    "06 57 BE 03 80 0A 01 01 06 04 79 2E C3 51 00",
 ];
 
 fn hex(bytes: &[u8]) -> String {
@@ -463,7 +463,7 @@ fn golden_frames_read_by_an_independent_decoder() {
         let (body, crc) = raw.split_at(raw.len() - 4);
         assert_eq!(crc32(body).to_le_bytes(), crc, "{title}");
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-        assert_eq!(&body[..3], &[0x57, 0xBE, 2], "{title}: magic, version");
+        assert_eq!(&body[..3], &[0x57, 0xBE, 3], "{title}: magic, version");
         assert_eq!(body[3], msg.kind() as u8);
         assert_eq!(u32::from_le_bytes(body[4..8].try_into().unwrap()), seq);
         let mut r = Reader(&body[8..]);

@@ -4,8 +4,8 @@
 
 use beam_protocol::{
     Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
-    Excitation, FirmwareVersion, Message, ModeEstimate, RawSamples, RejectReason, Status,
-    StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
+    Excitation, FirmwareVersion, LineRemoval, Message, ModeEstimate, RawSamples, RejectReason,
+    Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
 };
 use proptest::collection::vec;
 use proptest::option;
@@ -227,6 +227,13 @@ pub fn command() -> impl Strategy<Value = Command> {
         Just(Command::Freeze),
         Just(Command::Resume),
         Just(Command::RequestStatus),
+        (f32_bits(), any::<u8>(), f32_bits()).prop_map(|(mains_hz, harmonics, time_constant_s)| {
+            Command::SetLineRemoval(LineRemoval {
+                mains_hz,
+                harmonics,
+                time_constant_s,
+            })
+        }),
     ]
 }
 

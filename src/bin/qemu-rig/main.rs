@@ -64,7 +64,7 @@ use heapless::spsc::{Producer, Queue};
 use panic_semihosting as _;
 
 use device::QemuDevice;
-use numfmt::Fixed;
+use numfmt::{Fixed, Sci};
 use report::{finish, log, on_build, Run, LOG_EVERY, OUTPUT_WEIGHT};
 use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
 
@@ -300,6 +300,16 @@ fn run_length() -> u32 {
     }
 }
 
+/// The word `hum=1` on the semihosting command line (`cargo xtask qemu
+/// --hum`): the rig adds [`bench::HUM`] to y.
+fn hum_requested() -> bool {
+    let mut buf = [0u8; 128];
+    board::command_line(&mut buf)
+        .unwrap_or("")
+        .split_ascii_whitespace()
+        .any(|w| w == "hum=1")
+}
+
 /// "12" or "2.5" seconds → samples at 10 kHz (whole samples, saturating).
 fn parse_seconds_as_samples(s: &str) -> Option<u32> {
     let (whole, frac) = s.split_once('.').unwrap_or((s, ""));
@@ -360,6 +370,18 @@ fn build_sample_task(
     }
     let Ok(rig) = bench::converter_rig(models) else {
         fail("rig settings")
+    };
+    let rig = if hum_requested() {
+        hprintln!(
+            "rig: hum f1={} a1={} f2={} a2={}",
+            Fixed(bench::HUM[0].0, 1),
+            Sci(bench::HUM[0].1, 4),
+            Fixed(bench::HUM[1].0, 1),
+            Sci(bench::HUM[1].1, 4)
+        );
+        rig.with_hum(&bench::HUM, bench::TS_S)
+    } else {
+        rig
     };
     // Two estimator slots: the stand-in the frozen pipeline holds, and the
     // spare the real estimator is built into (then they alternate).

@@ -28,6 +28,11 @@
 //!   lost_pairs= startup_dropped=` — the tuning rule at the end (λ0 of the
 //!   first estimator, λ in use, relative re-centring threshold, start-up
 //!   pairs lost by the rule and blocks refused by its queue);
+//! * `rig: hum f1= a1= f2= a2=` — at boot, with `hum=1` on the command
+//!   line: the lines added to y (Hz, m; `beamest::bench::HUM`);
+//! * `rig: lines n=<lines> mains_hz= tau_s= a1= …` — the line remover at
+//!   the end (`n=0`: off): per line (the mains' harmonics in order) the
+//!   amplitude in y its weights hold (m);
 //! * `rig: modes n=<modes> omega1= zeta1= omega2= zeta2=` — the final
 //!   estimate's recovery (eqs. 30-32; `n=0` and nothing else without one);
 //! * `rig: end samples= overruns= rig_errors= started_at=<sample>|none
@@ -318,6 +323,7 @@ pub fn finish(
     }
     rig_tuning(run, link, s.startup_dropped);
     rig_modes(modes.as_ref());
+    rig_lines(s, link);
     hprintln!(
         "rig: end samples={} overruns={} rig_errors={} started_at={} estimator={}",
         s.samples,
@@ -397,6 +403,26 @@ fn rig_tuning(run: &Run, link: &DeviceLink, startup_dropped: u32) {
         Sci(link.tuner().rule().config().recentre_threshold, 9),
         link.tuner().lost_pairs(),
         startup_dropped
+    );
+}
+
+/// `rig: lines` (the line remover at the end: its lines and the
+/// amplitude in y each one's weights hold).
+fn rig_lines(s: &Summary, link: &DeviceLink) {
+    let l = link.line_removal();
+    let mut text: heapless::String<256> = heapless::String::new();
+    for (i, a) in s.line_amplitudes.iter().take(s.lines).enumerate() {
+        let _ = core::fmt::Write::write_fmt(
+            &mut text,
+            format_args!(" a{}={}", i + 1, Sci(f64::from(*a), 4)),
+        );
+    }
+    hprintln!(
+        "rig: lines n={} mains_hz={} tau_s={}{}",
+        s.lines,
+        Fixed(f64::from(l.mains_hz), 3),
+        Fixed(f64::from(l.time_constant_s), 3),
+        text.as_str()
     );
 }
 

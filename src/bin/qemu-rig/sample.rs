@@ -173,6 +173,11 @@ pub struct Summary {
     pub startup_dropped: u32,
     /// The steps' statuses: [updated, held (frozen), rejected, skipped].
     pub step_counts: [u32; 4],
+    /// The line remover's amplitude of each line in y at the end (its
+    /// weights), `lines` of them (0: off).
+    pub line_amplitudes: [f32; beamest::guard::lines::MAX_LINES],
+    /// Lines the remover holds.
+    pub lines: usize,
 }
 
 /// Everything the sample interrupt owns.
@@ -327,6 +332,15 @@ impl SampleTask {
 
     fn finish(&mut self) {
         self.finished = true;
+        let mut line_amplitudes = [0.0; beamest::guard::lines::MAX_LINES];
+        let mut lines = 0;
+        for (slot, a) in line_amplitudes
+            .iter_mut()
+            .zip(self.pipeline.line_amplitudes())
+        {
+            *slot = a;
+            lines += 1;
+        }
         self.summary_out.put(Summary {
             samples: self.samples,
             steady: self.steady,
@@ -338,6 +352,8 @@ impl SampleTask {
             tf: self.pipeline.estimator().transfer_function(),
             startup_dropped: self.startup.dropped(),
             step_counts: self.step_counts,
+            line_amplitudes,
+            lines,
         });
     }
 }

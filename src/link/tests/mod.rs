@@ -62,6 +62,16 @@ impl Control<f32> for MockPipeline {
     fn next_sample_index(&self) -> u64 {
         self.next
     }
+    fn set_line_removal(
+        &mut self,
+        lines: Option<crate::guard::lines::LineCanceller<f32, { crate::guard::lines::MAX_LINES }>>,
+        hold: u32,
+    ) {
+        self.calls.push(format!(
+            "lines {} hold {hold}",
+            lines.as_ref().map_or(0, |l| l.len())
+        ));
+    }
 }
 
 struct MockDevice {
@@ -280,6 +290,11 @@ fn every_command_is_acknowledged_and_applied() {
         Command::Reset,
         Command::Freeze,
         Command::Resume,
+        Command::SetLineRemoval(beam_protocol::LineRemoval {
+            mains_hz: 50.0,
+            harmonics: 7,
+            time_constant_s: 0.2,
+        }),
         Command::RequestStatus,
     ] {
         bytes.extend(h.command(c));
@@ -288,7 +303,7 @@ fn every_command_is_acknowledged_and_applied() {
     let msgs = h.drain(&mut rx);
     assert_eq!(
         acks(&msgs),
-        (0..7).map(|i| (i, AckResult::Accepted)).collect::<Vec<_>>()
+        (0..8).map(|i| (i, AckResult::Accepted)).collect::<Vec<_>>()
     );
     assert_eq!(
         d.p.calls,
@@ -298,9 +313,12 @@ fn every_command_is_acknowledged_and_applied() {
             "raw 4",
             "reset",
             "freeze",
-            "resume"
+            "resume",
+            // Harmonics 1–7 of 50 Hz, all below 5 kHz; held 5τ = 1 s.
+            "lines 7 hold 10000"
         ]
     );
+    assert_eq!(l.line_removal().mains_hz, 50.0);
     assert_eq!(d.p.excitation.amplitude(), 0.2);
     assert_eq!(d.built.last().unwrap().0, est);
     assert_eq!(d.recycled, [0, 1]);
@@ -319,7 +337,7 @@ fn every_command_is_acknowledged_and_applied() {
     assert_eq!(s.estimator, est);
     assert_eq!(s.telemetry, rates);
     assert!(!s.adaptation_frozen);
-    assert_eq!(s.counters.commands_accepted, 7);
+    assert_eq!(s.counters.commands_accepted, 8);
     assert_eq!(s.firmware, FIRMWARE_VERSION);
     assert_eq!(s.modes, 2);
     assert_eq!(h.dec.counters().lost, 0);
@@ -341,6 +359,14 @@ fn a_rejected_command_changes_nothing() {
         ..PExcitation::default()
     };
     let cases = [
+        (
+            Command::SetLineRemoval(beam_protocol::LineRemoval {
+                mains_hz: 50.0,
+                harmonics: 0,
+                time_constant_s: 0.2,
+            }),
+            RejectReason::LineRemoval,
+        ),
         (Command::SetExcitation(outside), RejectReason::SafeWindow),
         (
             Command::SetExcitation(PExcitation {
@@ -407,7 +433,7 @@ fn a_rejected_command_changes_nothing() {
     assert_eq!(got, want);
     assert!(d.p.calls.is_empty(), "{:?}", d.p.calls);
     assert_eq!((l.settings, l.lambda_rad_s(), d.p.excitation), before);
-    assert_eq!(l.commands(), (0, 8));
+    assert_eq!(l.commands(), (0, 9));
     // The core refuses what validation let through: still nothing changes.
     d.refuse_build = Some(RejectReason::Gain);
     let c = Command::SetEstimator(EstimatorSettings {

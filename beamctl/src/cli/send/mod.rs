@@ -315,6 +315,7 @@ fn command_name(c: &CommandArgs) -> &'static str {
         CommandArgs::Freeze => "freeze",
         CommandArgs::Resume => "resume",
         CommandArgs::Status => "status",
+        CommandArgs::Lines(_) => "lines",
     }
 }
 
