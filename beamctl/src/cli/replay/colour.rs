@@ -110,15 +110,16 @@ pub(super) fn pass(
             break;
         };
         // A noise model only from a physical model with a fit, a residual
-        // that is a visible part of y, and no narrow line in it (lines are
-        // the line pass's: with `--lines off` they stay, and in the
-        // verdict).
+        // that is a visible part of y, and no narrow line in it away from
+        // the modes (lines are the line pass's: with `--lines off` they
+        // stay, and in the verdict; a "line" in a mode's band is as often
+        // the mode's own misfit, which the whitened run may correct).
         let v = &report.outcome.verdict;
         let credible = v
             .reasons
             .iter()
             .all(|r| !matches!(r.code, "no_estimate" | "not_physical" | "no_fit"))
-            && v.lines.is_empty()
+            && v.lines.iter().all(|l| l.near_mode.is_some())
             && report
                 .outcome
                 .fit_percent
