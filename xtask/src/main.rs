@@ -218,12 +218,14 @@ usage: cargo xtask <command>
                            (SetEstimator kind Robust) and the excitation again at 20.5 s;
                            checks its convergence, no overrun, its model updates' locks
                            bounded (the firmware's verdict), the link clean
-  qemu --hum [--timeout S]
+  qemu --hum [--no-remover] [--timeout S]
                            8 simulated s with mains hum (50 Hz 3%, 150 Hz 1%) added to
                            the ADC model's input; the host selects the line remover
                            (SetLineRemoval 50 Hz, 7 harmonics) over the link at once;
                            checks the lines found (the remover's weights), the estimate
-                           within 1e-3 and the default run's checks
+                           within 1e-3 and the default run's checks. --no-remover: the
+                           same run without selecting it, a measurement (the estimate's
+                           errors and the sample interrupt's cost without the remover)
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor

@@ -36,6 +36,7 @@ struct Options {
     e2e: bool,
     robust: bool,
     hum: bool,
+    no_remover: bool,
     monitor: bool,
     beamctl: Option<PathBuf>,
     monitor_args: Vec<String>,
@@ -49,6 +50,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         e2e: false,
         robust: false,
         hum: false,
+        no_remover: false,
         monitor: false,
         beamctl: None,
         monitor_args: Vec::new(),
@@ -80,6 +82,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--e2e" => o.e2e = true,
             "--robust" => o.robust = true,
             "--hum" => o.hum = true,
+            "--no-remover" => o.no_remover = true,
             "--monitor" => o.monitor = true,
             "--beamctl" => {
                 o.beamctl = Some(PathBuf::from(it.next().ok_or("--beamctl needs a path")?))
@@ -100,6 +103,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
     }
     if o.hum && (o.robust || o.e2e || o.monitor || o.seconds.is_some()) {
         return Err("qemu --hum runs alone (its own 8 s run on the link)".into());
+    }
+    if o.no_remover && !o.hum {
+        return Err("qemu: --no-remover needs --hum".into());
     }
     if o.e2e && o.monitor {
         return Err("qemu: --e2e and --monitor exclude each other".into());
@@ -137,7 +143,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     if o.robust {
         e2e_robust::run(&elf, o.timeout)
     } else if o.hum {
-        e2e_hum::run(&elf, o.timeout)
+        e2e_hum::run(&elf, o.timeout, !o.no_remover)
     } else if o.e2e {
         e2e::run(&elf, o.timeout)
     } else if o.monitor {

@@ -125,8 +125,6 @@ fn expected_counters(faults: &[&Line]) -> HashMap<&'static str, u64> {
     c
 }
 
-/// Judge a run from its log (printing what it judged, as the firmware did
-/// before it only measured); `Err` lists the failed checks.
 /// `--hum`: the `rig: hum` line (the lines injected) and the line
 /// remover's `rig: lines` at the end. Every injected line (f, amplitude,
 /// phase) of `hum` must be a harmonic of the remover's mains whose weights
@@ -194,6 +192,8 @@ pub fn judge_hum(
     Ok(words.join("; "))
 }
 
+/// Judge a run from its log (printing what it judged, as the firmware did
+/// before it only measured); `Err` lists the failed checks.
 pub fn judge(log: &str) -> Result<(), Vec<String>> {
     let lines: Vec<Line> = log.lines().filter_map(Line::parse).collect();
     let all = |what: &str| lines.iter().filter(|l| l.what == what).collect::<Vec<_>>();

@@ -2,7 +2,8 @@
 """Replays every record under host-tests/data/records/ with
 `beamctl replay FILE --json` and a list of flag sets, and scores each
 estimate against the record's reference.json (the acceptance rule there).
-Prints a markdown table; with --json PATH also writes every result.
+Prints a markdown table; with --json PATH also writes every result
+(with each report's verdict and `prewhitening`).
 
     cargo build --release -p beamctl
     python3 host-tests/data/records/baseline.py [--beamctl PATH] [--json PATH]
@@ -212,7 +213,11 @@ def main():
                             "flags": " ".join(flags), "exit": rc, "score": s,
                             "reported": describe(rc, out, err),
                             "estimate": (out or {}).get("estimate"),
-                            "validity": (out or {}).get("validity")})
+                            "validity": (out or {}).get("validity"),
+                            "trusted": ((out or {}).get("verdict") or {}).get("trusted"),
+                            "prewhitening": (out or {}).get("prewhitening")})
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
     if args.summary:
         summary(results)
         return
@@ -223,8 +228,6 @@ def main():
         print(f"| {r['record']} | {r['rule']} | {r['flags'] or '(none)'} | {fmt(s['e_omega'])} | "
               f"{fmt(s['e_zeta'])} | {fmt(s.get('bbar_rel_err'))} | {'PASS' if s['pass'] else 'fail'} | "
               f"{r['reported']} |")
-    if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ use super::{conditioned, summary_model, ReplayReport, Replayed};
 use crate::cli::args::{PrewhitenChoice, ReplayArgs};
 use crate::error::CliError;
 use crate::judge::fit;
-use crate::judge::noise::{input_share, NoiseModel, MAX_ORDER};
+use crate::judge::noise::{NoiseModel, MAX_ORDER};
 use beamest::guard::lines::LineSpec;
 use serde::Serialize;
 
@@ -208,6 +208,6 @@ fn noise_model(
         return Ok(None);
     };
     let record_u: Vec<f64> = record.iter().map(|p| p.0).collect();
-    m.input_share = Some(input_share(&m.whiten(&residual), &m.whiten(&record_u)));
+    m.set_input_share(&residual, &record_u);
     Ok(Some((m, residual)))
 }
