@@ -121,6 +121,49 @@ pub(crate) fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
     *lo += err + e;
 }
 
+/// [`add_lazy`] with Dekker's Fast2Sum for the leading words (3 flops
+/// instead of [`two_sum`]'s 6): exact when |hi| ≥ |p| (or hi = 0), which
+/// holds for an accumulator that is large against each of its increments
+/// — P̃ and Q̃ of the adaptive law sum ~10⁵ increments over their memory.
+/// Where it fails (|hi| < |p|: the first samples, an entry passing through
+/// zero) the sum is still hi + lo + p + e to within ulp(p)·2⁻ᵖ; how often
+/// that happens on the paper's and the random plants, and what it costs:
+/// docs/NUMERICS.md, "The step at 1,200 instructions".
+#[inline(always)]
+pub(crate) fn add_fast<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
+    #[cfg(test)]
+    fast2sum_audit::note(*hi, p);
+    let (s, err) = fast_two_sum(*hi, p);
+    *hi = s;
+    *lo += err + e;
+}
+
+/// Test builds only: counts [`add_fast`]'s calls and those whose Fast2Sum
+/// precondition |hi| ≥ |p| fails (per thread, so parallel tests do not
+/// mix), for the tests that measure how rare the failures are.
+#[cfg(test)]
+pub(crate) mod fast2sum_audit {
+    use crate::scalar::Real;
+    use std::cell::Cell;
+
+    std::thread_local! {
+        static COUNTS: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
+    }
+
+    pub(crate) fn note<T: Real>(hi: T, p: T) {
+        let bad = hi != T::ZERO && hi.abs() < p.abs();
+        COUNTS.with(|c| {
+            let (n, b) = c.get();
+            c.set((n + 1, b + u64::from(bad)));
+        });
+    }
+
+    /// (calls, failed preconditions) since the last `take` on this thread.
+    pub(crate) fn take() -> (u64, u64) {
+        COUNTS.with(|c| c.replace((0, 0)))
+    }
+}
+
 /// (xh + xl)·(yh + yl) as an unevaluated sum p + e with p = fl(xh·yh):
 /// the exact error of p ([`two_prod`]), then the cross terms xh·yl and
 /// xl·yh each added by a fused multiply-add (xl·yl, below the working
