@@ -74,7 +74,8 @@ use super::theta_step::ThetaStep;
 use super::{all_finite_f64, all_positive, positive, ConfigError, LawError, UpdateLaw};
 use crate::filter_bank::{Regressor, Scaling};
 use crate::scalar::compensated::{
-    add_fast, add_lazy, product_dd, product_dw, residual_exact, Compensated, CompensatedArray, Dot2,
+    add_fast, add_lazy, each_row, packed_index, product_dd, product_dw, residual_exact,
+    Compensated, CompensatedArray, Dot2, UNROLLED_ROWS,
 };
 use crate::scalar::Real;
 use crate::supervise::{InLoopLemma1, SupervisorConfig};
@@ -85,10 +86,6 @@ use crate::supervise::{InLoopLemma1, SupervisorConfig};
 /// the leading words, typically ~2: the trailing word stays far below the
 /// leading one, as `compensated::product_dd` assumes).
 const RENORMALIZE_EVERY: u8 = 64;
-
-/// Laws with at most this many parameters (three modes: 11) accumulate
-/// P̃, Q̃ row by row in straight-line code (`accumulate_row`).
-const UNROLLED_ROWS: usize = 11;
 
 /// Gains of the proposed law, in scaled coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -299,22 +296,11 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
             return;
         }
         // Each row a function with a constant row index: every loop below
-        // has compile-time bounds and unrolls completely, and φ stays in
-        // registers across the rows (docs/NUMERICS.md, "The step at 1,200
-        // instructions").
-        // (Local copies: their entries become registers, not reloads.)
+        // has compile-time bounds and unrolls completely (docs/NUMERICS.md,
+        // "The step at 1,200 instructions").
+        // (Local copies: their entries can stay in registers.)
         let (phi, phi_lo, y) = (reg.phi, reg.phi_lo, reg.y);
-        self.accumulate_row::<0>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<1>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<2>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<3>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<4>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<5>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<6>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<7>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<8>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<9>(w, &phi, &phi_lo, y);
-        self.accumulate_row::<10>(w, &phi, &phi_lo, y);
+        each_row!(I => self.accumulate_row::<I>(w, &phi, &phi_lo, y));
     }
 
     /// Row `I` of [`Self::accumulate_exact`]: P̃_Ij += w·φ_I·φ_j (j ≥ I) and
@@ -326,11 +312,8 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         };
         // a = w·φ_I, itself a double word, once per row.
         let (ah, al) = product_dw(ph, pl, w);
-        // Row I of the packed upper triangle starts after the I rows above
-        // it, of NP, NP − 1, … entries.
-        let start = I * NP - I * I.saturating_sub(1) / 2;
         for j in I..NP {
-            let k = start + (j - I);
+            let k = packed_index::<NP>(I, j);
             if let (Some(h), Some(l), Some(&ch), Some(&cl)) = (
                 self.p.sum.hi.get_mut(k),
                 self.p.sum.lo.get_mut(k),
