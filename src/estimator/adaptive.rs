@@ -419,21 +419,23 @@ impl<T: Real, const NP: usize, const NS: usize> AdaptiveLaw<T, NP, NS> {
         };
         let step_gain = self.step.gain();
         // S = R/g_P + K·TsΓ·P̃, packed like P̃ (diagonal: see below).
-        let mut s = [T::ZERO; NS];
-        if self.tied {
-            for (v, &h) in s.iter_mut().zip(self.p.sum.hi.iter()) {
-                *v = (h + T::ZERO) + step_gain * h;
-            }
+        // (Built entry by entry: a zeroed array first was a memset call.)
+        let (p_hi, r_hi) = (&self.p.sum.hi, &self.r.sum.hi);
+        let mut s: [T; NS] = if self.tied {
+            core::array::from_fn(|k| {
+                let h = p_hi.get(k).copied().unwrap_or(T::ZERO);
+                h + step_gain * h
+            })
         } else {
             let ratio = self.r.scale / self.p.scale;
-            for ((v, &h), &r) in s
-                .iter_mut()
-                .zip(self.p.sum.hi.iter())
-                .zip(self.r.sum.hi.iter())
-            {
-                *v = ratio * r + step_gain * h;
-            }
-        }
+            core::array::from_fn(|k| {
+                let (h, r) = (
+                    p_hi.get(k).copied().unwrap_or(T::ZERO),
+                    r_hi.get(k).copied().unwrap_or(T::ZERO),
+                );
+                ratio * r + step_gain * h
+            })
+        };
         if self.tied {
             // R/g_P = P̃ + e^{−lt}/g_P·R(0) on the diagonal.
             let mut idx = 0;
