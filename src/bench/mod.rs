@@ -138,6 +138,14 @@ pub fn dac_config() -> ad5761r::Config {
     ad5761r::Config::default()
 }
 
+/// One step of the DAC in actuator volts (its LSB × [`AMPLIFIER_GAIN`]):
+/// every u the pipeline commands is a multiple of it, so the robust
+/// estimator's compact record keeps u exactly on this grid
+/// (`RobustConfig::input_step`).
+pub fn input_step_v() -> f64 {
+    f64::from(dac_config().transfer().lsb_volts()) * AMPLIFIER_GAIN
+}
+
 /// Codes → y (eq. 17 deflection, m) and → actuator volts, at the ADC
 /// scales of [`adc_config`].
 pub fn conversion() -> ConversionConfig {

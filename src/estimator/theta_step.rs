@@ -126,7 +126,14 @@ impl<T: Real, const NP: usize, B: ByProduct<T, NP>> ThetaStep<T, NP, B> {
     /// Count one sample; true on every K-th, when the θ step is due.
     #[inline(always)]
     pub fn due(&mut self) -> bool {
-        self.pending += 1;
+        self.due_after(1)
+    }
+
+    /// Count `n` samples at once; true if the θ step falls due among them
+    /// (one step, however many multiples of K they span).
+    #[inline(always)]
+    pub fn due_after(&mut self, n: u32) -> bool {
+        self.pending = self.pending.saturating_add(n);
         if self.pending < self.every {
             return false;
         }

@@ -16,7 +16,7 @@
 //! running generator inside the lock and written back only if every
 //! setter accepted it, so a refused change leaves the output untouched.
 
-use crate::estimator::robust::{RobustConfig, RobustEstimator};
+use crate::estimator::robust::{Head, RecordStore, RobustConfig, RobustEstimator};
 use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
 use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
@@ -127,6 +127,28 @@ pub trait Device {
     /// Take back an estimator the pipeline no longer runs (e.g. to reuse
     /// its static storage for the next [`Device::build_estimator`]).
     fn recycle_estimator(&mut self, old: Self::Estimator);
+
+    /// Put `estimator` (from [`Device::build_estimator`]) in the running
+    /// one's place at λ = `lambda_rad_s`, adaptation resumed if `resume`,
+    /// inside one lock; returns the estimator to recycle (the replaced one,
+    /// or `estimator` itself refused: an invalid λ) and the index of the
+    /// next sample. The default swaps ([`Control::replace_estimator`]); a
+    /// board that builds a new estimator into the running one's storage
+    /// (one slot for a large record) overrides it.
+    fn swap_estimator(
+        &mut self,
+        estimator: Self::Estimator,
+        lambda_rad_s: f64,
+        resume: bool,
+    ) -> (Result<Self::Estimator, Self::Estimator>, u64) {
+        self.with_pipeline(|pl| {
+            let swap = pl.replace_estimator(estimator, lambda_rad_s);
+            if swap.is_ok() && resume {
+                pl.resume();
+            }
+            (swap, pl.next_sample_index())
+        })
+    }
 }
 
 /// The core's estimator settings for the protocol's: the board's filter
@@ -184,23 +206,54 @@ pub fn robust_configs<const NP: usize>(
 }
 
 /// Rebuild the two-mode robust estimator in `slot` for `settings` on the
-/// filter bank `filter` ([`robust_configs`]), its start-up law from θ(0) =
-/// `theta0` ([`with_theta0`]), in place ([`RobustEstimator::rebuild`]: a
-/// board's static slot is larger than its stack). On a refusal `slot` is
+/// filter bank `filter` ([`robust_configs`], u kept in the record on the
+/// grid `input_step`, [`RobustConfig::input_step`]: the board's DAC step in
+/// actuator volts), its start-up law from θ(0) = `theta0`
+/// ([`with_theta0`]), in place ([`RobustEstimator::rebuild`]: a board's
+/// static slot is larger than its stack). On a refusal `slot` is
 /// unchanged.
 ///
 /// # Errors
 /// `EstimatorUnavailable` for a `theta0` of another length than 7, and
 /// [`reject_config`]'s reason for settings the estimator refuses.
-pub fn rebuild_robust<T: Real, const B: usize>(
-    slot: &mut RobustEstimator<T, 4, 7, 28, B>,
+pub fn rebuild_robust<T: Real, const B: usize, R: RecordStore<T>>(
+    slot: &mut RobustEstimator<T, 4, 7, 28, B, R>,
     settings: &EstimatorSettings,
     filter: &FilterConfig,
     theta0: &[f64],
+    input_step: f64,
 ) -> Result<(), RejectReason> {
+    let (filter, law) = robust_law(settings, filter, theta0, input_step)?;
+    slot.rebuild(&filter, &law).map_err(reject_config)
+}
+
+/// What [`rebuild_robust`] builds, without the record: the head a board
+/// with one record slot installs into the running estimator
+/// ([`RobustEstimator::install`], inside its lock).
+///
+/// # Errors
+/// As [`rebuild_robust`].
+pub fn robust_head<T: Real>(
+    settings: &EstimatorSettings,
+    filter: &FilterConfig,
+    theta0: &[f64],
+    input_step: f64,
+) -> Result<Head<T, 4, 7, 28>, RejectReason> {
+    let (filter, law) = robust_law(settings, filter, theta0, input_step)?;
+    Head::new(&filter, &law).map_err(reject_config)
+}
+
+/// [`robust_configs`] with the start and the record's u grid.
+fn robust_law(
+    settings: &EstimatorSettings,
+    filter: &FilterConfig,
+    theta0: &[f64],
+    input_step: f64,
+) -> Result<(FilterConfig, RobustConfig<7>), RejectReason> {
     let (filter, mut law) = robust_configs::<7>(settings, filter.lambda_rad_s, filter);
     law.startup = with_theta0(law.startup, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
-    slot.rebuild(&filter, &law).map_err(reject_config)
+    law.input_step = input_step;
+    Ok((filter, law))
 }
 
 /// `law` starting from θ(0) = `theta0` (scaled; empty: unchanged);

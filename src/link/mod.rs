@@ -74,8 +74,8 @@ pub(crate) mod tune;
 pub(crate) mod tx;
 
 pub use control::{
-    estimator_configs, rebuild_robust, reject_config, robust_configs, with_theta0, Control, Device,
-    ExcitationPlan,
+    estimator_configs, rebuild_robust, reject_config, robust_configs, robust_head, with_theta0,
+    Control, Device, ExcitationPlan,
 };
 pub use estimate::{estimate, Convergence, EstimateContext, FlagRules};
 pub(crate) use raw::RawAssembler;
@@ -373,13 +373,7 @@ impl DeviceLink {
             }
         };
         let resume = p.kind == BuildKind::First && !self.frozen_by_command;
-        let (swap, at) = dev.with_pipeline(|pl| {
-            let swap = pl.replace_estimator(est, filter.lambda_rad_s);
-            if swap.is_ok() && resume {
-                pl.resume();
-            }
-            (swap, pl.next_sample_index())
-        });
+        let (swap, at) = dev.swap_estimator(est, filter.lambda_rad_s, resume);
         match swap {
             Ok(old) => dev.recycle_estimator(old),
             Err(refused) => {
@@ -613,12 +607,7 @@ impl DeviceLink {
             ..current
         };
         let est = dev.build_estimator(s, &filter, &[])?;
-        let (swap, at) = dev.with_pipeline(|p| {
-            (
-                p.replace_estimator(est, filter.lambda_rad_s),
-                p.next_sample_index(),
-            )
-        });
+        let (swap, at) = dev.swap_estimator(est, filter.lambda_rad_s, false);
         match swap {
             Ok(old) => dev.recycle_estimator(old),
             Err(refused) => {

@@ -608,6 +608,21 @@ where
         Ok(old)
     }
 
+    /// [`Pipeline::replace_estimator`] for a new estimator built where the
+    /// running one lies (a board with one slot for a large estimator):
+    /// `rebuild` turns the running estimator into the new one, which then
+    /// starts as a swapped-in one would (its λ, a new time series, the
+    /// settling hold). With an invalid λ nothing happens (`false`).
+    pub fn rebuild_estimator(&mut self, lambda_rad_s: f64, rebuild: impl FnOnce(&mut E)) -> bool {
+        if !(lambda_rad_s > 0.0 && lambda_rad_s.is_finite()) {
+            return false;
+        }
+        self.lambda_rad_s = lambda_rad_s;
+        rebuild(&mut self.estimator);
+        self.restart_series();
+        true
+    }
+
     fn restart_series(&mut self) {
         self.pf_u = PrefilterState::default();
         self.pf_y = PrefilterState::default();

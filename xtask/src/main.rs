@@ -107,8 +107,9 @@ struct Image {
     bin: &'static str,
     cpu: Cpu,
     memory_x: &'static str,
-    /// Flash and static RAM targets to report against (bytes), if any.
-    budget: Option<(u64, u64)>,
+    /// A flash target to report against (if any) and a static-RAM budget
+    /// the image must keep (bytes).
+    budget: Option<(Option<u64>, u64)>,
     /// The sample interrupt's handler, if its call graph must be free of
     /// panics, software floating point and indirect branches (a hard check);
     /// the image's stack frames are checked then too (none may take half
@@ -131,20 +132,11 @@ const IMAGES: &[Image] = &[
         bin: "qemu-rig",
         cpu: Cpu::Generic,
         memory_x: "src/board/qemu/memory.x",
-        // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
-        budget: Some((64 * 1024, 16 * 1024)),
-        sample_isr: None,
-        placed: &[],
-    },
-    Image {
-        board: "qemu mps2-an386 (Cortex-M4F) + the robust estimator",
-        feature: QEMU_ROBUST_FEATURE,
-        bin: "qemu-rig",
-        cpu: Cpu::Generic,
-        memory_x: "src/board/qemu/memory.x",
-        // Two static slots of the robust estimator's 2 s record (162 KB
-        // each): no 16 KiB budget; the board has 4 MiB.
-        budget: None,
+        // Static RAM (stack excluded) within 96 KiB, the robust estimator's
+        // slot (53 KB) included: an M4F part with 128 KiB or more (issue
+        // 18; a hard check). Flash is reported, not budgeted (issue 18
+        // retired issue 6's 64 KiB: such a part has ≥ 512 KB).
+        budget: Some((None, 96 * 1024)),
         sample_isr: None,
         placed: &[],
     },
@@ -165,9 +157,6 @@ const IMAGES: &[Image] = &[
 
 /// QEMU's image for `cargo xtask qemu`.
 const QEMU_IMAGE: &str = "qemu-rig";
-/// The feature of the QEMU image that can run the robust estimator
-/// (`cargo xtask qemu --robust`).
-const QEMU_ROBUST_FEATURE: &str = "qemu-robust";
 const QEMU: &str = "qemu-system-arm";
 
 fn main() -> ExitCode {
@@ -375,16 +364,27 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
         flash.end()
     );
     if let Some((flash_max, ram_max)) = image.budget {
-        // A target to report against, not a build failure: the layout and
-        // vector checks above are the hard errors.
+        // The flash figure is a target to report against; the RAM budget
+        // is a hard check, like the layout and vector checks above.
         let verdict = |used: u64, max: u64| if used <= max { "met" } else { "NOT MET" };
+        if let Some(flash_max) = flash_max {
+            println!(
+                "  target flash ≤ {} KiB: {}",
+                flash_max / 1024,
+                verdict(fp.flash, flash_max)
+            );
+        }
         println!(
-            "  target flash ≤ {} KiB: {}; target static RAM ≤ {} KiB: {}",
-            flash_max / 1024,
-            verdict(fp.flash, flash_max),
+            "  static RAM budget ≤ {} KiB: {}",
             ram_max / 1024,
             verdict(fp.ram, ram_max)
         );
+        if fp.ram > ram_max {
+            return Err(format!(
+                "static RAM {} B over the {} B budget",
+                fp.ram, ram_max
+            ));
+        }
     }
     if let Some(isr) = image.sample_isr {
         let mcpu = match image.cpu {

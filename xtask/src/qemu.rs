@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use crate::emulator::{command, wait, Serial};
 use crate::{
     build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
-    QEMU_IMAGE, QEMU_ROBUST_FEATURE,
+    QEMU_IMAGE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
@@ -116,16 +116,11 @@ pub fn run(args: &[String]) -> Result<(), String> {
         &["--version"],
         "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
     )?;
-    // `--robust` needs the image with the robust estimator's slots; every
-    // other mode runs the default image.
-    let feature = if o.robust {
-        QEMU_ROBUST_FEATURE
-    } else {
-        "board-qemu"
-    };
+    // Every mode runs the one QEMU image (the robust estimator is one of
+    // its estimators).
     let image = IMAGES
         .iter()
-        .find(|i| i.bin == QEMU_IMAGE && i.feature == feature)
+        .find(|i| i.bin == QEMU_IMAGE)
         .ok_or("no QEMU image in the image table")?;
     let elf = build(image)?;
     if o.robust {

@@ -116,7 +116,8 @@ impl NucleoDevice {
         let Some(slot) = free.take() else {
             return Err(RejectReason::EstimatorUnavailable);
         };
-        match rebuild_robust(slot, settings, filter, theta0) {
+        // (Its record keeps every u as it came: no input grid.)
+        match rebuild_robust(slot, settings, filter, theta0, 0.0) {
             Ok(()) => Ok(Either::Right(ExternalUpdates(slot))),
             Err(e) => {
                 *free = Some(slot);

@@ -53,11 +53,12 @@ use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
-use beamest::estimator::robust::Robust2;
+use beamest::estimator::robust::{Head, Robust2Compact, RobustConfig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either};
 use beamest::link::{DeviceLink, Settings};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::tuning::{LambdaSource, TuningConfig};
+use core::mem::MaybeUninit;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
@@ -158,14 +159,9 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
-    // The bench's link, with the robust estimator selectable too in the
-    // `qemu-robust` image.
-    #[cfg_attr(not(feature = "qemu-robust"), allow(unused_mut))]
+    // The bench's link, with the robust estimator selectable too.
     let mut link_config = bench::link_config(board::UART_BAUD);
-    #[cfg(feature = "qemu-robust")]
-    {
-        link_config.limits.estimators |= EstimatorKind::Robust.bit();
-    }
+    link_config.limits.estimators |= EstimatorKind::Robust.bit();
     let Ok(mut link) = DeviceLink::new(link_config, default_settings(), &tuning()) else {
         fail("tuning settings")
     };
@@ -187,7 +183,8 @@ fn main() -> ! {
     // SAFETY: the chip models were created inside `build_sample_task` and
     // only the task (its rig and its drivers) refers to them.
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
-    let mut device = QemuDevice::new(&SAMPLE_TASK, spare, robust_slots());
+    let (slot, head) = robust_storage();
+    let mut device = QemuDevice::new(&SAMPLE_TASK, spare, slot, head);
     hprintln!(
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
@@ -401,39 +398,31 @@ fn build_sample_task(
     (task, spare)
 }
 
-/// Without the `qemu-robust` feature: no robust slots.
-#[cfg(not(feature = "qemu-robust"))]
-fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
-    [None, None]
-}
-
-/// The robust estimator's two slots (in .bss, sizes in BENCHMARKS.md; placeholders
-/// until `SetEstimator` builds one, see [`device`]).
-#[cfg(feature = "qemu-robust")]
-fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
+/// The robust estimator's slot (its compact record, written where it lies:
+/// `new_in`) and head workspace (sizes: BENCHMARKS.md; placeholders until
+/// `SetEstimator` builds one, see [`device`]).
+fn robust_storage() -> (
+    &'static mut Robust2Compact<f32>,
+    &'static mut Head<f32, 4, 7, 28>,
+) {
     let filter = beamest::filter_bank::FilterConfig {
         timing: beamest::filter_bank::OutputTiming::IDEAL,
         ..bench::filter_config(1.0)
     };
-    let (Ok(a), Ok(b)) = (
-        Robust2::<f32>::new(
-            &filter,
-            &beamest::estimator::robust::RobustConfig::default(),
-        ),
-        Robust2::<f32>::new(
-            &filter,
-            &beamest::estimator::robust::RobustConfig::default(),
-        ),
+    let cfg = RobustConfig::default();
+    let (Some(slot), Ok(head)) = (
+        cortex_m::singleton!(: MaybeUninit<Robust2Compact<f32>> = MaybeUninit::uninit()),
+        Head::<f32, 4, 7, 28>::new(&filter, &cfg),
     ) else {
-        fail("robust estimator settings")
+        fail("robust estimator storage")
     };
-    let (Some(a), Some(b)) = (
-        cortex_m::singleton!(: Robust2<f32> = a),
-        cortex_m::singleton!(: Robust2<f32> = b),
+    let (Ok(slot), Some(head)) = (
+        Robust2Compact::<f32>::new_in(slot, &filter, &cfg),
+        cortex_m::singleton!(: Head<f32, 4, 7, 28> = head),
     ) else {
-        fail("robust estimator slots already placed")
+        fail("robust estimator storage")
     };
-    [Some(a), Some(b)]
+    (slot, head)
 }
 
 /// The bench's start-up settings with the estimator under the automatic

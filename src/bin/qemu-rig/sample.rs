@@ -45,9 +45,10 @@ use beamest::bench::ConverterRig;
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::{self as board, Handoff};
-use beamest::estimator::robust::Robust2;
 use beamest::estimator::{Adaptive2, Either, Estimator, StepStatus};
 use beamest::link::StartupCollector;
+
+use crate::device::RobustSlot;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
@@ -73,7 +74,7 @@ pub const PERIODS: u32 = 6_000;
 
 /// The estimators this image runs (`EstimatorKind` Adaptive or Robust),
 /// each in static storage.
-pub type Choice = Either<&'static mut Adaptive2<f32>, &'static mut Robust2<f32>>;
+pub type Choice = Either<&'static mut Adaptive2<f32>, RobustSlot>;
 /// The estimator the pipeline steps: one of [`Choice`], timed.
 pub type Est = TimedEstimator<Choice>;
 /// The ADS131M02 driver on its model.
