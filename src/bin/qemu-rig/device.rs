@@ -63,7 +63,9 @@ macro_rules! slot {
 }
 
 impl Estimator<f32, NP> for RobustSlot {
-    #[inline]
+    /// Out of line: the adaptive law's step, in the same dispatch, keeps
+    /// its registers (BENCHMARKS.md, "Firmware on the emulated board").
+    #[inline(never)]
     fn step(&mut self, u: f32, y: f32) -> StepStatus {
         slot!(self, e => e.step(u, y))
     }
