@@ -45,13 +45,13 @@ use beamest::bench::ConverterRig;
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::{self as board, Handoff};
-use beamest::estimator::{Adaptive2, Either, Estimator, StepStatus};
+use beamest::estimator::robust::{Head, Robust2Compact};
+use beamest::estimator::{Adaptive2, Either, Estimator, Health, StepStatus};
 use beamest::link::StartupCollector;
-
-use crate::device::RobustSlot;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::supervise::Supervision;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;
@@ -71,6 +71,64 @@ pub const RUN_SAMPLES: u32 = 50_000;
 pub const PERIOD_FROM: u32 = 10;
 /// See [`PERIOD_FROM`].
 pub const PERIODS: u32 = 6_000;
+
+/// The robust estimator as the pipeline holds it: the image's one slot, or
+/// (only on its way to [`QemuDevice::swap_estimator`](crate::device::QemuDevice::swap_estimator), never stepped by
+/// the pipeline) a new estimator's head to be installed into the running
+/// slot.
+#[derive(Debug)]
+pub enum RobustSlot {
+    /// The slot: the estimator with its record.
+    Slot(&'static mut Robust2Compact<f32>),
+    /// A new estimator without a record.
+    Head(&'static mut Head<f32, 4, NP, 28>),
+}
+
+/// Forward `$call` to the slot's or the head's estimator.
+macro_rules! slot {
+    ($self:expr, $e:ident => $call:expr) => {
+        match $self {
+            RobustSlot::Slot($e) => $call,
+            RobustSlot::Head($e) => $call,
+        }
+    };
+}
+
+impl Estimator<f32, NP> for RobustSlot {
+    /// Out of line: the adaptive law's step, in the same dispatch, keeps
+    /// its registers (BENCHMARKS.md, "Firmware on the emulated board").
+    #[inline(never)]
+    fn step(&mut self, u: f32, y: f32) -> StepStatus {
+        slot!(self, e => e.step(u, y))
+    }
+    fn theta(&self) -> [f32; NP] {
+        slot!(self, e => e.theta())
+    }
+    fn transfer_function(&self) -> TransferFunction<f32> {
+        slot!(self, e => e.transfer_function())
+    }
+    fn reset(&mut self) {
+        slot!(self, e => e.reset())
+    }
+    fn excitation_level(&self) -> Option<f32> {
+        slot!(self, e => e.excitation_level())
+    }
+    fn health(&self) -> Health {
+        slot!(self, e => e.health())
+    }
+    fn information(&self) -> Option<[[f32; NP]; NP]> {
+        slot!(self, e => Estimator::information(&**e))
+    }
+    fn hold(&mut self, samples: u32) {
+        slot!(self, e => e.hold(samples))
+    }
+    fn settling_samples(&self) -> u32 {
+        slot!(self, e => e.settling_samples())
+    }
+    fn supervision(&self) -> Option<Supervision<f32>> {
+        slot!(self, e => e.supervision())
+    }
+}
 
 /// The estimators this image runs (`EstimatorKind` Adaptive or Robust),
 /// each in static storage.

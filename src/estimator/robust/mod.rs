@@ -184,7 +184,7 @@ pub use external::ExternalUpdates;
 use law::OeLaw;
 use oe::{Filters, InitialFit, OeModel};
 pub use place::Head;
-pub use record::{Compact, RecordStore, Samples, MAX_BLOCK};
+pub use record::{Compact, RecordStore, Samples};
 use start::start_test;
 pub use start::InitialState;
 pub(crate) use start::{START_TEST_CHI2, START_TEST_SAMPLES};

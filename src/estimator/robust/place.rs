@@ -11,7 +11,8 @@ use crate::filter_bank::FilterConfig;
 use crate::scalar::Real;
 
 /// Everything of a robust estimator but its record (a few KB): what
-/// [`RobustEstimator::new_head`] builds off the sample path and
+/// [`RobustEstimator::new`] builds for a record of no samples, off the
+/// sample path, and
 /// [`RobustEstimator::install`] puts in place of a running estimator (a
 /// firmware with one record slot, `src/bin/qemu-rig/device.rs`).
 pub type Head<T, const D: usize, const NP: usize, const NS: usize> =
@@ -66,7 +67,7 @@ impl<
             frozen,
             initial,
             updates,
-        } = Self::new_head(filter, cfg)?;
+        } = Head::<T, D, NP, NS>::new(filter, cfg)?;
         let placed = slot.write(Self {
             bank,
             startup,
@@ -97,19 +98,6 @@ impl<
         Ok(placed)
     }
 
-    /// Everything of [`RobustEstimator::new`]`(filter, cfg)` but the record
-    /// (the expensive part of a build: filter discretizations, matrix
-    /// exponentials), for [`RobustEstimator::install`].
-    ///
-    /// # Errors
-    /// Those of [`RobustEstimator::new`].
-    pub fn new_head(
-        filter: &FilterConfig,
-        cfg: &RobustConfig<NP>,
-    ) -> Result<Head<T, D, NP, NS>, ConfigError> {
-        Head::new(filter, cfg)
-    }
-
     /// [`RobustEstimator::new`]'s refusal of a record whose dimensions
     /// disagree, without building anything.
     fn check_record() -> Result<(), ConfigError> {
@@ -134,7 +122,7 @@ impl<
         cfg: &RobustConfig<NP>,
     ) -> Result<(), ConfigError> {
         Self::check_record()?;
-        let head = Self::new_head(filter, cfg)?;
+        let head = Head::<T, D, NP, NS>::new(filter, cfg)?;
         self.install(&head);
         Ok(())
     }
@@ -286,7 +274,7 @@ mod tests {
             lambda_rad_s: 150.0,
             ..filter()
         };
-        let head = SmallCompact::<f32>::new_head(&other, &cfg).unwrap();
+        let head = Head::<f32, 4, 7, 28>::new(&other, &cfg).unwrap();
         placed.install(&head);
         let mut fresh = SmallCompact::<f32>::new(&other, &cfg).unwrap();
         let mut rig = Rig::new();

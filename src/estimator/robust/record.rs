@@ -133,8 +133,8 @@ const MASK_BITS: usize = 32;
 /// The compact record: u as a signed 16-bit count of `u_step` (lossless
 /// when u comes from a 16-bit DAC and `u_step` is its step), y as the
 /// means of blocks of `B / NB` samples (over the block's readings), a
-/// validity bit per sample, the first [`START_TEST_SAMPLES`] values of y
-/// (the start test) and the last two blocks' y as they came (what a
+/// validity bit per sample, the first 32 values of y (the start test's
+/// `START_TEST_SAMPLES`) and the last two blocks' y as they came (what a
 /// hand-over replays one by one). `NB` = B divided by the block length,
 /// `NW` = ⌈B/32⌉ (stable Rust cannot compute array lengths from `B`; the
 /// estimator refuses a mismatch, [`Compact::CONSISTENT`]). 2 s at 10 kHz
@@ -156,10 +156,11 @@ pub struct Compact<T, const B: usize, const NB: usize, const NW: usize> {
 
 /// Longest block [`Compact`] supports (its count is a byte, its recent
 /// values a fixed array).
-pub const MAX_BLOCK: usize = 32;
+const MAX_BLOCK: usize = 32;
 
 impl<T: Real, const B: usize, const NB: usize, const NW: usize> Compact<T, B, NB, NW> {
-    /// The block length B/NB divides B, fits [`MAX_BLOCK`], and the mask
+    /// The block length B/NB divides B, is at most 32 (its count is a
+    /// byte, its recent values a fixed array), and the mask
     /// has one bit per sample.
     pub const CONSISTENT: bool = NB > 0
         && B % NB == 0
