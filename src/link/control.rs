@@ -54,6 +54,11 @@ pub trait Control<T> {
     fn counters(&self) -> Counters;
     /// [`Pipeline::next_sample_index`].
     fn next_sample_index(&self) -> u64;
+    /// [`Pipeline::is_frozen`].
+    fn is_frozen(&self) -> bool;
+    /// The ADC's ID and configuration registers read back
+    /// ([`StrainAdc::read_back`]): two SPI frames, for the self-test.
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind>;
 }
 
 impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Control<T>
@@ -93,6 +98,12 @@ where
     }
     fn next_sample_index(&self) -> u64 {
         Pipeline::next_sample_index(self)
+    }
+    fn is_frozen(&self) -> bool {
+        Pipeline::is_frozen(self)
+    }
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind> {
+        self.converters_mut().0.read_back()
     }
 }
 

@@ -41,8 +41,8 @@ use std::time::{Duration, Instant};
 
 use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorSettings, Excitation, Frame,
-    LinkCounters, Message, RejectReason, Status, StatusFlags, TelemetryRates, Waveform,
-    MAX_ENCODED_LEN,
+    LinkCounters, Message, RejectReason, SelfTestReport, Status, StatusFlags, TelemetryRates,
+    Waveform, MAX_ENCODED_LEN,
 };
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
@@ -56,6 +56,7 @@ pub struct Tally {
     pub raw: u64,
     pub status: u64,
     pub acks: u64,
+    pub self_tests: u64,
     pub other: u64,
     /// Estimates before the first one with modes.
     pub without_modes_first: u64,
@@ -236,6 +237,7 @@ impl Tally {
             Message::RawSamples(_) => &mut self.raw,
             Message::Status(_) => &mut self.status,
             Message::Ack(_) => &mut self.acks,
+            Message::SelfTestReport(_) => &mut self.self_tests,
             Message::Command(_) => &mut self.other,
         };
         *c += 1;
@@ -368,6 +370,8 @@ struct Host {
     /// Newest raw-sample index received before the amplitude command.
     raw_before_amplitude: Option<u64>,
     acks: Vec<(u32, AckResult)>,
+    /// Self-test reports (the one at boot, the one commanded).
+    reports: Vec<SelfTestReport>,
     /// The last RequestStatus has been acknowledged: the next Status is its
     /// answer (a periodic Status may come between the request and its Ack).
     status_acked: bool,
@@ -393,6 +397,7 @@ impl Host {
             refused_result: None,
             raw_before_amplitude: None,
             acks: Vec::new(),
+            reports: Vec::new(),
             status_acked: false,
         }
     }
@@ -433,6 +438,7 @@ impl Host {
                 }
                 Message::Status(s) => self.on_status(s),
                 Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
+                Message::SelfTestReport(r) => self.reports.push(r),
                 Message::Command(_) => self.fail("the device sent a Command frame".into()),
             }
         }

@@ -10,9 +10,11 @@ use beam_protocol::budget::{
     uart_bytes_per_s, LinkLoad, RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
 };
 use beam_protocol::{
-    encode, Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
-    Excitation, FirmwareVersion, Message, ModeEstimate, RawSamples, RejectReason, Status,
-    StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN, MAX_ENCODED_LEN,
+    encode, Ack, AckResult, AdcCheck, Command, DeviceCounters, DrdyCheck, Estimate,
+    EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, LoopbackCheck, Message,
+    ModeEstimate, NoiseCheck, RawSamples, RejectReason, SelfTestChecks, SelfTestReport,
+    SelfTestState, Status, StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN,
+    MAX_ENCODED_LEN,
 };
 use beamest::modal::modal_from_theta;
 use beamest::model::paper_plant_tf;
@@ -84,6 +86,10 @@ fn golden() -> Vec<(&'static str, Message, u32)> {
         },
         telemetry: TelemetryRates::default(),
         lambda_automatic: false,
+        self_test: SelfTestState::Done {
+            failed: SelfTestChecks::default(),
+            not_measured: SelfTestChecks::default(),
+        },
     };
     vec![
         ("Estimate", golden_estimate().into(), 360_000),
@@ -152,8 +158,55 @@ fn golden() -> Vec<(&'static str, Message, u32)> {
             .into(),
             9,
         ),
+        ("SelfTestReport", golden_report().into(), 360_005),
         ("Command::Freeze", Command::Freeze.into(), 10),
+        ("Command::SelfTest", Command::SelfTest.into(), 11),
     ]
+}
+
+/// The report of the golden frame: a self-test on command that found the
+/// bench's noise fault (NOISE failed), values as the emulated rig reports
+/// them.
+fn golden_report() -> SelfTestReport {
+    SelfTestReport {
+        first_sample: 50_000,
+        last_sample: 56_655,
+        at_boot: false,
+        failed: SelfTestChecks::NOISE,
+        not_measured: SelfTestChecks::default(),
+        adc: AdcCheck {
+            id: 0x2200,
+            registers: [0x0110, 0x0306, 0x0007],
+            expected: [0x0110, 0x0306, 0x0007],
+        },
+        drdy: DrdyCheck {
+            rate_hz: 10_000.0,
+            expected_hz: 10_000.0,
+            tolerance: 1e-4,
+            conversions: 6_656,
+            ticks: 6_656,
+        },
+        loopback: LoopbackCheck {
+            tone_hz: 48.828125,
+            amplitude_v: 1.0,
+            gain: 0.99984,
+            expected_gain: 1.0,
+            gain_tolerance: 0.05,
+            offset_v: 0.0,
+            offset_tolerance_v: 0.02,
+            delay_samples: 2.15,
+            expected_delay_samples: 2.15,
+            delay_tolerance_samples: 0.02,
+        },
+        noise: NoiseCheck {
+            noise_sd: 2e-5,
+            floor_sd: 1.1e-8,
+            signal_rms: 2e-3,
+            snr_db: 40.0,
+            snr_min_db: 60.0,
+            excitation: Excitation::default(),
+        },
+    }
 }
 
 /// Pinned wire bytes of each golden frame (in `golden()` order).
@@ -463,7 +516,7 @@ fn golden_frames_read_by_an_independent_decoder() {
         let (body, crc) = raw.split_at(raw.len() - 4);
         assert_eq!(crc32(body).to_le_bytes(), crc, "{title}");
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-        assert_eq!(&body[..3], &[0x57, 0xBE, 2], "{title}: magic, version");
+        assert_eq!(&body[..3], &[0x57, 0xBE, 3], "{title}: magic, version");
         assert_eq!(body[3], msg.kind() as u8);
         assert_eq!(u32::from_le_bytes(body[4..8].try_into().unwrap()), seq);
         let mut r = Reader(&body[8..]);
