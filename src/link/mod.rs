@@ -774,7 +774,12 @@ impl DeviceLink {
             if applied.is_ok() {
                 p.freeze();
             }
-            (was_frozen, p.adc_read_back(), applied, p.next_sample_index())
+            (
+                was_frozen,
+                p.adc_read_back(),
+                applied,
+                p.next_sample_index(),
+            )
         });
         applied?;
         self.resume_after_test = !was_frozen;

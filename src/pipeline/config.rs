@@ -122,7 +122,9 @@ pub struct Tick<T> {
 /// physical units; no pairing, guard or prefilter).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TickReading<T> {
-    /// A new conversion was read (no converter error, not stale).
+    /// A new conversion was there to read: the converter did not report
+    /// the data stale (ADS131M02: STATUS.DRDY clear). A frame that failed
+    /// its CRC or on the bus counts: DRDY had announced a conversion.
     pub fresh: bool,
     /// The bridge channel as y (NaN: no valid conversion, or saturated).
     pub y: T,

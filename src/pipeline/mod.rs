@@ -305,7 +305,9 @@ where
         };
 
         // 3.–4. Screen the converter's report and convert.
-        let fresh = matches!(&reading, Ok(r) if !r.flags.stale);
+        // A new conversion unless the converter said there was none (a
+        // frame that failed its CRC or on the bus still had one behind it).
+        let fresh = !matches!(&reading, Ok(r) if r.flags.stale);
         let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
         let nan = T::from_f64(f64::NAN);
         let held_v = match held_now {

@@ -7,9 +7,7 @@ use crate::rig::GaussianNoise;
 use core::f64::consts::PI;
 
 fn tone(k: u64, delay: f64) -> f64 {
-    libm::sin(
-        2.0 * PI * f64::from(TONE_HARMONIC) * (k as f64 - delay) / TONE_SAMPLES as f64 + 0.3,
-    )
+    libm::sin(2.0 * PI * f64::from(TONE_HARMONIC) * (k as f64 - delay) / TONE_SAMPLES as f64 + 0.3)
 }
 
 /// White noise of σ under a large ringing mode (10 mm at 245 rad/s, the
@@ -28,7 +26,10 @@ fn noise_floor_sees_white_noise_not_a_ringing_beam() {
         f.push(k, Some(beam + noise.sample()));
     }
     let sd = f.sd().unwrap();
-    println!("σ = {sigma:e}, estimated {sd:e} from {} differences", f.count());
+    println!(
+        "σ = {sigma:e}, estimated {sd:e} from {} differences",
+        f.count()
+    );
     assert_eq!(f.count(), n - 4);
     assert!((sd / sigma - 1.0).abs() < 0.03, "{sd}");
     // Without noise the modes alone leave (ωTs)⁴ of their amplitude.
@@ -143,7 +144,11 @@ fn collector_times_the_intervals_between_conversions() {
     }
     assert_eq!(c.dropped(), 1);
     assert_eq!(blocks.last().unwrap().first_index, 200);
-    assert_eq!(blocks.last().unwrap().intervals, 31, "the clock starts afresh");
+    assert_eq!(
+        blocks.last().unwrap().intervals,
+        31,
+        "the clock starts afresh"
+    );
 }
 
 /// A whole run on synthetic ticks (a perfect bench): the phases' windows,
@@ -161,7 +166,12 @@ fn a_run_goes_through_its_phases_and_judges_each_check() {
     };
     // (monitor gain, monitor delay, noise σ, clock ticks per sample, ID)
     let run = |gain: f64, delay: f64, sigma: f64, period: u32, id: u16| {
-        let mut r = SelfTestRun::new(&config, false, 1_000, Ok(ads131m02::ReadBack { id, ..read_back }));
+        let mut r = SelfTestRun::new(
+            &config,
+            false,
+            1_000,
+            Ok(ads131m02::ReadBack { id, ..read_back }),
+        );
         let mut noise = GaussianNoise::<f64>::new(sigma.max(1e-30), 5).unwrap();
         let mut c = Collector::<f32>::new();
         let mut blocks = Vec::new();
@@ -176,10 +186,14 @@ fn a_run_goes_through_its_phases_and_judges_each_check() {
                 Phase::Signal => (0.1, 0.1, 4e-3 * libm::sin(k as f64 * 4e-3)),
             };
             let y = y + noise.sample();
-            c.push(&tick(index, true, u as f32, m as f32, y as f32), period, |b| {
-                blocks.push(b);
-                true
-            });
+            c.push(
+                &tick(index, true, u as f32, m as f32, y as f32),
+                period,
+                |b| {
+                    blocks.push(b);
+                    true
+                },
+            );
             index += 1;
             for b in blocks.drain(..) {
                 match r.push(&b) {
@@ -220,7 +234,16 @@ fn a_run_goes_through_its_phases_and_judges_each_check() {
         "4e-4 slow"
     );
     assert_eq!(
-        fails(&run(1.0, config.expected_delay_samples + 0.05, 1e-8, 2_500, 0x2203).0),
+        fails(
+            &run(
+                1.0,
+                config.expected_delay_samples + 0.05,
+                1e-8,
+                2_500,
+                0x2203
+            )
+            .0
+        ),
         (C::LOOPBACK, C::default())
     );
     assert_eq!(

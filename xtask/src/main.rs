@@ -13,8 +13,9 @@
 //!   sent on UART0 and check them; exit with QEMU's status (the
 //!   firmware's verdict). `--e2e`: the end-to-end test over a loopback
 //!   socket ([`e2e`]); `--robust`: the device switched to the robust
-//!   estimator over the link ([`e2e_robust`]); `--monitor`: `beamctl
-//!   monitor` attached ([`qemu`]).
+//!   estimator over the link ([`e2e_robust`]); `--selftest-faults`: the
+//!   self-test against each simulated bench fault ([`selftest_faults`]);
+//!   `--monitor`: `beamctl monitor` attached ([`qemu`]).
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -36,6 +37,7 @@ mod m7;
 mod memory_map;
 mod qemu;
 mod rig_report;
+mod selftest_faults;
 
 use std::env;
 use std::fs;
@@ -216,6 +218,11 @@ usage: cargo xtask <command>
                            (SetEstimator kind Robust) and the excitation again at 20.5 s;
                            checks its convergence, no overrun, its model updates' locks
                            bounded (the firmware's verdict), the link clean
+  qemu --selftest-faults [--timeout S]
+                           the self-test against each fault of the simulated bench (wrong ADC
+                           ID, a register that reads back wrong, DRDY missing, DRDY at 95 %,
+                           no loopback, noise on y): 1 simulated s each, exactly the fault's
+                           check must fail
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor

@@ -20,9 +20,7 @@ use crate::io::table::{rel, sig, Column, Table};
 use crate::judge::bound::{experiment_bound, ExperimentBound, NoiseLevel};
 use crate::link::text;
 use crate::run::drive::device_drive;
-use beam_protocol::{
-    AckResult, Command, Estimate, Frame, Message, SelfTestChecks, SelfTestReport,
-};
+use beam_protocol::{AckResult, Command, Estimate, Frame, Message, SelfTestChecks, SelfTestReport};
 use beamest::crlb::ModelSet;
 use beamest::model::TransferFunction;
 use clap::{ArgGroup, Args};
@@ -322,7 +320,10 @@ mod tests {
             .unwrap();
         let b = device_bound(&report, &e, 1e4, 20.0).unwrap();
         assert_eq!(b.bound.modes, 2);
-        assert!(b.bound.zeta.rel.iter().all(|r| *r > 0.0 && *r < 1e-5), "{b:?}");
+        assert!(
+            b.bound.zeta.rel.iter().all(|r| *r > 0.0 && *r < 1e-5),
+            "{b:?}"
+        );
         let text = render(&report, Some(&b), None);
         assert!(text.contains("every check passed"), "{text}");
         assert!(text.contains("ζ2"), "{text}");

@@ -13,8 +13,8 @@ use serde::Serialize;
 
 use super::budget::MAX_PAYLOAD_LEN;
 use super::{
-    Ack, Command, Estimate, Frame, Kind, Message, RawSamples, SelfTestReport, Status, CRC,
-    CRC_LEN, DELIMITER, HEADER_LEN, MAGIC, VERSION,
+    Ack, Command, Estimate, Frame, Kind, Message, RawSamples, SelfTestReport, Status, CRC, CRC_LEN,
+    DELIMITER, HEADER_LEN, MAGIC, VERSION,
 };
 
 /// The fixed frame header (8 bytes, little-endian).

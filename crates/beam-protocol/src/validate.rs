@@ -96,11 +96,9 @@ impl Command {
             Self::SetExcitation(e) => e.validate(limits),
             Self::SetEstimator(s) => s.validate(limits),
             Self::SetTelemetry(t) => t.validate(limits),
-            Self::Reset
-            | Self::Freeze
-            | Self::Resume
-            | Self::RequestStatus
-            | Self::SelfTest => Ok(()),
+            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus | Self::SelfTest => {
+                Ok(())
+            }
         }
     }
 }

@@ -10,11 +10,10 @@ use beam_protocol::budget::{
     uart_bytes_per_s, LinkLoad, RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
 };
 use beam_protocol::{
-    encode, Ack, AckResult, AdcCheck, Command, DeviceCounters, DrdyCheck, Estimate,
-    EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, LoopbackCheck, Message,
-    ModeEstimate, NoiseCheck, RawSamples, RejectReason, SelfTestChecks, SelfTestReport,
-    SelfTestState, Status, StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN,
-    MAX_ENCODED_LEN,
+    encode, Ack, AckResult, AdcCheck, Command, DeviceCounters, DrdyCheck, Estimate, EstimatorKind,
+    EstimatorSettings, Excitation, FirmwareVersion, LoopbackCheck, Message, ModeEstimate,
+    NoiseCheck, RawSamples, RejectReason, SelfTestChecks, SelfTestReport, SelfTestState, Status,
+    StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN, MAX_ENCODED_LEN,
 };
 use beamest::modal::modal_from_theta;
 use beamest::model::paper_plant_tf;

@@ -230,7 +230,14 @@ pub fn self_test_report() -> impl Strategy<Value = SelfTestReport> {
         (vec(f32_bits(), 5), excitation()),
     )
         .prop_map(
-            |((first, last, at_boot), (failed, nm), (id, registers, expected), (d, conv, ticks), l, (n, excitation))| {
+            |(
+                (first, last, at_boot),
+                (failed, nm),
+                (id, registers, expected),
+                (d, conv, ticks),
+                l,
+                (n, excitation),
+            )| {
                 SelfTestReport {
                     first_sample: first,
                     last_sample: last,

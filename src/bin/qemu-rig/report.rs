@@ -40,7 +40,7 @@
     clippy::indexing_slicing
 )]
 
-use beam_protocol::{encode, EstimatorKind, Message, StatusFlags, MAX_ENCODED_LEN};
+use beam_protocol::{encode, EstimatorKind, Message, SelfTestReport, StatusFlags, MAX_ENCODED_LEN};
 use beamest::bench;
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
@@ -166,6 +166,8 @@ pub struct Run {
     pub first_block: Option<crate::sample::Raw>,
     /// The robust estimator's model updates (when it runs).
     pub robust: RobustUpdates,
+    /// Thread mode's handling of each self-test block.
+    pub selftest_blocks: SpanSum,
 }
 
 impl Default for Run {
@@ -176,8 +178,59 @@ impl Default for Run {
             recentred: heapless::Vec::new(),
             first_block: None,
             robust: robust::updates(),
+            selftest_blocks: SpanSum::default(),
         }
     }
+}
+
+/// A self-test's report: the log lines and `rig: selftest`.
+pub fn self_test(r: &SelfTestReport, fault: Option<bench::BenchFault>) {
+    hprintln!(
+        "self-test ({}, samples {} to {}): failed {:#06x}, not measured {:#06x}; ADC ID {:04X}h, \
+         registers {:04X}h {:04X}h {:04X}h (configured {:04X}h {:04X}h {:04X}h); DRDY {} Hz ({} \
+         conversions in {} ticks); loopback gain {}, offset {} V, delay {} samples (expected {}); \
+         noise sd {} (floor {}), signal RMS {}, SNR {} dB",
+        if r.at_boot { "at boot" } else { "on command" },
+        r.first_sample,
+        r.last_sample,
+        r.failed.0,
+        r.not_measured.0,
+        r.adc.id,
+        r.adc.registers[0],
+        r.adc.registers[1],
+        r.adc.registers[2],
+        r.adc.expected[0],
+        r.adc.expected[1],
+        r.adc.expected[2],
+        Sci(f64::from(r.drdy.rate_hz), 6),
+        r.drdy.conversions,
+        r.drdy.ticks,
+        Sci(f64::from(r.loopback.gain), 6),
+        Sci(f64::from(r.loopback.offset_v), 3),
+        Sci(f64::from(r.loopback.delay_samples), 6),
+        Sci(f64::from(r.loopback.expected_delay_samples), 6),
+        Sci(f64::from(r.noise.noise_sd), 3),
+        Sci(f64::from(r.noise.floor_sd), 3),
+        Sci(f64::from(r.noise.signal_rms), 4),
+        Sci(f64::from(r.noise.snr_db), 4)
+    );
+    hprintln!(
+        "rig: selftest at_boot={} failed={} not_measured={} first={} last={} fault={} id={} \
+         drdy_hz={} gain={} offset_v={} delay={} noise_sd={} snr_db={}",
+        r.at_boot,
+        r.failed.0,
+        r.not_measured.0,
+        r.first_sample,
+        r.last_sample,
+        fault.map_or("none", bench::BenchFault::name),
+        r.adc.id,
+        Sci(f64::from(r.drdy.rate_hz), 9),
+        Sci(f64::from(r.loopback.gain), 9),
+        Sci(f64::from(r.loopback.offset_v), 9),
+        Sci(f64::from(r.loopback.delay_samples), 9),
+        Sci(f64::from(r.noise.noise_sd), 9),
+        Sci(f64::from(r.noise.snr_db), 9)
+    );
 }
 
 /// Mean instructions of a span sum.
@@ -243,6 +296,18 @@ pub fn finish(
          (the most any of them delayed a sample)",
         locks.count,
         (locks.max_ticks as f32 * ipt) as u32
+    );
+    hprintln!(
+        "self-test: the sample interrupt's copy of a tick {} instructions (mean over {} \
+         ticks, max {}), {} blocks refused; thread mode per 32-tick block {} instructions \
+         (mean over {} blocks, max {})",
+        Fixed(mean(&s.selftest, ipt), 0),
+        s.selftest.count,
+        (s.selftest.max_ticks as f32 * ipt) as u32,
+        s.selftest_dropped,
+        Fixed(mean(&run.selftest_blocks, ipt), 0),
+        run.selftest_blocks.count,
+        (run.selftest_blocks.max_ticks as f32 * ipt) as u32
     );
     rig_faults(s);
     let robust_running = link.settings().estimator.kind == EstimatorKind::Robust;

@@ -956,7 +956,10 @@ fn the_self_test_owns_the_drive_and_leaves_the_estimator_as_it_was() {
         SelfTestChecks::ADC_ID.with(SelfTestChecks::ADC_REGISTERS)
     );
     assert_eq!(report.not_measured, SelfTestChecks::LOOPBACK);
-    assert_eq!((report.first_sample, report.last_sample), (10_000, index - 1));
+    assert_eq!(
+        (report.first_sample, report.last_sample),
+        (10_000, index - 1)
+    );
     let msgs = h.drain(&mut rx);
     // (NaN, the values not measured, is not equal to itself: compare the
     // encodings.)
