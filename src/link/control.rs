@@ -138,6 +138,14 @@ pub trait Device {
     /// Take back an estimator the pipeline no longer runs (e.g. to reuse
     /// its static storage for the next [`Device::build_estimator`]).
     fn recycle_estimator(&mut self, old: Self::Estimator);
+
+    /// Return when a sample tick has just ended, so that the next lock
+    /// (the self-test's register read-back: two SPI frames) ends before
+    /// the next conversion completes; a conversion completing during it
+    /// would be output by the read's frame and missed by the next tick.
+    /// The default returns at once: right for a board whose converter
+    /// converts only inside the sample interrupt (the QEMU models).
+    fn align_to_sample(&mut self) {}
 }
 
 /// The core's estimator settings for the protocol's: the board's filter

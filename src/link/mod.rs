@@ -768,6 +768,7 @@ impl DeviceLink {
         }
         let fs = f64::from(self.config.limits.sample_rate_hz);
         let quiet = ExcitationPlan::<D::Real>::new(&QUIET, &self.settings.excitation, fs)?;
+        dev.align_to_sample();
         let (was_frozen, read_back, applied, at) = dev.with_pipeline(|p| {
             let was_frozen = p.is_frozen();
             let applied = quiet.apply(p.excitation_mut());

@@ -116,6 +116,6 @@ impl<SPI: SpiDevice> StrainAdc for Adc<SPI> {
     }
 
     fn read_back(&mut self) -> Result<ads131m02::ReadBack, FaultKind> {
-        self.adc.read_back()
+        StrainAdc::read_back(&mut self.adc)
     }
 }
