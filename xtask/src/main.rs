@@ -109,8 +109,10 @@ struct Image {
     bin: &'static str,
     cpu: Cpu,
     memory_x: &'static str,
-    /// Flash and static RAM targets to report against (bytes), if any.
-    budget: Option<(u64, u64)>,
+    /// The static-RAM target to report against (bytes), if any. (The
+    /// flash is reported, not budgeted: issue 18 retired the 64 KiB
+    /// target.)
+    ram_budget: Option<u64>,
     /// The sample interrupt's handler, if its call graph must be free of
     /// panics, software floating point and indirect branches (a hard check);
     /// the image's stack frames are checked then too (none may take half
@@ -133,8 +135,9 @@ const IMAGES: &[Image] = &[
         bin: "qemu-rig",
         cpu: Cpu::Generic,
         memory_x: "src/board/qemu/memory.x",
-        // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
-        budget: Some((64 * 1024, 16 * 1024)),
+        // Issue 18 (the lead's decision): an M4F part with ≥ 128 KiB of
+        // RAM, 96 KiB of it for static data.
+        ram_budget: Some(96 * 1024),
         sample_isr: None,
         placed: &[],
     },
@@ -145,8 +148,8 @@ const IMAGES: &[Image] = &[
         cpu: Cpu::Generic,
         memory_x: "src/board/qemu/memory.x",
         // Two static slots of the robust estimator's 2 s record (162 KB
-        // each): no 16 KiB budget; the board has 4 MiB.
-        budget: None,
+        // each): no budget; the board has 4 MiB.
+        ram_budget: None,
         sample_isr: None,
         placed: &[],
     },
@@ -156,7 +159,7 @@ const IMAGES: &[Image] = &[
         bin: m7::NUCLEO_IMAGE,
         cpu: Cpu::CortexM7,
         memory_x: "src/board/nucleo/memory.x",
-        budget: None,
+        ram_budget: None,
         sample_isr: Some("EXTI3"),
         // The robust estimator's two slots (f64, 1.8 s record: 2 × 18,000 ×
         // 8 B plus its state), one in the AXI SRAM, one in SRAM1–3
@@ -381,16 +384,13 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
         flash.origin,
         flash.end()
     );
-    if let Some((flash_max, ram_max)) = image.budget {
+    if let Some(ram_max) = image.ram_budget {
         // A target to report against, not a build failure: the layout and
         // vector checks above are the hard errors.
-        let verdict = |used: u64, max: u64| if used <= max { "met" } else { "NOT MET" };
         println!(
-            "  target flash ≤ {} KiB: {}; target static RAM ≤ {} KiB: {}",
-            flash_max / 1024,
-            verdict(fp.flash, flash_max),
+            "  target static RAM ≤ {} KiB: {}",
             ram_max / 1024,
-            verdict(fp.ram, ram_max)
+            if fp.ram <= ram_max { "met" } else { "NOT MET" }
         );
     }
     if let Some(isr) = image.sample_isr {
