@@ -226,7 +226,7 @@ pub fn gains_follow_from_theta(e: &Estimate, weights: &[f64]) -> bool {
 }
 
 impl Tally {
-    fn count(&mut self, m: &Message) {
+    pub(crate) fn count(&mut self, m: &Message) {
         if let Message::Estimate(e) = m {
             if self.without_modes_first == self.estimates && e.modes.is_empty() {
                 self.without_modes_first += 1;

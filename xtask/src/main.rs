@@ -15,7 +15,10 @@
 //!   socket ([`e2e`]); `--robust`: the device switched to the robust
 //!   estimator over the link ([`e2e_robust`]); `--selftest-faults`: the
 //!   self-test against each simulated bench fault ([`selftest_faults`]);
+//!   `--hostile`: hostile input into UART0 RX for 60 s ([`hostile`]);
 //!   `--monitor`: `beamctl monitor` attached ([`qemu`]).
+//! * `soak [--seconds S]` — the hostile run ([`hostile`]) for 10
+//!   simulated minutes with periodic commands.
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -30,6 +33,7 @@ mod callgraph;
 mod e2e;
 mod e2e_robust;
 mod e2e_tuning;
+mod hostile;
 mod emulator;
 mod image;
 mod layout;
@@ -180,6 +184,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("firmware") => firmware(),
         Some("qemu") => qemu::run(&args[1..]),
+        Some("soak") => qemu::soak(&args[1..]),
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
         Some("robust-bench") => m7::robust_bench(),
@@ -226,6 +231,15 @@ usage: cargo xtask <command>
                            ID, a register that reads back wrong, DRDY missing, DRDY at 95 %,
                            no loopback, noise on y): 1 simulated s each, exactly the fault's
                            check must fail
+  qemu --hostile [--seconds S] [--timeout S]
+                           hostile input into UART0 RX at the link's full rate for S simulated
+                           seconds (default 60): random bytes, truncated and oversize frames,
+                           valid-CRC frames with random payloads, valid commands out of
+                           range; no overrun, no panic, every bad frame counted, every valid
+                           command answered, the estimate within 1e-3 at the end
+  soak [--seconds S] [--timeout S]
+                           the same for S simulated seconds (default 600) with, every 20 s,
+                           an excitation change, a new estimator, freeze/resume, a self-test
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor

@@ -19,7 +19,8 @@ use std::time::{Duration, Instant};
 
 use crate::emulator::{command, wait, Serial};
 use crate::{
-    build, e2e, e2e_robust, require_tool, rig_report, selftest_faults, stream, workspace_root,
+    build, e2e, e2e_robust, hostile, require_tool, rig_report, selftest_faults, stream,
+    workspace_root,
     IMAGES, QEMU, QEMU_IMAGE, QEMU_ROBUST_FEATURE,
 };
 
@@ -36,6 +37,8 @@ struct Options {
     e2e: bool,
     robust: bool,
     selftest_faults: bool,
+    hostile: bool,
+    soak: bool,
     monitor: bool,
     beamctl: Option<PathBuf>,
     monitor_args: Vec<String>,
@@ -49,6 +52,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
         e2e: false,
         robust: false,
         selftest_faults: false,
+        hostile: false,
+        soak: false,
         monitor: false,
         beamctl: None,
         monitor_args: Vec::new(),
@@ -80,6 +85,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--e2e" => o.e2e = true,
             "--robust" => o.robust = true,
             "--selftest-faults" => o.selftest_faults = true,
+            "--hostile" => o.hostile = true,
             "--monitor" => o.monitor = true,
             "--beamctl" => {
                 o.beamctl = Some(PathBuf::from(it.next().ok_or("--beamctl needs a path")?))
@@ -98,6 +104,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.robust && (o.e2e || o.monitor || o.seconds.is_some()) {
         return Err("qemu --robust runs alone (its own 27 s run on the link)".into());
     }
+    if (o.hostile || o.soak) && (o.e2e || o.monitor || o.robust || o.selftest_faults) {
+        return Err("qemu --hostile (and soak) run alone".into());
+    }
     if o.selftest_faults && (o.e2e || o.monitor || o.robust || o.seconds.is_some()) {
         return Err("qemu --selftest-faults runs alone (1 s per fault)".into());
     }
@@ -113,10 +122,23 @@ fn parse(args: &[String]) -> Result<Options, String> {
     Ok(o)
 }
 
+/// `cargo xtask soak [--seconds S] [--timeout S]`: the hostile run with
+/// the soak's periodic commands ([`hostile`]), 600 simulated s by default.
+pub fn soak(args: &[String]) -> Result<(), String> {
+    let mut o = parse(args)?;
+    o.soak = true;
+    // Ten simulated minutes take about ten on this machine.
+    o.timeout = o.timeout.max(Duration::from_secs(3_600));
+    run_options(o)
+}
+
 /// `cargo xtask qemu …`: every mode that ends a run judges it from the
 /// firmware's log ([`rig_report::judge`]).
 pub fn run(args: &[String]) -> Result<(), String> {
-    let o = parse(args)?;
+    run_options(parse(args)?)
+}
+
+fn run_options(o: Options) -> Result<(), String> {
     require_tool(
         QEMU,
         &["--version"],
@@ -138,6 +160,20 @@ pub fn run(args: &[String]) -> Result<(), String> {
         e2e_robust::run(&elf, o.timeout)
     } else if o.selftest_faults {
         selftest_faults::run(&elf, o.timeout)
+    } else if o.hostile || o.soak {
+        let default = if o.soak { 600 } else { 60 };
+        let seconds = match &o.seconds {
+            Some(s) => s
+                .parse::<u64>()
+                .map_err(|_| format!("--seconds {s}: whole seconds for --hostile and soak"))?,
+            None => default,
+        };
+        let opts = hostile::Options {
+            seconds,
+            schedule: o.soak,
+            seed: 18,
+        };
+        hostile::run(&elf, opts, o.timeout)
     } else if o.e2e {
         e2e::run(&elf, o.timeout)
     } else if o.monitor {

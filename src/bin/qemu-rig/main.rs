@@ -271,7 +271,13 @@ fn main() -> ! {
             link.collecting_startup(),
             core::sync::atomic::Ordering::Relaxed,
         );
+        let (t0, bytes0) = (cycles::now(), link.rx_counters().bytes);
         link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        let bytes = link.rx_counters().bytes - bytes0;
+        if bytes > 0 {
+            run.receive.add(t0, cycles::now());
+            run.received = run.received.saturating_add(bytes);
+        }
         // The summary first: nothing is swapped in after the last sample.
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();

@@ -30,6 +30,16 @@
 //!   pairs lost by the rule and blocks refused by its queue);
 //! * `rig: modes n=<modes> omega1= zeta1= omega2= zeta2=` — the final
 //!   estimate's recovery (eqs. 30-32; `n=0` and nothing else without one);
+//! * `rig: selftest at_boot=true|false failed= not_measured= first= last=
+//!   fault=<bench fault>|none id= drdy_hz= gain= offset_v= delay= noise_sd=
+//!   snr_db=` — one per self-test report, when it is made (the bit sets
+//!   of `SelfTestChecks` in decimal);
+//! * `rig: link rx_bytes= rx_frames= rx_errors= accepted= rejected=
+//!   tx_frames= tx_dropped_frames= uart_rx_dropped= uart_tx_dropped=
+//!   uart_rx_overruns=` — the serial link's counters at the end (bytes
+//!   decoded, frames delivered and refused by the command decoder,
+//!   commands, frames sent and dropped, bytes lost by the UART's rings and
+//!   its receive overruns);
 //! * `rig: end samples= overruns= rig_errors= started_at=<sample>|none
 //!   estimator=adaptive|robust` — last: the run is over and reported.
 
@@ -168,6 +178,11 @@ pub struct Run {
     pub robust: RobustUpdates,
     /// Thread mode's handling of each self-test block.
     pub selftest_blocks: SpanSum,
+    /// Thread mode's passes over received bytes (decoding, commands,
+    /// Acks; the sample interrupt's preemptions included) …
+    pub receive: SpanSum,
+    /// … and the bytes they took.
+    pub received: u64,
 }
 
 impl Default for Run {
@@ -179,6 +194,8 @@ impl Default for Run {
             first_block: None,
             robust: robust::updates(),
             selftest_blocks: SpanSum::default(),
+            receive: SpanSum::default(),
+            received: 0,
         }
     }
 }
@@ -278,7 +295,7 @@ pub fn finish(
     hprintln!(
         "serial link: {} frames ({} bytes) sent, {} dropped on a full TX ring; commands: {} \
          accepted, {} rejected; received {} bytes, {} frames, {} bad frames; uart0 ring \
-         overflows: tx {} B, rx {} B",
+         overflows: tx {} B, rx {} B; receive overruns {}",
         ts.frames_sent,
         ts.bytes_sent,
         ts.frames_dropped,
@@ -288,8 +305,33 @@ pub fn finish(
         rc.frames_ok,
         rc.errors(),
         uart.tx_dropped,
-        uart.rx_dropped
+        uart.rx_dropped,
+        uart.rx_overruns
     );
+    hprintln!(
+        "rig: link rx_bytes={} rx_frames={} rx_errors={} accepted={} rejected={} tx_frames={} \
+         tx_dropped_frames={} uart_rx_dropped={} uart_tx_dropped={} uart_rx_overruns={}",
+        rc.bytes,
+        rc.frames_ok,
+        rc.errors(),
+        accepted,
+        refused,
+        ts.frames_sent,
+        ts.frames_dropped,
+        uart.rx_dropped,
+        uart.tx_dropped,
+        uart.rx_overruns
+    );
+    if run.received > 0 {
+        hprintln!(
+            "serial link receive: {} instructions per byte received (mean over {} bytes in {} \
+             passes of thread mode: decoding, the commands and their Acks, the sample \
+             interrupt's preemptions included)",
+            Fixed(run.receive.ticks as f64 * f64::from(ipt) / run.received as f64, 1),
+            run.received,
+            run.receive.count
+        );
+    }
     let locks = device.locks();
     hprintln!(
         "pipeline locks from thread mode (commands, start-up): {}, longest {} instructions \
