@@ -55,10 +55,11 @@ const BAUDDIV_MIN: u32 = 16;
 pub const TX_RING: usize = 2048;
 /// RX ring size in bytes (holds `RX_RING - 1`): 22 ms of the link at
 /// 921,600 baud, longer than thread mode's longest pass (an estimator
-/// build, 2.75 million instructions: 16 ms on a 168 MHz M4F), so input
-/// at the full line rate is never dropped (`cargo xtask qemu --hostile`;
-/// 256 bytes, 2.8 ms, dropped 21 % of a hostile run's bytes in QEMU, whose
-/// UART delivers them in bursts).
+/// build, 2.75 million instructions: about 20 ms on a 168 MHz M4F with
+/// the sample interrupt's share, docs/PROTOCOL.md §9.5), so input at the
+/// full line rate is not dropped; 256 bytes (2.8 ms) dropped 21 % of a
+/// hostile run's bytes in QEMU (`cargo xtask qemu --hostile`, before its
+/// host paced them on the device's answers).
 pub const RX_RING: usize = 2048;
 
 /// Transmit ring storage (`static`, split once by [`Uart0::split`]).
