@@ -198,14 +198,14 @@ impl<'a> ConverterRig<'a> {
 
     /// Set or remove the white noise on y at run time (a fault: a noisy
     /// bridge, interference).
-    pub fn set_noise(&mut self, noise: Option<GaussianNoise<f64>>) {
+    pub(crate) fn set_noise(&mut self, noise: Option<GaussianNoise<f64>>) {
         self.noise = noise;
     }
 
     /// Connect or disconnect the monitor channel (disconnected: its input
     /// reads 0 V, as an open monitor wire into a grounded divider — no
     /// DAC → ADC loopback).
-    pub fn set_monitor_connected(&mut self, connected: bool) {
+    pub(crate) fn set_monitor_connected(&mut self, connected: bool) {
         self.monitor_connected = connected;
     }
 

@@ -100,7 +100,7 @@ pub const CLOCK_HZ: f64 = 25e6;
 pub const SELF_TEST_TONE_V: f32 = 1.0;
 /// The white noise on y of [`BenchFault::Noise`] (m): about 40 dB below
 /// the y of the self-test's signal phase.
-pub const NOISE_FAULT_SD_M: f64 = 2e-5;
+pub(crate) const NOISE_FAULT_SD_M: f64 = 2e-5;
 
 /// The DAC's new value takes effect this long after DRDY (s): the board
 /// writes it after reading the ADC frame, ≈ 15 µs at its SPI clocks
@@ -285,7 +285,7 @@ pub enum BenchFault {
     DrdyRate,
     /// The monitor channel's input grounded: no DAC → ADC loopback.
     NoLoopback,
-    /// White noise of [`NOISE_FAULT_SD_M`] on y.
+    /// White noise of `NOISE_FAULT_SD_M` on y.
     Noise,
 }
 

@@ -10,9 +10,9 @@
 //! |---|---|---|
 //! | ADC ID | the ADS131M02's ID register | 22xxh (a two-channel ADS131M0x) |
 //! | ADC registers | MODE, CLOCK, GAIN1 read back (one multi-register read) | equal to the configuration, under the writable masks |
-//! | DRDY rate | new conversions per second of the MCU's clock | within [`DRDY_TOLERANCE`] of the sample rate |
-//! | loopback | a tone on the drive read back on the monitor channel: gain, offset, delay | gain within [`GAIN_TOLERANCE`] of 1, \|offset\| ≤ [`OFFSET_TOLERANCE`] × the tone's amplitude, delay within [`DELAY_TOLERANCE_SAMPLES`] of the timing model's |
-//! | noise | σ of y with the drive at zero, and the RMS of y under the default excitation | SNR ≥ [`SNR_MIN_DB`] |
+//! | DRDY rate | new conversions per second of the MCU's clock | within `DRDY_TOLERANCE` of the sample rate |
+//! | loopback | a tone on the drive read back on the monitor channel: gain, offset, delay | gain within `GAIN_TOLERANCE` of 1, \|offset\| ≤ `OFFSET_TOLERANCE` × the tone's amplitude, delay within `DELAY_TOLERANCE_SAMPLES` of the timing model's |
+//! | noise | σ of y with the drive at zero, and the RMS of y under the default excitation | SNR ≥ `SNR_MIN_DB` |
 //!
 //! # How it runs, and what it leaves alone
 //! Three phases of the drive, each set between two samples like any
@@ -24,19 +24,19 @@
 //!    and none of the test's samples reaches them), the ADC's ID and
 //!    configuration read back (two SPI frames right after a sample, so no
 //!    conversion is in flight), the drive set to 0 V.
-//! 2. **Quiet** ([`QUIET_SETTLE`] + [`QUIET_SAMPLES`]): the noise floor of
+//! 2. **Quiet** (`QUIET_SETTLE` + `QUIET_SAMPLES`): the noise floor of
 //!    y. The beam may still ring from the excitation it had: the noise is
 //!    estimated from fourth differences of y, which remove a smooth signal
 //!    (a mode at ω is attenuated by (ωTs)⁴: 3.6e-7 at 245 rad/s, 10 kHz)
-//!    and leave white noise's variance × 70 ([`NoiseFloor`]).
-//! 3. **Tone** ([`TONE_SETTLE`] + [`TONE_SAMPLES`]): a sine of
+//!    and leave white noise's variance × 70 (`NoiseFloor`).
+//! 3. **Tone** (`TONE_SETTLE` + `TONE_SAMPLES`): a sine of
 //!    [`SelfTestConfig::tone_amplitude_v`] at [`tone_hz`] (10 periods of
 //!    the multisine generator's 2048-sample grid, so the window holds
 //!    whole periods); the monitor channel and the DAC's held value are
 //!    each fitted with a constant, a sine and a cosine at the tone
-//!    ([`ToneFit`]): the ratio of their phasors is the loopback's gain and
+//!    (`ToneFit`): the ratio of their phasors is the loopback's gain and
 //!    delay, the difference of the constants its offset.
-//! 4. **Signal** ([`SIGNAL_SAMPLES`]): the device's default excitation
+//! 4. **Signal** (`SIGNAL_SAMPLES`): the device's default excitation
 //!    ([`SelfTestConfig::excitation`]); the RMS of y over this window is
 //!    the signal the SNR is taken against (conservative: the beam starts
 //!    it near rest, below its steady level).
@@ -81,19 +81,19 @@ pub const BLOCK_LEN: usize = 32;
 /// Samples after the drive goes to zero before the noise is measured
 /// (50 ms at 10 kHz: the drive's step through the converters' timing and
 /// the amplifier is long over).
-pub const QUIET_SETTLE: u64 = 500;
+pub(crate) const QUIET_SETTLE: u64 = 500;
 /// Samples of y the noise floor is estimated from (0.2 s at 10 kHz).
-pub const QUIET_SAMPLES: u64 = 2_000;
+pub(crate) const QUIET_SAMPLES: u64 = 2_000;
 /// Samples after the tone starts before it is fitted (the monitor sees
 /// the drive's change after ≈ 2 samples; 64 leaves a margin for the
 /// amplifier).
-pub const TONE_SETTLE: u64 = 64;
+pub(crate) const TONE_SETTLE: u64 = 64;
 /// The tone's fitted window: one period of the multisine generator's grid
-/// at [`TONE_PERIOD_LOG2`], [`TONE_HARMONIC`] whole periods of the tone.
-pub const TONE_SAMPLES: u64 = 1 << TONE_PERIOD_LOG2;
+/// at `TONE_PERIOD_LOG2`, `TONE_HARMONIC` whole periods of the tone.
+pub(crate) const TONE_SAMPLES: u64 = 1 << TONE_PERIOD_LOG2;
 /// Samples of y under the default excitation for the signal's RMS (0.2 s
 /// at 10 kHz, the tuning rule's start-up window).
-pub const SIGNAL_SAMPLES: u64 = 2_000;
+pub(crate) const SIGNAL_SAMPLES: u64 = 2_000;
 /// The whole test, in samples.
 pub const TOTAL_SAMPLES: u64 =
     QUIET_SETTLE + QUIET_SAMPLES + TONE_SETTLE + TONE_SAMPLES + SIGNAL_SAMPLES;
@@ -101,11 +101,11 @@ pub const TOTAL_SAMPLES: u64 =
 /// The multisine generator's period for the tone: 2^11 samples, the
 /// period it chooses for a tone of [`tone_hz`] (`excitation`, the grid
 /// f_s/2^k at most f_min/8).
-pub const TONE_PERIOD_LOG2: u32 = 11;
+pub(crate) const TONE_PERIOD_LOG2: u32 = 11;
 /// The tone is this harmonic of the grid f_s/2^11 (48.828125 Hz at
 /// 10 kHz): above the paper beam's modes (6.2 and 39 Hz), far below the
 /// converters' droop (sinc⁴ of the hold and the sinc³: 1 − 1.6e-4).
-pub const TONE_HARMONIC: u32 = 10;
+pub(crate) const TONE_HARMONIC: u32 = 10;
 
 /// Relative tolerance of the DRDY rate: 1e-4. An error ε of the sample
 /// rate is an error ε of every ω̂ (the estimator takes Ts as given) and
@@ -114,38 +114,38 @@ pub const TONE_HARMONIC: u32 = 10;
 /// and more) and a missing or extra DRDY edge per 10,000 fail. The
 /// measurement's own error is the interrupt latency's jitter over the
 /// 0.66 s window (a few cycles in 26 million on the reference board).
-pub const DRDY_TOLERANCE: f64 = 1e-4;
+pub(crate) const DRDY_TOLERANCE: f64 = 1e-4;
 /// Relative tolerance of the loopback gain: 5 %. With the commanded input
 /// (the firmware's `InputSource::Commanded`) a gain error of the amplifier
 /// or the monitor scales b̄ only, not ω or ζ; 5 % passes resistor and
 /// amplifier tolerances and flags a wrong `AMPLIFIER_GAIN` or
 /// `MONITOR_V_PER_V` setting (factors of 2 or 10) and a missing loopback
 /// (gain 0).
-pub const GAIN_TOLERANCE: f64 = 0.05;
+pub(crate) const GAIN_TOLERANCE: f64 = 0.05;
 /// Largest |offset| of the loopback as a fraction of the tone's
 /// amplitude: 2 %. A constant input is absorbed by the model (the beam's
 /// static deflection) and biases neither ω nor ζ; this flags a floating
 /// or mis-referenced monitor input or a DAC not at mid-scale.
-pub const OFFSET_TOLERANCE: f64 = 0.02;
+pub(crate) const OFFSET_TOLERANCE: f64 = 0.02;
 /// Tolerance of the loopback delay: 0.02 sample (2 µs at 10 kHz). The ζ
 /// bias of a wrong delay in the estimator's timing model is nearly linear
 /// in the error: 2.1e-5 on the paper beam's ζ2 and 2.2e-4 on a
 /// 1520 rad/s mode per 0.006 sample (docs/RIG.md, "What remains on the
 /// board"), so 0.02 sample keeps it below 1e-3 up to that mode.
-pub const DELAY_TOLERANCE_SAMPLES: f64 = 0.02;
+pub(crate) const DELAY_TOLERANCE_SAMPLES: f64 = 0.02;
 /// The lowest SNR that passes: 60 dB. The default (equation-error) law is
 /// biased by noise on y (errors in variables): at 60 dB its largest error
 /// over five seeds is 1.4e-3 (ζ2), at 40 dB 3.6e-2 to 6.0e-2
 /// (BENCHMARKS.md, "Accuracy under measurement noise"). Below 60 dB use
 /// the noise-robust estimator (`SetEstimator` kind Robust), within 2× the
 /// Cramér–Rao bound down to 40 dB.
-pub const SNR_MIN_DB: f64 = 60.0;
+pub(crate) const SNR_MIN_DB: f64 = 60.0;
 /// A fit or a noise estimate needs at least this share of its window's
 /// samples; with fewer the check is reported not measured.
 const MIN_SHARE: f64 = 0.5;
 
-/// The tone's frequency at sample rate `fs`: [`TONE_HARMONIC`] periods in
-/// [`TONE_SAMPLES`].
+/// The tone's frequency at sample rate `fs`: `TONE_HARMONIC` periods in
+/// `TONE_SAMPLES`.
 pub fn tone_hz(sample_rate_hz: f64) -> f64 {
     sample_rate_hz * f64::from(TONE_HARMONIC) / (TONE_SAMPLES as f64)
 }
@@ -177,7 +177,7 @@ pub struct SelfTestConfig {
 
 impl SelfTestConfig {
     /// The tone's excitation (a one-tone multisine).
-    pub fn tone(&self) -> Excitation {
+    pub(crate) fn tone(&self) -> Excitation {
         let f = tone_hz(self.sample_rate_hz) as f32;
         Excitation {
             waveform: Waveform::Multisine {
@@ -192,7 +192,7 @@ impl SelfTestConfig {
 }
 
 /// The drive at zero.
-pub const QUIET: Excitation = Excitation {
+pub(crate) const QUIET: Excitation = Excitation {
     waveform: Waveform::Off,
     amplitude_v: 0.0,
     offset_v: 0.0,
@@ -328,7 +328,7 @@ impl<T: Real> Collector<T> {
 /// under-estimated by this formula; the simulated bench's noise is white
 /// at the output rate.)
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct NoiseFloor {
+pub(crate) struct NoiseFloor {
     /// The last valid samples, newest first, and how many are consecutive.
     history: [f64; 4],
     run: u8,
@@ -378,7 +378,7 @@ impl NoiseFloor {
 /// rotation per sample (exact `sin`/`cos` again after a gap): 2048 steps
 /// drift by ≈ 2048 ε, far below what is measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ToneFit {
+pub(crate) struct ToneFit {
     /// Σ of the basis' outer products (1, sin, cos), upper triangle.
     gram: [f64; 6],
     monitor: [f64; 3],
@@ -413,7 +413,7 @@ fn tone_phase(k: u64) -> (f64, f64) {
 /// The loopback's gain, offset and delay (delay `None`: no phase to read,
 /// the monitor's tone is nil).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Loopback {
+pub(crate) struct Loopback {
     /// |monitor phasor| / |drive phasor|.
     pub gain: f64,
     /// Monitor constant − drive constant.
@@ -535,16 +535,16 @@ pub enum Phase {
 /// end the test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Next {
-    /// Set this phase's drive and call [`SelfTestRun::begin`].
+    /// Set this phase's drive and call `SelfTestRun::begin`.
     Begin(Phase),
     /// Every phase is done: restore the drive, then
-    /// [`SelfTestRun::report`].
+    /// `SelfTestRun::report`.
     Finish,
 }
 
 /// One self-test from its start to its report (thread mode).
 #[derive(Debug, Clone, PartialEq)]
-pub struct SelfTestRun {
+pub(crate) struct SelfTestRun {
     config: SelfTestConfig,
     at_boot: bool,
     first_sample: u64,
@@ -601,12 +601,13 @@ impl SelfTestRun {
     }
 
     /// The phase running.
-    pub fn phase(&self) -> Phase {
+    #[cfg(test)]
+    pub(crate) fn phase(&self) -> Phase {
         self.phase
     }
 
     /// The phase `phase` has started: its drive takes effect at `at`.
-    pub fn begin(&mut self, phase: Phase, at: u64) {
+    pub(crate) fn begin(&mut self, phase: Phase, at: u64) {
         self.phase = phase;
         self.phase_start = at;
     }

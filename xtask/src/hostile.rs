@@ -49,14 +49,14 @@ use std::time::Duration;
 
 use beam_protocol::budget::MAX_COMMAND_ENCODED_LEN;
 use beam_protocol::{
-    encode, encode_raw, AckResult, Command, DecodeError, Decoder, EstimatorKind,
-    EstimatorSettings, Excitation, Header, Kind, Limits, Message, SelfTestReport, Status,
-    StatusFlags, TelemetryRates, Waveform, MAX_ENCODED_LEN,
+    encode, encode_raw, AckResult, Command, DecodeError, Decoder, EstimatorKind, EstimatorSettings,
+    Excitation, Header, Kind, Limits, Message, SelfTestReport, Status, StatusFlags, TelemetryRates,
+    Waveform, MAX_ENCODED_LEN,
 };
 use beamest::bench;
 
-use crate::emulator::{session, LinkHost};
 use crate::e2e::Tally;
+use crate::emulator::{session, LinkHost};
 use crate::QEMU;
 
 /// Bytes per sample at 921,600 baud (8N1) and 10 kHz: 9.216.
@@ -161,7 +161,11 @@ fn out_of_range(rng: &mut Rng) -> Command {
             waveform: Waveform::Multisine {
                 f_min_hz: 2.0,
                 f_max_hz: 80.0,
-                tones: if rng.below(2) == 0 { 0 } else { 17 + rng.byte() % 200 },
+                tones: if rng.below(2) == 0 {
+                    0
+                } else {
+                    17 + rng.byte() % 200
+                },
             },
             amplitude_v: 0.1,
             offset_v: 0.0,
@@ -169,7 +173,11 @@ fn out_of_range(rng: &mut Rng) -> Command {
         5 => Command::SetExcitation(Excitation {
             waveform: Waveform::Prbs {
                 bit_rate_hz: 500.0,
-                register_bits: if rng.below(2) == 0 { 1 } else { 25 + rng.byte() % 100 },
+                register_bits: if rng.below(2) == 0 {
+                    1
+                } else {
+                    25 + rng.byte() % 100
+                },
             },
             amplitude_v: 0.1,
             offset_v: 0.0,
@@ -388,14 +396,20 @@ impl Host {
         &self,
         bytes: &[u8],
         class: Class,
-    ) -> (Decoder<MAX_COMMAND_ENCODED_LEN>, Vec<(u32, Command)>, Result<(), String>) {
+    ) -> (
+        Decoder<MAX_COMMAND_ENCODED_LEN>,
+        Vec<(u32, Command)>,
+        Result<(), String>,
+    ) {
         let mut d = self.reference.clone();
         let before = *d.counters();
         let results: Vec<Result<(u32, Command), DecodeError>> =
             bytes.iter().filter_map(|&b| d.push_command(b)).collect();
         let after = *d.counters();
-        let commands: Vec<(u32, Command)> =
-            results.iter().filter_map(|r| r.as_ref().ok().copied()).collect();
+        let commands: Vec<(u32, Command)> = results
+            .iter()
+            .filter_map(|r| r.as_ref().ok().copied())
+            .collect();
         let errors: Vec<DecodeError> = results.iter().filter_map(|r| r.err()).collect();
         let one_error = |ok: &dyn Fn(&DecodeError) -> bool| {
             commands.is_empty() && errors.len() == 1 && errors.iter().all(ok)
@@ -403,12 +417,15 @@ impl Host {
         let fits = match class {
             Class::Random => true,
             Class::Truncated => one_error(&|e| {
-                matches!(e, DecodeError::Cobs | DecodeError::TooShort | DecodeError::Crc)
+                matches!(
+                    e,
+                    DecodeError::Cobs | DecodeError::TooShort | DecodeError::Crc
+                )
             }),
             Class::Oversize => one_error(&|e| *e == DecodeError::Oversize),
-            Class::Malformed => one_error(&|e| {
-                matches!(e, DecodeError::Payload | DecodeError::UnknownKind(_))
-            }),
+            Class::Malformed => {
+                one_error(&|e| matches!(e, DecodeError::Payload | DecodeError::UnknownKind(_)))
+            }
             Class::Version => one_error(&|e| matches!(e, DecodeError::VersionMismatch { .. })),
             Class::OutOfRange | Class::Harmless | Class::Scheduled => {
                 errors.is_empty() && commands.len() == 1
@@ -469,7 +486,13 @@ impl Host {
         if let Some(c) = self.scheduled() {
             let (seq, v) = self.command_frame(&c);
             let end = self.sent_bytes + v.len() as u64;
-            self.commit(&v, Class::Scheduled, Some((seq, c)), Some(AckResult::Accepted), end);
+            self.commit(
+                &v,
+                Class::Scheduled,
+                Some((seq, c)),
+                Some(AckResult::Accepted),
+                end,
+            );
             out.extend(v);
         }
         let hostile_until = self.end().saturating_sub(QUIET_BEFORE_END);
@@ -746,7 +769,9 @@ pub fn run(elf: &Path, opts: Options, timeout: Duration) -> Result<(), String> {
         None => fails.push("no Status after the final status request".into()),
     }
     // The firmware's own account of the link at the end.
-    let link_line = log.lines().find_map(|l| l.trim().strip_prefix("rig: link "));
+    let link_line = log
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("rig: link "));
     match link_line {
         Some(l) => {
             let v = |k: &str| {
@@ -782,7 +807,10 @@ pub fn run(elf: &Path, opts: Options, timeout: Duration) -> Result<(), String> {
     }
     let c = &host.tally;
     let stream = *host.dec.counters();
-    if stream.errors() == 0 && stream.lost == 0 && stream.duplicates == 0 && c.meaning_violations == 0
+    if stream.errors() == 0
+        && stream.lost == 0
+        && stream.duplicates == 0
+        && c.meaning_violations == 0
     {
         println!(
             "{name}: ok: the device's stream: {} frames, no gap, no error, every estimate means \
@@ -797,7 +825,11 @@ pub fn run(elf: &Path, opts: Options, timeout: Duration) -> Result<(), String> {
             let worst = e
                 .modes
                 .iter()
-                .zip(beamest::model::PAPER_OMEGA.iter().zip(beamest::model::PAPER_ZETA.iter()))
+                .zip(
+                    beamest::model::PAPER_OMEGA
+                        .iter()
+                        .zip(beamest::model::PAPER_ZETA.iter()),
+                )
                 .map(|(m, (w, z))| {
                     (f64::from(m.omega_rad_s) / w - 1.0)
                         .abs()
@@ -811,7 +843,9 @@ pub fn run(elf: &Path, opts: Options, timeout: Duration) -> Result<(), String> {
                     e.sample_index as f64 * 1e-4
                 );
             } else {
-                fails.push(format!("the last valid estimate is {worst:.1e} off the truth"));
+                fails.push(format!(
+                    "the last valid estimate is {worst:.1e} off the truth"
+                ));
             }
         }
         e => fails.push(format!(

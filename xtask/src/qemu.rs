@@ -20,8 +20,7 @@ use std::time::{Duration, Instant};
 use crate::emulator::{command, wait, Serial};
 use crate::{
     build, e2e, e2e_robust, hostile, require_tool, rig_report, selftest_faults, stream,
-    workspace_root,
-    IMAGES, QEMU, QEMU_IMAGE, QEMU_ROBUST_FEATURE,
+    workspace_root, IMAGES, QEMU, QEMU_IMAGE, QEMU_ROBUST_FEATURE,
 };
 
 /// Default wall-clock limit for one emulated run, s.

@@ -327,7 +327,10 @@ pub fn finish(
             "serial link receive: {} instructions per byte received (mean over {} bytes in {} \
              passes of thread mode: decoding, the commands and their Acks, the sample \
              interrupt's preemptions included)",
-            Fixed(run.receive.ticks as f64 * f64::from(ipt) / run.received as f64, 1),
+            Fixed(
+                run.receive.ticks as f64 * f64::from(ipt) / run.received as f64,
+                1
+            ),
             run.received,
             run.receive.count
         );

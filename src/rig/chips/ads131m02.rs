@@ -362,7 +362,7 @@ impl Ads131m02Model {
     /// convert, evenly spread; the others leave DRDY as it was. 0: no
     /// conversions at all (DRDY missing); a ratio of 1 or more (or a zero
     /// denominator): the normal rate.
-    pub fn set_data_rate(&mut self, numerator: u32, denominator: u32) {
+    pub(crate) fn set_data_rate(&mut self, numerator: u32, denominator: u32) {
         self.data_rate = if denominator == 0 || numerator >= denominator {
             (1, 1)
         } else {
@@ -375,7 +375,7 @@ impl Ads131m02Model {
     /// flipped (a register that does not hold what was written, or a
     /// corrupted read); writes and the conversions are unaffected. `None`:
     /// off.
-    pub fn set_register_fault(&mut self, fault: Option<(Register, u16)>) {
+    pub(crate) fn set_register_fault(&mut self, fault: Option<(Register, u16)>) {
         self.register_fault = fault.map(|(r, x)| (r.addr(), x));
     }
 
