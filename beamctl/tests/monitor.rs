@@ -241,7 +241,10 @@ fn the_verdict_judges_the_stream_and_says_why() {
     // stdout: one line per estimate; the verdict lines go to stderr.
     assert!(stdout(&o).lines().all(|l| l.starts_with("sample=")));
     let err = stderr(&o);
-    let verdicts: Vec<&str> = err.lines().filter(|l| l.starts_with("verdict sample=")).collect();
+    let verdicts: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("verdict sample="))
+        .collect();
     assert!(!verdicts.is_empty(), "{err}");
     let last = verdicts.last().unwrap();
     assert_eq!(field(last, "trusted"), "no", "{last}");
