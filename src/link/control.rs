@@ -54,6 +54,11 @@ pub trait Control<T> {
     fn counters(&self) -> Counters;
     /// [`Pipeline::next_sample_index`].
     fn next_sample_index(&self) -> u64;
+    /// [`Pipeline::is_frozen`].
+    fn is_frozen(&self) -> bool;
+    /// The ADC's ID and configuration registers read back
+    /// ([`StrainAdc::read_back`]): two SPI frames, for the self-test.
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind>;
 }
 
 impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Control<T>
@@ -93,6 +98,12 @@ where
     }
     fn next_sample_index(&self) -> u64 {
         Pipeline::next_sample_index(self)
+    }
+    fn is_frozen(&self) -> bool {
+        Pipeline::is_frozen(self)
+    }
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind> {
+        self.converters_mut().0.read_back()
     }
 }
 
@@ -149,6 +160,13 @@ pub trait Device {
             (swap, pl.next_sample_index())
         })
     }
+    /// Return when a sample tick has just ended, so that the next lock
+    /// (the self-test's register read-back: two SPI frames) ends before
+    /// the next conversion completes; a conversion completing during it
+    /// would be output by the read's frame and missed by the next tick.
+    /// The default returns at once: right for a board whose converter
+    /// converts only inside the sample interrupt (the QEMU models).
+    fn align_to_sample(&mut self) {}
 }
 
 /// The core's estimator settings for the protocol's: the board's filter

@@ -113,7 +113,7 @@ pub(crate) mod telemetry;
 
 pub(crate) use adapters::adc_scales;
 pub use adapters::{bring_up, lost_configuration, BringUp, BringUpError};
-pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
+pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick, TickReading};
 pub use convert::{
     AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,
     Linearisation, OutputQuantity, ADS131M02_VREF_V,
@@ -305,13 +305,25 @@ where
         };
 
         // 3.–4. Screen the converter's report and convert.
+        // A new conversion unless the converter said there was none (a
+        // frame that failed its CRC or on the bus still had one behind it).
+        let fresh = !matches!(&reading, Ok(r) if r.flags.stale);
         let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
+        let nan = T::from_f64(f64::NAN);
+        let held_v = match held_now {
+            Some((u, true)) => u,
+            _ => nan,
+        };
+        let read = TickReading {
+            fresh,
+            y: if y_ok { y } else { nan },
+            monitor_v: if mon_ok { u_mon } else { nan },
+        };
 
         // 5. The pair for step(u held over the coming period, y now).
         // A u that is not known (the DAC write failed, the monitor
         // saturated) travels as NaN, so that a sample rejected for its y
         // alone still carries its true u (below).
-        let nan = T::from_f64(f64::NAN);
         let known = |u: T, u_ok: bool| if u_ok { u } else { nan };
         let pair = match self.input {
             InputSource::Commanded => held_now.map(|(u, u_ok)| (known(u, u_ok), y, u_ok && y_ok)),
@@ -322,7 +334,7 @@ where
         };
         let Some((u, y, ok)) = pair else {
             // Start-up: nothing held yet to pair with.
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         // The float-level checks (rails, stuck runs through the delay
         // line, so a run is rejected from its first sample) and the level
@@ -344,7 +356,7 @@ where
             self.estimator.hold(hold);
         }
         let Some(g) = out else {
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
@@ -401,15 +413,8 @@ where
             commanded_v,
             fed: Some(fed),
             step,
-        }
-    }
-
-    fn idle(&self, index: u64, commanded_v: T) -> Tick<T> {
-        Tick {
-            sample_index: index,
-            commanded_v,
-            fed: None,
-            step: None,
+            held_v,
+            reading: read,
         }
     }
 
@@ -747,6 +752,18 @@ where
     /// Take the pipeline apart.
     pub fn into_parts(self) -> (E, A, D, S, R) {
         (self.estimator, self.adc, self.dac, self.telemetry, self.raw)
+    }
+}
+
+/// A tick that fed nothing to the estimator.
+fn idle<T>(index: u64, commanded_v: T, held_v: T, reading: TickReading<T>) -> Tick<T> {
+    Tick {
+        sample_index: index,
+        commanded_v,
+        fed: None,
+        step: None,
+        held_v,
+        reading,
     }
 }
 

@@ -33,6 +33,9 @@ pub enum CommandArgs {
     Resume,
     /// Ask for a Status and print it.
     Status,
+    /// Run the device's self-test (its report arrives later; `beamctl
+    /// selftest` waits for it and prints it).
+    Selftest,
 }
 
 /// The values of `--wave`: the waveform kinds by their names
@@ -203,6 +206,7 @@ impl CommandArgs {
             Self::Freeze => Command::Freeze,
             Self::Resume => Command::Resume,
             Self::Status => Command::RequestStatus,
+            Self::Selftest => Command::SelfTest,
         })
     }
 }
@@ -494,6 +498,7 @@ pub fn command_text(c: &Command) -> String {
         Command::Freeze => "freeze".to_string(),
         Command::Resume => "resume".to_string(),
         Command::RequestStatus => "status".to_string(),
+        Command::SelfTest => "selftest".to_string(),
     }
 }
 

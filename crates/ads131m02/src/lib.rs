@@ -237,6 +237,56 @@ impl Config {
     }
 }
 
+impl Config {
+    /// MODE, CLOCK and GAIN1 as [`Ads131m02::configure`] writes them,
+    /// masked to their writable bits: what [`ReadBack::registers`] must
+    /// give.
+    pub const fn expected_registers(&self) -> [u16; 3] {
+        [
+            self.mode().to_bits() & MODE_MASK,
+            self.clock().to_bits() & CLOCK_MASK,
+            self.gain().to_bits() & GAIN_MASK,
+        ]
+    }
+}
+
+/// The ID and the configuration registers as [`Ads131m02::read_back`]
+/// found them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReadBack {
+    /// ID (22xxh for the two-channel part).
+    pub id: u16,
+    /// MODE as read.
+    pub mode: u16,
+    /// CLOCK as read.
+    pub clock: u16,
+    /// GAIN1 as read.
+    pub gain: u16,
+}
+
+impl ReadBack {
+    /// The ID names a two-channel ADS131M0x (22xxh, Table 8-12).
+    pub const fn id_ok(&self) -> bool {
+        self.id >> 8 == registers::ID_HIGH_BYTE as u16
+    }
+
+    /// MODE, CLOCK and GAIN1 masked to their writable bits (compare with
+    /// [`Config::expected_registers`]).
+    pub const fn registers(&self) -> [u16; 3] {
+        [
+            self.mode & MODE_MASK,
+            self.clock & CLOCK_MASK,
+            self.gain & GAIN_MASK,
+        ]
+    }
+
+    /// The configuration registers hold `config` (under the masks).
+    pub fn matches(&self, config: &Config) -> bool {
+        self.registers() == config.expected_registers()
+    }
+}
+
 /// One data frame: the STATUS word that answered NULL and both channels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -514,6 +564,25 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         Ok(Drained {
             frames,
             drdy_high: true,
+        })
+    }
+
+    /// Read ID, STATUS, MODE, CLOCK and GAIN1 with one multi-register RREG
+    /// ([`Ads131m02::read_registers`]): two frames, the first a normal data
+    /// frame, the second the answer, which carries no ADC data. For a
+    /// check while converting (the self-test): between two samples, right
+    /// after a data frame was read, so that no conversion completes in
+    /// between (one that did would be output by the RREG frame and missed
+    /// by the next read).
+    pub fn read_back(&mut self) -> Result<ReadBack, Error<SPI::Error>> {
+        let mut r = [0u16; 5];
+        self.read_registers(Register::Id, &mut r)?;
+        let [id, _status, mode, clock, gain] = r;
+        Ok(ReadBack {
+            id,
+            mode,
+            clock,
+            gain,
         })
     }
 

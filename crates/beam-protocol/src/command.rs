@@ -370,11 +370,17 @@ pub enum Command {
     Resume,
     /// 6: send a [`Status`](super::Status) now.
     RequestStatus,
+    /// 7: run the bring-up self-test (converter ID and registers, DRDY
+    /// rate, DAC → ADC loopback, noise floor and SNR) and send its
+    /// [`SelfTestReport`](super::SelfTestReport) when it ends. The Ack
+    /// says it started; the drive is the self-test's and adaptation is
+    /// held while it runs (`docs/PROTOCOL.md` §5, §9.7).
+    SelfTest,
 }
 
 impl MaxSize for Command {
-    /// The tag of seven variants and the longest argument.
-    const MAX_SIZE: usize = tag_len(7)
+    /// The tag of eight variants and the longest argument.
+    const MAX_SIZE: usize = tag_len(8)
         + max(
             Excitation::MAX_SIZE,
             max(EstimatorSettings::MAX_SIZE, TelemetryRates::MAX_SIZE),
@@ -417,11 +423,15 @@ pub enum RejectReason {
     Rate = 13,
     /// The telemetry rates would exceed the link budget.
     LinkBudget = 14,
+    /// The device is busy: a self-test is running (every command but
+    /// `RequestStatus` is refused until it ends), or a `SelfTest` came
+    /// before the first estimator started (the start-up window).
+    Busy = 15,
 }
 
 impl RejectReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 14] = [
+    pub const ALL: [Self; 15] = [
         Self::NotFinite,
         Self::Amplitude,
         Self::SafeWindow,
@@ -436,6 +446,7 @@ impl RejectReason {
         Self::EstimatorUnavailable,
         Self::Rate,
         Self::LinkBudget,
+        Self::Busy,
     ];
 
     /// The reason with this wire code, if any.
@@ -455,6 +466,7 @@ impl RejectReason {
             12 => Self::EstimatorUnavailable,
             13 => Self::Rate,
             14 => Self::LinkBudget,
+            15 => Self::Busy,
             _ => return None,
         })
     }
@@ -476,6 +488,7 @@ impl RejectReason {
             Self::EstimatorUnavailable => "estimator not available in this firmware",
             Self::Rate => "telemetry rate negative or above the sample rate",
             Self::LinkBudget => "telemetry rates exceed the link budget",
+            Self::Busy => "device busy: a self-test is running, or the estimator has not started",
         }
     }
 }
@@ -668,7 +681,7 @@ mod tests {
             assert_eq!(RejectReason::from_code(*r as u8), Some(*r));
         }
         assert_eq!(RejectReason::from_code(0), None);
-        assert_eq!(RejectReason::from_code(15), None);
+        assert_eq!(RejectReason::from_code(16), None);
         assert_eq!(RejectReason::from_code(255), None);
     }
 

@@ -96,7 +96,9 @@ impl Command {
             Self::SetExcitation(e) => e.validate(limits),
             Self::SetEstimator(s) => s.validate(limits),
             Self::SetTelemetry(t) => t.validate(limits),
-            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus => Ok(()),
+            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus | Self::SelfTest => {
+                Ok(())
+            }
         }
     }
 }
@@ -258,6 +260,7 @@ mod tests {
             Command::Freeze,
             Command::Resume,
             Command::RequestStatus,
+            Command::SelfTest,
         ] {
             assert_eq!(c.validate(&LIMITS), Ok(()));
         }

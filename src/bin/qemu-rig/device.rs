@@ -71,6 +71,17 @@ impl QemuDevice {
     pub fn locks(&self) -> SpanSum {
         self.locks
     }
+
+    /// Run `f` on the simulated bench inside the lock (boot: a fault).
+    pub fn with_rig<R>(
+        &mut self,
+        f: impl FnOnce(&mut beamest::bench::ConverterRig<'static>) -> R,
+    ) -> R {
+        match self.task.lock(|t| f(t.get_mut().rig_mut())) {
+            Some(r) => r,
+            None => crate::fail("sample task not placed"),
+        }
+    }
 }
 
 /// The running robust estimator inside the lock (timed like every lock).

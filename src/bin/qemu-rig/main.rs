@@ -67,7 +67,7 @@ use panic_semihosting as _;
 use device::QemuDevice;
 use numfmt::Fixed;
 use report::{finish, log, on_build, Run, LOG_EVERY, OUTPUT_WEIGHT};
-use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
+use sample::{Raw, Record, SampleTask, Summary, TestBlock, COLLECTING, RUN_SAMPLES, SELF_TEST};
 
 /// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 130 ms).
 const TELEMETRY_QUEUE: usize = 14;
@@ -78,6 +78,9 @@ const RAW_QUEUE: usize = 8;
 /// "Firmware on the emulated board").
 /// A refused block is counted and its gap handled (`link::tune`).
 const STARTUP_QUEUE: usize = 4;
+/// Self-test block queue size (holds 7 blocks of 32 ticks: 22 ms at
+/// 10 kHz; thread mode's cost per block: BENCHMARKS.md, "The self-test").
+const SELF_TEST_QUEUE: usize = 8;
 
 static SPI_METER: SpiMeter = SpiMeter::new();
 // Large states are handed over by `&'static mut` into `singleton!` storage:
@@ -144,14 +147,24 @@ fn main() -> ! {
     }
     fma_self_check();
     let run_samples = run_length();
+    let fault = selftest_fault();
 
-    let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue), Some(startup_queue)) = (
+    let (
+        Some(tx_ring),
+        Some(rx_ring),
+        Some(queue),
+        Some(raw_queue),
+        Some(startup_queue),
+        Some(test_queue),
+    ) = (
         cortex_m::singleton!(: TxRing = Queue::new()),
         cortex_m::singleton!(: RxRing = Queue::new()),
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<Raw, RAW_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<Raw, STARTUP_QUEUE> = Queue::new()),
-    ) else {
+        cortex_m::singleton!(: Queue<TestBlock, SELF_TEST_QUEUE> = Queue::new()),
+    )
+    else {
         fail("static buffers already taken")
     };
     let (mut tx, drain, fill, mut rx) =
@@ -173,11 +186,13 @@ fn main() -> ! {
     let (producer, mut consumer) = queue.split();
     let (raw_producer, mut raw_consumer) = raw_queue.split();
     let (startup_producer, mut startup_consumer) = startup_queue.split();
+    let (test_producer, mut test_consumer) = test_queue.split();
     let (task, spare) = build_sample_task(
         &config,
         producer,
         raw_producer,
         startup_producer,
+        test_producer,
         run_samples,
     );
     // SAFETY: the chip models were created inside `build_sample_task` and
@@ -185,6 +200,18 @@ fn main() -> ! {
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
     let (slot, head) = robust_storage();
     let mut device = QemuDevice::new(&SAMPLE_TASK, spare, slot, head);
+    // The self-test's fault (`selftest_fault=NAME`), after the bring-up
+    // (a wrong ID would stop it), before the self-test.
+    if let Some(f) = fault {
+        device.with_rig(|rig| f.apply(rig));
+        hprintln!("self-test fault injected: {}", f.name());
+    }
+    // The self-test first: the tuning rule's window opens after it.
+    if let Err(e) = link.start_self_test(&mut device, true) {
+        hprintln!("error: the self-test could not start: {}", e);
+        board::exit(false);
+    }
+    SELF_TEST.store(true, core::sync::atomic::Ordering::Relaxed);
     hprintln!(
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
@@ -219,16 +246,35 @@ fn main() -> ! {
         while let Some(block) = raw_consumer.dequeue() {
             link.on_raw(&block, &mut tx);
         }
+        while let Some(block) = test_consumer.dequeue() {
+            let t0 = cycles::now();
+            let report = link.on_self_test_block(&block, &mut device, &mut tx);
+            run.selftest_blocks.add(t0, cycles::now());
+            if let Some(r) = report {
+                report::self_test(&r, fault);
+            }
+        }
         while let Some(block) = startup_consumer.dequeue() {
             if run.first_block.is_none() {
                 run.first_block = Some(block);
             }
             link.on_startup_block(&block);
-            if !link.collecting_startup() {
-                COLLECTING.store(false, core::sync::atomic::Ordering::Relaxed);
-            }
         }
+        SELF_TEST.store(
+            link.self_test_running(),
+            core::sync::atomic::Ordering::Relaxed,
+        );
+        COLLECTING.store(
+            link.collecting_startup(),
+            core::sync::atomic::Ordering::Relaxed,
+        );
+        let (t0, bytes0) = (cycles::now(), link.rx_counters().bytes);
         link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        let bytes = link.rx_counters().bytes - bytes0;
+        if bytes > 0 {
+            run.receive.add(t0, cycles::now());
+            run.received = run.received.saturating_add(bytes);
+        }
         // The summary first: nothing is swapped in after the last sample.
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();
@@ -297,6 +343,24 @@ fn run_length() -> u32 {
     }
 }
 
+/// The self-test's bench fault from the semihosting command line: the word
+/// `selftest_fault=NAME` (`beamest::bench::BenchFault`'s names); none
+/// without it.
+fn selftest_fault() -> Option<bench::BenchFault> {
+    let mut buf = [0u8; 128];
+    let line = board::command_line(&mut buf).unwrap_or("");
+    let name = line
+        .split_ascii_whitespace()
+        .find_map(|w| w.strip_prefix("selftest_fault="))?;
+    match bench::BenchFault::from_name(name) {
+        Some(f) => Some(f),
+        None => {
+            hprintln!("error: selftest_fault={}: no such fault", name);
+            board::exit(false)
+        }
+    }
+}
+
 /// "12" or "2.5" seconds → samples at 10 kHz (whole samples, saturating).
 fn parse_seconds_as_samples(s: &str) -> Option<u32> {
     let (whole, frac) = s.split_once('.').unwrap_or((s, ""));
@@ -329,6 +393,7 @@ fn build_sample_task(
     producer: Producer<'static, Record>,
     raw_producer: Producer<'static, Raw>,
     startup_producer: Producer<'static, Raw>,
+    test_producer: Producer<'static, TestBlock>,
     run_samples: u32,
 ) -> (&'static mut SampleTask, &'static mut Adaptive2<f32>) {
     let Some(models) = cortex_m::singleton!(: ConverterModels = ConverterModels::new()) else {
@@ -389,6 +454,7 @@ fn build_sample_task(
         pipeline,
         &SPI_METER,
         startup_producer,
+        test_producer,
         &SUMMARY,
         run_samples,
     );

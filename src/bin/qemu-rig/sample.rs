@@ -51,14 +51,19 @@ use beamest::link::StartupCollector;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::selftest::{Collector, SelfTestBlock};
 use beamest::supervise::Supervision;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;
 
-/// Thread mode's tuning rule still wants start-up pairs (cleared by thread
-/// mode when its window closes).
-pub static COLLECTING: AtomicBool = AtomicBool::new(true);
+/// Thread mode's tuning rule wants start-up pairs (set by thread mode
+/// from `DeviceLink::collecting_startup`: after the boot self-test, until
+/// its window closes).
+pub static COLLECTING: AtomicBool = AtomicBool::new(false);
+/// A self-test runs: every tick is copied for it (set by thread mode from
+/// `DeviceLink::self_test_running`).
+pub static SELF_TEST: AtomicBool = AtomicBool::new(false);
 
 /// Parameters of Θ for two modes (eq. 29: 4n − 1) and of packed P.
 pub const NP: usize = 7;
@@ -143,6 +148,8 @@ pub type DacDriver = Ad5761r<MeteredSpi<Shared<'static, Ad5761rModel>>>;
 pub type Record = TelemetryRecord<f32, NP, NS>;
 /// A raw-sample block.
 pub type Raw = RawBlock<f32>;
+/// A block of the self-test's ticks.
+pub type TestBlock = SelfTestBlock<f32>;
 /// The pipeline of this image.
 pub type RigPipeline = Pipeline<
     f32,
@@ -232,6 +239,11 @@ pub struct Summary {
     pub startup_dropped: u32,
     /// The steps' statuses: [updated, held (frozen), rejected, skipped].
     pub step_counts: [u32; 4],
+    /// The self-test's copy of each tick (its cost in the handler), over
+    /// the ticks it collected.
+    pub selftest: SpanSum,
+    /// Self-test blocks the queue refused.
+    pub selftest_dropped: u32,
 }
 
 /// Everything the sample interrupt owns.
@@ -240,6 +252,11 @@ pub struct SampleTask {
     pipeline: RigPipeline,
     startup: StartupCollector<f32>,
     startup_out: Producer<'static, Raw>,
+    selftest: Collector<f32>,
+    selftest_out: Producer<'static, TestBlock>,
+    selftest_span: SpanSum,
+    /// SysTick at the previous handler entry.
+    last_entry: Option<u32>,
     meter: &'static SpiMeter,
     summary_out: &'static Handoff<Summary>,
     run_samples: u32,
@@ -262,6 +279,7 @@ impl SampleTask {
         mut pipeline: RigPipeline,
         meter: &'static SpiMeter,
         startup_out: Producer<'static, Raw>,
+        selftest_out: Producer<'static, TestBlock>,
         summary_out: &'static Handoff<Summary>,
         run_samples: u32,
     ) -> Self {
@@ -271,6 +289,10 @@ impl SampleTask {
             pipeline,
             startup: StartupCollector::new(),
             startup_out,
+            selftest: Collector::new(),
+            selftest_out,
+            selftest_span: SpanSum::default(),
+            last_entry: None,
             meter,
             summary_out,
             run_samples,
@@ -316,12 +338,26 @@ impl SampleTask {
         let tick = self.pipeline.tick();
         let t2 = cycles::now();
         let models = self.meter.ticks().wrapping_sub(m0);
-        // 3. Start-up: the fed pairs out to thread mode's tuning rule.
+        // 3. Start-up: the fed pairs out to thread mode's tuning rule;
+        // the self-test's copy of the tick (timed on the handler's entry).
         if COLLECTING.load(Ordering::Relaxed) {
             if let Some((u, y)) = tick.fed {
                 let out = &mut self.startup_out;
                 self.startup.push(u, y, |b| out.enqueue(b).is_ok());
             }
+        }
+        let elapsed = self
+            .last_entry
+            .map_or(0, |last| cycles::ticks_between(last, entry));
+        self.last_entry = Some(entry);
+        if SELF_TEST.load(Ordering::Relaxed) {
+            let c0 = cycles::now();
+            let out = &mut self.selftest_out;
+            self.selftest
+                .push(&tick, elapsed, |b| out.enqueue(b).is_ok());
+            self.selftest_span.add(c0, cycles::now());
+        } else {
+            self.selftest.stop();
         }
         if NVIC::is_pending(board::Interrupt::TIMER0) {
             self.overruns = self.overruns.saturating_add(1);
@@ -367,6 +403,12 @@ impl SampleTask {
         &mut self.pipeline
     }
 
+    /// The simulated bench (thread mode, inside the lock: a fault for the
+    /// self-test, `selftest_fault=NAME`).
+    pub fn rig_mut(&mut self) -> &mut ConverterRig<'static> {
+        &mut self.rig
+    }
+
     fn inject(&self, k: u32) {
         for (at, fault) in FAULTS {
             let Ok(mut m) = self.rig.models().adc.try_borrow_mut() else {
@@ -397,6 +439,8 @@ impl SampleTask {
             tf: self.pipeline.estimator().transfer_function(),
             startup_dropped: self.startup.dropped(),
             step_counts: self.step_counts,
+            selftest: self.selftest_span,
+            selftest_dropped: self.selftest.dropped(),
         });
     }
 }
