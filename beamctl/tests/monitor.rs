@@ -213,6 +213,68 @@ fn capture_with_corruption_counts_as_the_decoder_does() {
 }
 
 #[test]
+fn the_verdict_judges_the_stream_and_says_why() {
+    // Three seconds of the fake device with every sample sent. Its y is a
+    // fixed two-tone signal that its own estimates do not explain: the
+    // verdict over the stream must say so.
+    let mut dev = FakeDevice::new(FakeConfig {
+        rates: TelemetryRates {
+            estimate_rate_hz: 10.0,
+            raw_decimation: 1,
+            status_rate_hz: 1.0,
+        },
+        ..FakeConfig::default()
+    });
+    let mut bytes = Vec::new();
+    dev.advance(30_000, &mut bytes);
+    let capture = scratch("verdict.bin");
+    std::fs::write(&capture, &bytes).expect("write capture");
+    let o = beamctl(&[
+        "monitor",
+        "--file",
+        s(&capture),
+        "--plain",
+        "--verdict-window",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // stdout: one line per estimate; the verdict lines go to stderr.
+    assert!(stdout(&o).lines().all(|l| l.starts_with("sample=")));
+    let err = stderr(&o);
+    let verdicts: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("verdict sample="))
+        .collect();
+    assert!(!verdicts.is_empty(), "{err}");
+    let last = verdicts.last().unwrap();
+    assert_eq!(field(last, "trusted"), "no", "{last}");
+    assert!(
+        field(last, "reasons").contains("residual_structured"),
+        "{last}"
+    );
+    assert!(
+        err.contains("over the last 2 s: 20000 raw samples): trusted no:"),
+        "{err}"
+    );
+    assert!(
+        err.contains("  residual_structured: the residual y − ŷ is not white"),
+        "{err}"
+    );
+    // Decimated raw samples: no fit, and the summary says how to get one.
+    let mut dev = FakeDevice::new(raw_on());
+    let mut bytes = Vec::new();
+    dev.advance(30_000, &mut bytes);
+    std::fs::write(&capture, &bytes).expect("write capture");
+    let o = beamctl(&["monitor", "--file", s(&capture), "--plain"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no_fit: no model-output fit: the raw samples are decimated"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn tcp_end_to_end_plain_record_raw_and_plot() {
     let (addr, dev) = fake_tcp(raw_on(), None);
     let record = scratch("e2e.csv");
@@ -424,10 +486,10 @@ fn another_protocol_version_stops_with_a_clear_error() {
         let mut dev = FakeDevice::new(FakeConfig::default());
         let mut out = vec![0u8];
         dev.advance(1_000, &mut out);
-        // A frame of version 3 (CRC good), then silence.
+        // A frame of the next version (CRC good), then silence.
         let mut frame = [0u8; 64];
         let h = Header {
-            version: 3,
+            version: beam_protocol::VERSION + 1,
             ..Header::new(Kind::Estimate, 11)
         };
         let n = encode_raw(&h, &[1, 2, 3], &mut frame).unwrap();
@@ -450,11 +512,11 @@ fn another_protocol_version_stops_with_a_clear_error() {
     let err = stderr(&o);
     assert!(
         err.contains(
-            "protocol version mismatch: the peer speaks version 3, this build 2; stopped without interpreting its frames"
+            "protocol version mismatch: the peer speaks version 4, this build 3; stopped without interpreting its frames"
         ),
         "{err}"
     );
-    assert_eq!(stdout(&o).lines().count(), 10, "the v2 estimates before it");
+    assert_eq!(stdout(&o).lines().count(), 10, "the v3 estimates before it");
     let rows = csv_rows(&record);
     let kind = col(&rows[0], "kind");
     assert!(rows
@@ -637,4 +699,40 @@ fn usage_errors_name_the_flag() {
     let o = beamctl(&["send", "--tcp", "127.0.0.1:1", "excitation", "--band", "5"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("expected LO:HI"), "{}", stderr(&o));
+}
+
+/// `beamctl selftest` against the fake device: the command acknowledged,
+/// the report printed check by check with the Cramér–Rao bound for the
+/// device's own estimate; `--json` carries the same; the device saw one
+/// SelfTest command.
+#[test]
+fn selftest_prints_the_report_and_the_bound() {
+    let (addr, dev) = fake_tcp(FakeConfig::default(), Some(Duration::from_secs(4)));
+    let o = beamctl(&["selftest", "--tcp", &addr, "--duration", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    for want in [
+        "every check passed",
+        "adc_id         pass",
+        "loopback       pass",
+        "Cramér–Rao bound with the default excitation for 5 s",
+        "ζ2",
+    ] {
+        assert!(out.contains(want), "{want}: {out}");
+    }
+    let dev = dev.join().unwrap();
+    assert!(dev
+        .log()
+        .commands
+        .iter()
+        .any(|(_, c, _)| *c == beam_protocol::Command::SelfTest));
+
+    let (addr, _dev) = fake_tcp(FakeConfig::default(), Some(Duration::from_secs(4)));
+    let o = beamctl(&["selftest", "--tcp", &addr, "--duration", "2", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(doc["passed"], true);
+    assert_eq!(doc["checks"][3][0], "loopback");
+    assert_eq!(doc["report"]["loopback"]["expected_delay_samples"], 2.15);
+    assert!(doc["crb"]["zeta"]["rel"][1].as_f64().unwrap() > 0.0);
 }

@@ -36,7 +36,11 @@
 //! timing, which the estimator then models (`FilterConfig::timing`).
 //!
 //! Faults are injected in the models ([`ConverterModels::adc`]: bad CRC,
-//! stuck data, saturation, dropped conversions, bus errors, brown-out).
+//! stuck data, saturation, dropped conversions, a slow or missing data
+//! rate, another part's ID, a register that reads back wrong, bus errors,
+//! brown-out) and in the rig's front end ([`ConverterRig::set_noise`],
+//! [`ConverterRig::set_monitor_connected`]); the self-test's faults are
+//! [`crate::bench::BenchFault`].
 //!
 //! # Ownership
 //! The models sit in [`ConverterModels`] (`RefCell`s); each driver owns a
@@ -147,6 +151,9 @@ pub struct ConverterRig<'a> {
     /// phase now (rad); `hum_len` of them.
     hum: [(f64, f64, f64); MAX_HUM_LINES],
     hum_len: usize,
+    /// The monitor channel sees the amplifier (false: its input is
+    /// grounded, a fault).
+    monitor_connected: bool,
     ticks: u64,
 }
 
@@ -184,6 +191,7 @@ impl<'a> ConverterRig<'a> {
             noise: None,
             hum: [(0.0, 0.0, 0.0); MAX_HUM_LINES],
             hum_len: 0,
+            monitor_connected: true,
             ticks: 0,
         })
     }
@@ -208,6 +216,19 @@ impl<'a> ConverterRig<'a> {
             noise: Some(noise),
             ..self
         }
+    }
+
+    /// Set or remove the white noise on y at run time (a fault: a noisy
+    /// bridge, interference).
+    pub(crate) fn set_noise(&mut self, noise: Option<GaussianNoise<f64>>) {
+        self.noise = noise;
+    }
+
+    /// Connect or disconnect the monitor channel (disconnected: its input
+    /// reads 0 V, as an open monitor wire into a grounded divider — no
+    /// DAC → ADC loopback).
+    pub(crate) fn set_monitor_connected(&mut self, connected: bool) {
+        self.monitor_connected = connected;
     }
 
     /// The same rig with the converters' `timing` (the ADC's sinc³, the
@@ -245,10 +266,12 @@ impl<'a> ConverterRig<'a> {
             *phase = libm::fmod(*phase + *step, core::f64::consts::TAU);
         }
         let monitor_v = self.plant.measured_drive();
-        adc.set_inputs([
-            self.front_end.bridge_volts(y),
-            self.front_end.monitor_volts(monitor_v),
-        ]);
+        let monitor_in = if self.monitor_connected {
+            self.front_end.monitor_volts(monitor_v)
+        } else {
+            0.0
+        };
+        adc.set_inputs([self.front_end.bridge_volts(y), monitor_in]);
         adc.convert();
         self.ticks = self.ticks.wrapping_add(1);
         Ok(RigTick { u_v, y, monitor_v })

@@ -115,7 +115,7 @@ pub(crate) mod telemetry;
 
 pub(crate) use adapters::adc_scales;
 pub use adapters::{bring_up, lost_configuration, BringUp, BringUpError};
-pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
+pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick, TickReading};
 pub use convert::{
     AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,
     Linearisation, OutputQuantity, ADS131M02_VREF_V,
@@ -311,13 +311,25 @@ where
         };
 
         // 3.–4. Screen the converter's report and convert.
+        // A new conversion unless the converter said there was none (a
+        // frame that failed its CRC or on the bus still had one behind it).
+        let fresh = !matches!(&reading, Ok(r) if r.flags.stale);
         let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
+        let nan = T::from_f64(f64::NAN);
+        let held_v = match held_now {
+            Some((u, true)) => u,
+            _ => nan,
+        };
+        let read = TickReading {
+            fresh,
+            y: if y_ok { y } else { nan },
+            monitor_v: if mon_ok { u_mon } else { nan },
+        };
 
         // 5. The pair for step(u held over the coming period, y now).
         // A u that is not known (the DAC write failed, the monitor
         // saturated) travels as NaN, so that a sample rejected for its y
         // alone still carries its true u (below).
-        let nan = T::from_f64(f64::NAN);
         let known = |u: T, u_ok: bool| if u_ok { u } else { nan };
         let pair = match self.input {
             InputSource::Commanded => held_now.map(|(u, u_ok)| (known(u, u_ok), y, u_ok && y_ok)),
@@ -328,7 +340,7 @@ where
         };
         let Some((u, y, ok)) = pair else {
             // Start-up: nothing held yet to pair with.
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         // The float-level checks (rails, stuck runs through the delay
         // line, so a run is rejected from its first sample) and the level
@@ -350,7 +362,7 @@ where
             self.estimator.hold(hold);
         }
         let Some(g) = out else {
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
@@ -411,15 +423,8 @@ where
             commanded_v,
             fed: Some(fed),
             step,
-        }
-    }
-
-    fn idle(&self, index: u64, commanded_v: T) -> Tick<T> {
-        Tick {
-            sample_index: index,
-            commanded_v,
-            fed: None,
-            step: None,
+            held_v,
+            reading: read,
         }
     }
 
@@ -618,6 +623,21 @@ where
         Ok(old)
     }
 
+    /// [`Pipeline::replace_estimator`] for a new estimator built where the
+    /// running one lies (a board with one slot for a large estimator):
+    /// `rebuild` turns the running estimator into the new one, which then
+    /// starts as a swapped-in one would (its λ, a new time series, the
+    /// settling hold). With an invalid λ nothing happens (`false`).
+    pub fn rebuild_estimator(&mut self, lambda_rad_s: f64, rebuild: impl FnOnce(&mut E)) -> bool {
+        if !(lambda_rad_s > 0.0 && lambda_rad_s.is_finite()) {
+            return false;
+        }
+        self.lambda_rad_s = lambda_rad_s;
+        rebuild(&mut self.estimator);
+        self.restart_series();
+        true
+    }
+
     fn restart_series(&mut self) {
         self.pf_u = PrefilterState::default();
         self.pf_y = PrefilterState::default();
@@ -759,6 +779,18 @@ where
     /// Take the pipeline apart.
     pub fn into_parts(self) -> (E, A, D, S, R) {
         (self.estimator, self.adc, self.dac, self.telemetry, self.raw)
+    }
+}
+
+/// A tick that fed nothing to the estimator.
+fn idle<T>(index: u64, commanded_v: T, held_v: T, reading: TickReading<T>) -> Tick<T> {
+    Tick {
+        sample_index: index,
+        commanded_v,
+        fed: None,
+        step: None,
+        held_v,
+        reading,
     }
 }
 

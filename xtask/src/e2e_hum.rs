@@ -174,7 +174,10 @@ fn measure_without(
     if c.errors() != 0 || c.lost != 0 {
         host.fail(format!("the link is not clean: {c:?}"));
     }
-    if !log.lines().any(|l| l.trim_start().starts_with("rig: lines n=0")) {
+    if !log
+        .lines()
+        .any(|l| l.trim_start().starts_with("rig: lines n=0"))
+    {
         host.fail("the log has no `rig: lines n=0`: the remover was not off".into());
     }
     if !status.success() {

@@ -27,21 +27,18 @@ pub enum Serial {
 }
 
 /// The QEMU command line for `elf` with UART0 on `serial`, running
-/// `seconds` of simulated time (the firmware's default 5 s if `None`).
-pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>) -> Command {
-    command_with(elf, serial, seconds, &[])
-}
-
-/// [`command`] with more words on the firmware's command line (`hum=1`).
-pub fn command_with(elf: &Path, serial: &Serial, seconds: Option<&str>, words: &[&str]) -> Command {
+/// `seconds` of simulated time (the firmware's default 5 s if `None`),
+/// with the firmware's other command-line words `args` (e.g.
+/// `selftest_fault=noise`).
+pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>, args: &[&str]) -> Command {
     let mut semihosting = String::from("enable=on,target=native,arg=qemu-rig");
     if let Some(s) = seconds {
         semihosting.push_str(",arg=seconds=");
         semihosting.push_str(s);
     }
-    for w in words {
+    for a in args {
         semihosting.push_str(",arg=");
-        semihosting.push_str(w);
+        semihosting.push_str(a);
     }
     let serial = match serial {
         Serial::File(p) => format!("file:{}", p.display()),
@@ -120,7 +117,7 @@ pub(crate) fn session_with(
         .local_addr()
         .map_err(|e| format!("listening on loopback: {e}"))?
         .port();
-    let mut cmd = command_with(elf, &Serial::Connect(port), seconds, words);
+    let mut cmd = command(elf, &Serial::Connect(port), seconds, words);
     cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
     println!("running: {cmd:?}");
     let start = Instant::now();

@@ -36,6 +36,9 @@ pub enum CommandArgs {
     /// Set the line remover: the mains and its harmonics removed from u
     /// and y before the estimator (docs/FIRMWARE.md, "The line remover").
     Lines(LinesArgs),
+    /// Run the device's self-test (its report arrives later; `beamctl
+    /// selftest` waits for it and prints it).
+    Selftest,
 }
 
 /// Options of `lines`.
@@ -242,6 +245,7 @@ impl CommandArgs {
             Self::Resume => Command::Resume,
             Self::Status => Command::RequestStatus,
             Self::Lines(a) => Command::SetLineRemoval(a.build()),
+            Self::Selftest => Command::SelfTest,
         })
     }
 }
@@ -545,6 +549,7 @@ pub fn command_text(c: &Command) -> String {
         Command::Resume => "resume".to_string(),
         Command::RequestStatus => "status".to_string(),
         Command::SetLineRemoval(l) => lines_text(l),
+        Command::SelfTest => "selftest".to_string(),
     }
 }
 

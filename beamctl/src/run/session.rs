@@ -7,6 +7,7 @@
 //! outcome carries its counters, the supervisor's state and the final
 //! estimate's physical validity.
 
+use crate::judge::drift::History;
 use crate::judge::fit::Model;
 use crate::judge::verdict::{Evidence, RecordEvidence, Verdict};
 use crate::run::error::RunError;
@@ -295,61 +296,6 @@ pub fn guard_config(ts_s: f64, range: Option<[f64; 2]>, level_correction: bool) 
 /// telemetry rate; [`Session::with_monitor`]).
 pub const MONITOR_MODEL_PERIOD_S: f64 = 0.01;
 
-/// ω̂, ζ̂ over time, kept to measure the drift at the end.
-#[derive(Debug, Default, Clone)]
-struct History {
-    t: Vec<f64>,
-    values: Vec<Option<Vec<f64>>>,
-}
-
-impl History {
-    fn push(&mut self, t: f64, m: Option<&ModalParams<f64>>) {
-        self.t.push(t);
-        self.values.push(m.map(|m| {
-            let n = m.modes;
-            m.omega_rad_s[..n]
-                .iter()
-                .chain(&m.zeta[..n])
-                .copied()
-                .collect()
-        }));
-    }
-
-    /// See [`Outcome::drift_last_10pct`].
-    fn drift(&self, end_s: f64) -> Option<f64> {
-        let from = 0.9 * end_s;
-        let start = self.t.partition_point(|&t| t < from);
-        let window = &self.values[start..];
-        if window.len() < 2 {
-            return None;
-        }
-        let rows = window
-            .iter()
-            .map(Option::as_ref)
-            .collect::<Option<Vec<_>>>()?;
-        let (earlier, later) = rows.split_at(rows.len() / 2);
-        let median_of = |half: &[&Vec<f64>], j: usize| -> Option<f64> {
-            let mut v: Vec<f64> = half
-                .iter()
-                .map(|r| r.get(j).copied())
-                .collect::<Option<_>>()?;
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
-            Some(if n % 2 == 1 {
-                v[n / 2]
-            } else {
-                0.5 * (v[n / 2 - 1] + v[n / 2])
-            })
-        };
-        let mut worst = 0.0f64;
-        for j in 0..rows.last()?.len() {
-            let (a, b) = (median_of(earlier, j)?, median_of(later, j)?);
-            worst = worst.max((b - a).abs() / b.abs());
-        }
-        worst.is_finite().then_some(worst)
-    }
-}
-
 /// Samples between the evaluations kept for the drift (0.1 s of record).
 pub fn drift_every(ts_s: f64) -> u64 {
     (0.1 / ts_s).round().max(1.0) as u64
@@ -637,7 +583,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         };
         let totals = run.totals();
         let validity: Vec<&'static str> = validity.names().collect();
-        let drift = self.history[i].drift(end_s);
+        let drift = self.history[i].drift(0.0, end_s);
         let verdict = Verdict::of(&Evidence {
             omega: estimate.is_valid().then_some(&estimate.omega[..]),
             zeta: &estimate.zeta,
@@ -667,60 +613,5 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
             guard: self.feed.guard().counts().into(),
             verdict,
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn drift_spans_the_last_tenth() {
-        let mut h = History::default();
-        let m = |w: f64| ModalParams::new(&[w], &[0.1], &[1.0], None).unwrap();
-        for k in 0..=100 {
-            let t = k as f64 * 0.1;
-            // Moves by 1% in the first 90%, then by 1e-4 in the last 10%.
-            let w = if t < 9.0 {
-                100.0 + t / 9.0
-            } else {
-                101.0 + (t - 9.0) * 1e-2
-            };
-            h.push(t, Some(&m(w)));
-        }
-        // The 11 evaluations from 9.0 s: medians at 9.2 s and 9.75 s.
-        let d = h.drift(10.0).unwrap();
-        let expected = 0.0055 / 101.0075;
-        assert!((d - expected).abs() < 1e-9, "{d}");
-        h.push(10.1, None);
-        assert_eq!(h.drift(10.1), None);
-    }
-
-    #[test]
-    fn a_transient_excursion_of_a_converged_estimate_is_not_drift() {
-        let m = |w: f64| ModalParams::new(&[w], &[0.1], &[1.0], None).unwrap();
-        let run = |spike: Option<usize>, step: f64| {
-            let mut h = History::default();
-            for k in 0..=100 {
-                let t = k as f64 * 0.1;
-                let mut w = if t < 9.45 { 100.0 } else { 100.0 + step };
-                if spike == Some(k) {
-                    // One evaluation 46.7% off, as a record's transient.
-                    w *= 1.467;
-                }
-                h.push(t, Some(&m(w)));
-            }
-            h.drift(10.0).unwrap()
-        };
-        assert_eq!(run(None, 0.0), 0.0);
-        assert_eq!(run(Some(93), 0.0), 0.0, "one outlying evaluation");
-        assert_eq!(
-            run(Some(98), 0.0),
-            0.0,
-            "one outlying evaluation, later half"
-        );
-        // A real move in the window (a plant change) still reads: the step.
-        let d = run(Some(93), 1.0);
-        assert!((d - 1.0 / 101.0).abs() < 1e-12, "{d}");
     }
 }

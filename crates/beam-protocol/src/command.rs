@@ -426,7 +426,13 @@ pub enum Command {
     Resume,
     /// 6: send a [`Status`](super::Status) now.
     RequestStatus,
-    /// 7: set the line remover (protocol version 3).
+    /// 7: run the bring-up self-test (converter ID and registers, DRDY
+    /// rate, DAC → ADC loopback, noise floor and SNR) and send its
+    /// [`SelfTestReport`](super::SelfTestReport) when it ends. The Ack
+    /// says it started; the drive is the self-test's and adaptation is
+    /// held while it runs (`docs/PROTOCOL.md` §5, §9.7).
+    SelfTest,
+    /// 8: set the line remover (protocol version 3).
     SetLineRemoval(LineRemoval),
 }
 
@@ -478,14 +484,18 @@ pub enum RejectReason {
     Rate = 13,
     /// The telemetry rates would exceed the link budget.
     LinkBudget = 14,
+    /// The device is busy: a self-test is running (every command but
+    /// `RequestStatus` is refused until it ends), or a `SelfTest` came
+    /// before the first estimator started (the start-up window).
+    Busy = 15,
     /// Line removal: harmonics not in 1..=7, or the time constant shorter
     /// than 10 samples or longer than 100 s.
-    LineRemoval = 15,
+    LineRemoval = 16,
 }
 
 impl RejectReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 15] = [
+    pub const ALL: [Self; 16] = [
         Self::NotFinite,
         Self::Amplitude,
         Self::SafeWindow,
@@ -500,6 +510,7 @@ impl RejectReason {
         Self::EstimatorUnavailable,
         Self::Rate,
         Self::LinkBudget,
+        Self::Busy,
         Self::LineRemoval,
     ];
 
@@ -520,7 +531,8 @@ impl RejectReason {
             12 => Self::EstimatorUnavailable,
             13 => Self::Rate,
             14 => Self::LinkBudget,
-            15 => Self::LineRemoval,
+            15 => Self::Busy,
+            16 => Self::LineRemoval,
             _ => return None,
         })
     }
@@ -542,6 +554,7 @@ impl RejectReason {
             Self::EstimatorUnavailable => "estimator not available in this firmware",
             Self::Rate => "telemetry rate negative or above the sample rate",
             Self::LinkBudget => "telemetry rates exceed the link budget",
+            Self::Busy => "device busy: a self-test is running, or the estimator has not started",
             Self::LineRemoval => "line removal: harmonics or time constant out of range",
         }
     }

@@ -120,7 +120,9 @@ impl Command {
             Self::SetEstimator(s) => s.validate(limits),
             Self::SetTelemetry(t) => t.validate(limits),
             Self::SetLineRemoval(l) => l.validate(limits),
-            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus => Ok(()),
+            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus | Self::SelfTest => {
+                Ok(())
+            }
         }
     }
 }
@@ -309,6 +311,7 @@ mod tests {
             Command::Freeze,
             Command::Resume,
             Command::RequestStatus,
+            Command::SelfTest,
         ] {
             assert_eq!(c.validate(&LIMITS), Ok(()));
         }

@@ -24,6 +24,7 @@
 //! goes to stderr.
 
 mod event;
+pub mod live;
 mod plot;
 pub mod state;
 mod tui;
@@ -103,6 +104,13 @@ pub struct MonitorArgs {
     #[arg(long)]
     pub listen_only: bool,
 
+    /// The verdict on the last estimate (docs/CLI.md, "The verdict, live")
+    /// judges this many seconds of the stream (device time; > 0): the
+    /// model-output fit over the raw samples (every sample must be sent:
+    /// `telemetry --raw-decimation 1`), the drift over its last tenth.
+    #[arg(long, value_name = "SECONDS", default_value_t = live::DEFAULT_WINDOW_S, allow_negative_numbers = true)]
+    pub verdict_window: f64,
+
     /// Plain mode: read commands from stdin, one per line, in the syntax of
     /// `beamctl send` (e.g. `excitation --amplitude 0.2`); answers go to
     /// stderr.
@@ -137,6 +145,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
         check_seconds("--sample-rate", f)?;
     }
     check_seconds("--timeout", args.timeout)?;
+    check_seconds("--verdict-window", args.verdict_window)?;
     let endpoint = match (&args.file, args.device.endpoint()) {
         (Some(p), _) => Endpoint::File(p.clone()),
         (None, Some(e)) => e,
@@ -187,7 +196,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
 
     let mut host = Host::new(endpoint.is_live());
     host.set_sample_rate_fallback(args.sample_rate);
-    let mut st = State::new(endpoint.to_string(), host, writable);
+    let mut st = State::new(endpoint.to_string(), host, writable, args.verdict_window);
     let mut lp = Loop {
         args,
         endpoint: &endpoint,
@@ -197,6 +206,7 @@ pub fn run(args: &MonitorArgs) -> Result<(), CliError> {
         stdout_ok: true,
         last_error_line: None,
         errors_unreported: 0,
+        verdict_printed: None,
     };
     if writable {
         lp.submit(&mut st, Command::RequestStatus, Instant::now());
@@ -220,6 +230,8 @@ struct Loop<'a> {
     stdout_ok: bool,
     last_error_line: Option<Instant>,
     errors_unreported: u64,
+    /// Plain mode: the verdict summary last printed.
+    verdict_printed: Option<String>,
 }
 
 impl Loop<'_> {
@@ -332,6 +344,15 @@ impl Loop<'_> {
                             if writeln!(out, "{line}").is_err() {
                                 self.stdout_ok = false;
                             }
+                            drop(out);
+                            // A verdict line (stderr) when the verdict changes.
+                            if let Some((k, v)) = st.live.last() {
+                                let summary = v.summary();
+                                if self.verdict_printed.as_ref() != Some(&summary) {
+                                    eprintln!("{}", state::verdict_line(*k, v, &st.host));
+                                    self.verdict_printed = Some(summary);
+                                }
+                            }
                         }
                         Message::Ack(a) => {
                             let msg = match st.host.answer(a) {
@@ -348,6 +369,11 @@ impl Loop<'_> {
                                 ),
                             };
                             self.note(st, msg);
+                        }
+                        Message::SelfTestReport(r) => {
+                            for line in text::self_test_lines(r) {
+                                self.note(st, line);
+                            }
                         }
                         _ => {}
                     }
@@ -574,12 +600,13 @@ fn summary(st: &State, reason: &str, kept: &[String]) {
     );
     let _ = writeln!(
         err,
-        "link: {} (estimates {}, raw blocks {}, status {}, acks {})",
+        "link: {} (estimates {}, raw blocks {}, status {}, acks {}, self-test reports {})",
         text::counters_text(st.host.counters()),
         k.estimates,
         k.raw,
         k.status,
-        k.acks
+        k.acks,
+        k.self_tests
     );
     if st.host.partial_bytes() > 0 {
         let _ = writeln!(
@@ -607,6 +634,27 @@ fn summary(st: &State, reason: &str, kept: &[String]) {
             c.commands_rejected,
             c.rx_frame_errors
         );
+    }
+    match st.live.last() {
+        Some((k, v)) => {
+            let t = st
+                .host
+                .time_s(*k)
+                .map_or_else(|| "?".to_string(), |t| format!("{t:.3}"));
+            let _ = writeln!(
+                err,
+                "verdict on the last estimate judged (sample {k}, t = {t} s, over the last {} s: {} raw samples): trusted {}",
+                st.live.window_s(),
+                st.live.pairs(),
+                v.summary()
+            );
+            for r in &v.reasons {
+                let _ = writeln!(err, "  {}: {}", r.code, r.detail);
+            }
+        }
+        None => {
+            let _ = writeln!(err, "verdict: no estimate judged");
+        }
     }
     let pending: Vec<String> = st.host.pending().map(|p| format!("#{}", p.seq)).collect();
     if !pending.is_empty() {

@@ -3,6 +3,8 @@
 //! log of commands and their answers. The terminal view and the plain
 //! output are both drawn from a [`State`].
 
+use crate::cli::monitor::live::LiveVerdict;
+use crate::judge::verdict::Verdict;
 use crate::link::{text, Host};
 use beam_protocol::{Estimate, Frame, Message, MAX_MODES};
 use std::collections::VecDeque;
@@ -35,6 +37,8 @@ pub struct KindCounts {
     pub status: u64,
     /// Acknowledgements.
     pub acks: u64,
+    /// Self-test reports.
+    pub self_tests: u64,
     /// Frames of a host → device kind (a loop-back, or a wrong wire).
     pub other: u64,
 }
@@ -60,11 +64,14 @@ pub struct State {
     pub kinds: KindCounts,
     /// Commands can be sent (a live device, not --listen-only).
     pub writable: bool,
+    /// The verdict on the last estimate over the stream's recent past.
+    pub live: LiveVerdict,
 }
 
 impl State {
-    /// A state for `source`.
-    pub fn new(source: String, host: Host, writable: bool) -> Self {
+    /// A state for `source`; its verdict judges the last `window_s` seconds
+    /// of the stream.
+    pub fn new(source: String, host: Host, writable: bool, window_s: f64) -> Self {
         Self {
             source,
             host,
@@ -75,6 +82,7 @@ impl State {
             start: Instant::now(),
             kinds: KindCounts::default(),
             writable,
+            live: LiveVerdict::new(window_s),
         }
     }
 
@@ -91,10 +99,13 @@ impl State {
         self.log.push_back(line);
     }
 
-    /// Take note of a delivered frame (counts, last estimate, history).
+    /// Take note of a delivered frame (counts, last estimate, history, the
+    /// verdict's window).
     pub fn frame(&mut self, f: &Frame, now: Instant) {
+        let fs = self.host.sample_rate_hz();
         match &f.message {
             Message::Estimate(e) => {
+                self.live.estimate(e, fs);
                 self.kinds.estimates += 1;
                 let mut p = Point {
                     sample_index: e.sample_index,
@@ -109,9 +120,13 @@ impl State {
                 self.history.push(p);
                 self.last = Some((e.clone(), now));
             }
-            Message::RawSamples(_) => self.kinds.raw += 1,
+            Message::RawSamples(r) => {
+                self.kinds.raw += 1;
+                self.live.raw(r, fs);
+            }
             Message::Status(_) => self.kinds.status += 1,
             Message::Ack(_) => self.kinds.acks += 1,
+            Message::SelfTestReport(_) => self.kinds.self_tests += 1,
             Message::Command(_) => self.kinds.other += 1,
         }
     }
@@ -159,6 +174,26 @@ pub fn estimate_line(e: &Estimate, seq: u32, host: &Host) -> String {
         list(&|m| m.b_bar),
         e.lambda_rad_s,
         text::flags_text(e.flags, "|"),
+    )
+}
+
+/// The plain output's verdict line (printed after an estimate line when
+/// the verdict changes): the judged estimate's sample index and device
+/// time, `trusted=yes|no` and the reasons' codes.
+pub fn verdict_line(sample_index: u64, v: &Verdict, host: &Host) -> String {
+    let t = host
+        .time_s(sample_index)
+        .map_or_else(|| "?".to_string(), |t| t.to_string());
+    let mut codes: Vec<&str> = v.reasons.iter().map(|r| r.code).collect();
+    codes.dedup();
+    format!(
+        "verdict sample={sample_index} t_s={t} trusted={} reasons={}",
+        if v.trusted { "yes" } else { "no" },
+        if codes.is_empty() {
+            "-".to_string()
+        } else {
+            codes.join(",")
+        }
     )
 }
 

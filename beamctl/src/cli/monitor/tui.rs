@@ -236,6 +236,15 @@ fn estimate_pane(st: &State, now: Instant, modes: usize) -> Paragraph<'static> {
         flags.push(Span::raw("no flags"));
     }
     lines.push(Line::from(flags));
+    lines.push(match st.live.last() {
+        Some((_, v)) if v.trusted => Line::from(format!(
+            "trusted: yes (over the last {} s)",
+            st.live.window_s()
+        ))
+        .fg(Color::Green),
+        Some((_, v)) => Line::from(format!("trusted: {}", v.summary())).fg(Color::Red),
+        None => Line::from("trusted: not judged yet").dim(),
+    });
     Paragraph::new(lines).block(block)
 }
 
@@ -403,7 +412,7 @@ mod tests {
         let mut bytes = Vec::new();
         dev.advance(20_000, &mut bytes);
         let now = Instant::now();
-        let mut st = State::new("TCP test:1".into(), Host::new(false), true);
+        let mut st = State::new("TCP test:1".into(), Host::new(false), true, 10.0);
         for f in st.host.receive(&bytes, now).into_iter().flatten() {
             st.frame(&f, now);
         }
