@@ -748,7 +748,7 @@ mod tests {
             assert_eq!(RejectReason::from_code(*r as u8), Some(*r));
         }
         assert_eq!(RejectReason::from_code(0), None);
-        assert_eq!(RejectReason::from_code(16), None);
+        assert_eq!(RejectReason::from_code(17), None);
         assert_eq!(RejectReason::from_code(255), None);
     }
 

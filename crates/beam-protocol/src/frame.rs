@@ -747,13 +747,13 @@ mod tests {
             parse_frame(&frame(&k, &[])),
             Err(DecodeError::UnknownKind(0x7F))
         );
-        // Trailing byte, truncated payload, undefined result code (16 and
+        // Trailing byte, truncated payload, undefined result code (17 and
         // up), the command seq 9 as a non-shortest varint (`89 00`, `89 80
         // 00`): malformed.
         for p in [
             &[9u8, 0, 0][..],
             &[9],
-            &[9, 16],
+            &[9, 17],
             &[9, 0xFF],
             &[0x89, 0x00, 0],
             &[0x89, 0x80, 0x00, 0],
