@@ -39,7 +39,10 @@
 //!   and stream decoder are the [`beam_protocol`] crate, shared with the
 //!   host; `docs/PROTOCOL.md`): telemetry records →
 //!   frames in a bounded TX ring, command frames → validated changes of the
-//!   pipeline between samples, acknowledgements (any board).
+//!   pipeline between samples, acknowledgements (any board);
+//! * [`selftest`] — the bring-up self-test (converter ID and registers,
+//!   DRDY rate, DAC → ADC loopback, noise floor and SNR), run by the link
+//!   at start-up and on the `SelfTest` command.
 //!
 //! Internal helpers (`linalg`: small fixed-size matrices;
 //! `scalar::compensated`: double-word arithmetic for `f32`) are
@@ -117,6 +120,7 @@ pub mod pipeline;
 pub mod poly;
 pub mod rig;
 pub(crate) mod scalar;
+pub mod selftest;
 pub mod supervise;
 pub mod tuning;
 

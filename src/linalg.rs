@@ -18,6 +18,7 @@
 //! * [`symmetric_eigenvalues`] (cyclic Jacobi) backs the excitation monitor of
 //!   Lemma 1 (λmin(P)); it is run at the telemetry rate, not per sample.
 
+use crate::scalar::compensated::{each_row, packed_index, UNROLLED_ROWS};
 use crate::scalar::Real;
 
 /// Failure of a factorization.
@@ -121,57 +122,14 @@ pub fn ldlt_solve_packed_floored_keep<T: Real, const N: usize, const NS: usize>(
     if !(floor > T::ZERO) || !floor.is_finite() {
         return Err(LinalgError::NotPositiveDefinite);
     }
-    let mut rest: &mut [T] = s;
-    for (j, inv_j) in inv_d.iter_mut().enumerate() {
-        let Some((row_j, below)) = core::mem::take(&mut rest).split_at_mut_checked(N - j) else {
-            break;
-        };
-        let Some((pivot, l_j)) = row_j.split_first_mut() else {
-            break;
-        };
-        let mut d = *pivot;
-        if d < floor {
-            d = floor;
+    if N > UNROLLED_ROWS {
+        for j in 0..N {
+            ldlt_pivot(j, s, inv_d, floor)?;
         }
-        if !d.is_finite() {
-            return Err(LinalgError::NotPositiveDefinite);
-        }
-        let inv = T::ONE / d;
-        *inv_j = inv;
-        // col = S_·j below the pivot (L_·j·d_j); row j becomes l = col·inv.
-        // (Loops over a fixed bound N with an early exit: their trip count
-        // is known to be ≤ N, so the compiler unrolls them completely
-        // instead of emitting a generic unrolled loop with remainder.)
-        let n = l_j.len();
-        let mut col = [T::ZERO; N];
-        let mut l = [T::ZERO; N];
-        for t in 0..N {
-            let Some(v) = l_j.get_mut(t) else { break };
-            col[t] = *v;
-            l[t] = col[t] * inv;
-            *v = l[t];
-        }
-        // Row k > j of the upper triangle holds S_k,k … S_k,N−1:
-        // S_ik −= l_i·col_k for i ≥ k.
-        let mut rows: &mut [T] = &mut *below;
-        for m in 0..N {
-            if m >= n {
-                break;
-            }
-            let ck = col[m];
-            let Some((row_k, after)) = core::mem::take(&mut rows).split_at_mut_checked(n - m)
-            else {
-                break;
-            };
-            for t in 0..N {
-                let (Some(sk), Some(&li)) = (row_k.get_mut(t), l.get(m + t)) else {
-                    break;
-                };
-                *sk -= li * ck;
-            }
-            rows = after;
-        }
-        rest = below;
+    } else {
+        // A constant pivot index in each: every index below is known at
+        // compile time (no slice bookkeeping, no early exits).
+        each_row!(J => ldlt_pivot(J, s, inv_d, floor)?);
     }
     let x = ldlt_substitute_packed(s, inv_d, b);
     if x.iter().all(|v| v.is_finite()) {
@@ -179,6 +137,59 @@ pub fn ldlt_solve_packed_floored_keep<T: Real, const N: usize, const NS: usize>(
     } else {
         Err(LinalgError::NotPositiveDefinite)
     }
+}
+
+/// Pivot `j` of [`ldlt_solve_packed_floored_keep`] (nothing for j ≥ N):
+/// the floored pivot d_j (1/d_j into `inv_d`), row j of the packed upper
+/// triangle (S_·j below the pivot) replaced by the multipliers
+/// L_·j = S_·j/d_j, and the trailing rows updated, S_ik −= L_ij·S_kj for
+/// i ≥ k > j, in the dense function's order.
+#[inline(always)]
+fn ldlt_pivot<T: Real, const N: usize, const NS: usize>(
+    j: usize,
+    s: &mut [T; NS],
+    inv_d: &mut [T; N],
+    floor: T,
+) -> Result<(), LinalgError> {
+    if j >= N {
+        return Ok(());
+    }
+    let (Some(&pivot), Some(inv_j)) = (s.get(packed_index::<N>(j, j)), inv_d.get_mut(j)) else {
+        return Ok(());
+    };
+    let mut d = pivot;
+    if d < floor {
+        d = floor;
+    }
+    if !d.is_finite() {
+        return Err(LinalgError::NotPositiveDefinite);
+    }
+    let inv = T::ONE / d;
+    *inv_j = inv;
+    // col = S_·j below the pivot (L_·j·d_j); row j becomes l = col·inv.
+    let mut col = [T::ZERO; N];
+    let mut l = [T::ZERO; N];
+    for t in 0..N - 1 - j {
+        if let (Some(v), Some(c), Some(li)) = (
+            s.get_mut(packed_index::<N>(j, j + 1 + t)),
+            col.get_mut(t),
+            l.get_mut(t),
+        ) {
+            *c = *v;
+            *li = *c * inv;
+            *v = *li;
+        }
+    }
+    // Row k = j + 1 + m holds S_k,k … S_k,N−1: S_ik −= l_i·col_k, i ≥ k.
+    for (m, &ck) in col.iter().enumerate().take(N - 1 - j) {
+        let k = j + 1 + m;
+        for t in 0..N - k {
+            if let (Some(sk), Some(&li)) = (s.get_mut(packed_index::<N>(k, k + t)), l.get(m + t)) {
+                *sk -= li * ck;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Solve S·x = b with the factors [`ldlt_solve_packed_floored_keep`] left
@@ -191,39 +202,58 @@ pub fn ldlt_substitute_packed<T: Real, const N: usize, const NS: usize>(
     b: &[T; N],
 ) -> [T; N] {
     let mut x = *b;
-    let mut rest: &[T] = s;
-    for j in 0..N {
-        let Some((row_j, below)) = rest.split_at_checked(N - j) else {
-            break;
-        };
-        let xj = x[j];
-        for t in 1..N {
-            let (Some(&l), Some(xi)) = (row_j.get(t), x.get_mut(j + t)) else {
-                break;
-            };
-            *xi -= l * xj;
+    if N > UNROLLED_ROWS {
+        for j in 0..N {
+            forward_column(j, s, &mut x);
         }
-        rest = below;
+    } else {
+        each_row!(J => forward_column(J, s, &mut x));
     }
     for (xi, inv) in x.iter_mut().zip(inv_d.iter()) {
         *xi *= *inv;
     }
-    let mut end = NS;
-    for i in (0..N).rev() {
-        let start = end - (N - i);
-        if let Some(row_i) = s.get(start..end) {
-            let mut acc = x[i];
-            for t in 1..N {
-                let (Some(&l), Some(&xk)) = (row_i.get(t), x.get(i + t)) else {
-                    break;
-                };
-                acc -= l * xk;
-            }
-            x[i] = acc;
+    if N > UNROLLED_ROWS {
+        for r in 0..N {
+            back_row(N - 1 - r, s, &mut x);
         }
-        end = start;
+    } else {
+        // Rows N − 1, N − 2, … 0 (R counts from the last).
+        each_row!(R => if R < N {
+            back_row(N - 1 - R, s, &mut x)
+        });
     }
     x
+}
+
+/// L·z = b, column `j` (unit lower, the multipliers in row j of `s`):
+/// z_i −= L_ij·z_j for i > j.
+#[inline(always)]
+fn forward_column<T: Real, const N: usize, const NS: usize>(j: usize, s: &[T; NS], x: &mut [T; N]) {
+    let Some(&xj) = x.get(j) else {
+        return;
+    };
+    for t in 1..N - j {
+        if let (Some(&l), Some(xi)) = (s.get(packed_index::<N>(j, j + t)), x.get_mut(j + t)) {
+            *xi -= l * xj;
+        }
+    }
+}
+
+/// Lᵀ·x = z, row `i`: x_i = z_i − Σ_{k>i} L_ki·x_k (in ascending k).
+#[inline(always)]
+fn back_row<T: Real, const N: usize, const NS: usize>(i: usize, s: &[T; NS], x: &mut [T; N]) {
+    let Some(&xi) = x.get(i) else {
+        return;
+    };
+    let mut acc = xi;
+    for t in 1..N - i {
+        if let (Some(&l), Some(&xk)) = (s.get(packed_index::<N>(i, i + t)), x.get(i + t)) {
+            acc -= l * xk;
+        }
+    }
+    if let Some(v) = x.get_mut(i) {
+        *v = acc;
+    }
 }
 
 /// Solve S·x = b for symmetric S by a root-free LDLᵀ factorization in which

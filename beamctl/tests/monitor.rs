@@ -486,10 +486,10 @@ fn another_protocol_version_stops_with_a_clear_error() {
         let mut dev = FakeDevice::new(FakeConfig::default());
         let mut out = vec![0u8];
         dev.advance(1_000, &mut out);
-        // A frame of version 3 (CRC good), then silence.
+        // A frame of the next version (CRC good), then silence.
         let mut frame = [0u8; 64];
         let h = Header {
-            version: 3,
+            version: beam_protocol::VERSION + 1,
             ..Header::new(Kind::Estimate, 11)
         };
         let n = encode_raw(&h, &[1, 2, 3], &mut frame).unwrap();
@@ -512,11 +512,11 @@ fn another_protocol_version_stops_with_a_clear_error() {
     let err = stderr(&o);
     assert!(
         err.contains(
-            "protocol version mismatch: the peer speaks version 3, this build 2; stopped without interpreting its frames"
+            "protocol version mismatch: the peer speaks version 4, this build 3; stopped without interpreting its frames"
         ),
         "{err}"
     );
-    assert_eq!(stdout(&o).lines().count(), 10, "the v2 estimates before it");
+    assert_eq!(stdout(&o).lines().count(), 10, "the v3 estimates before it");
     let rows = csv_rows(&record);
     let kind = col(&rows[0], "kind");
     assert!(rows
@@ -721,4 +721,40 @@ fn usage_errors_name_the_flag() {
     let o = beamctl(&["send", "--tcp", "127.0.0.1:1", "excitation", "--band", "5"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("expected LO:HI"), "{}", stderr(&o));
+}
+
+/// `beamctl selftest` against the fake device: the command acknowledged,
+/// the report printed check by check with the Cramér–Rao bound for the
+/// device's own estimate; `--json` carries the same; the device saw one
+/// SelfTest command.
+#[test]
+fn selftest_prints_the_report_and_the_bound() {
+    let (addr, dev) = fake_tcp(FakeConfig::default(), Some(Duration::from_secs(4)));
+    let o = beamctl(&["selftest", "--tcp", &addr, "--duration", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    for want in [
+        "every check passed",
+        "adc_id         pass",
+        "loopback       pass",
+        "Cramér–Rao bound with the default excitation for 5 s",
+        "ζ2",
+    ] {
+        assert!(out.contains(want), "{want}: {out}");
+    }
+    let dev = dev.join().unwrap();
+    assert!(dev
+        .log()
+        .commands
+        .iter()
+        .any(|(_, c, _)| *c == beam_protocol::Command::SelfTest));
+
+    let (addr, _dev) = fake_tcp(FakeConfig::default(), Some(Duration::from_secs(4)));
+    let o = beamctl(&["selftest", "--tcp", &addr, "--duration", "2", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(doc["passed"], true);
+    assert_eq!(doc["checks"][3][0], "loopback");
+    assert_eq!(doc["report"]["loopback"]["expected_delay_samples"], 2.15);
+    assert!(doc["crb"]["zeta"]["rel"][1].as_f64().unwrap() > 0.0);
 }

@@ -446,6 +446,9 @@ fn no_flags_removes_the_mains_lines() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let off: Value = serde_json::from_str(&stdout(&o)).expect("JSON");
     assert_eq!(off["line_removal"]["removed"], serde_json::json!([]));
+    // Lines are no noise spectrum: the residual that holds them is not
+    // prewhitened (docs/REPLAY.md, "Coloured noise").
+    assert_eq!(off["prewhitening"]["applied"], false);
     assert!(!within(&off), "{}", off["estimate"]);
     let clean = json(&beamctl(&[
         "replay",
@@ -454,6 +457,97 @@ fn no_flags_removes_the_mains_lines() {
     ]));
     assert_eq!(clean["line_removal"]["mode"], "auto");
     assert_eq!(clean["line_removal"]["removed"], serde_json::json!([]));
+}
+
+/// Coloured measurement noise (docs/REPLAY.md, "Coloured noise"): on a
+/// record simulated independently of this project (a bridge amplifier's
+/// noise, first-order low-pass at 50 Hz, 40 dB, plus a white floor and a
+/// 16-bit ADC) the first fit's residual is coloured and not explained by
+/// u, so the replay runs again with u and y prewhitened by its AR model,
+/// and the estimate is within the record's tolerance (max(3σ_CRB, 1e-4),
+/// the bound for that noise spectrum); with `--prewhiten off` it is not (a
+/// third "mode" is chosen to fit the noise). A white-noise record reports
+/// an order-0 noise model and no prewhitening.
+#[test]
+fn no_flags_prewhitens_coloured_noise() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../host-tests/data/records");
+    let name = "lab_colour40_prbs";
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{dir}/{name}/reference.json")).expect("reference"),
+    )
+    .expect("reference JSON");
+    let path = format!("{dir}/{name}/record.csv.gz");
+    let within = |r: &Value| {
+        let acc = &reference["acceptance"];
+        r["modes"] == 2
+            && (0..2).all(|i| {
+                [
+                    ("omega", "omega_rad_s", "omega_rel_tol"),
+                    ("zeta", "zeta", "zeta_rel_tol"),
+                ]
+                .iter()
+                .all(|(k, key, tol)| {
+                    let e =
+                        (num(&r["estimate"][k][i]) / num(&reference["truth"][key][i]) - 1.0).abs();
+                    e <= num(&acc[tol][i])
+                })
+            })
+    };
+    let r = json(&beamctl(&["replay", &path, "--json"]));
+    let p = &r["prewhitening"];
+    assert_eq!(p["mode"], "auto");
+    assert_eq!(p["applied"], true, "{p}");
+    let m = &p["noise_model"];
+    assert!(m["order"].as_u64().expect("order") >= 1, "{m}");
+    assert!(num(&m["prediction_gain"]) >= 2.0, "{m}");
+    assert!(num(&m["input_share"]) <= num(&m["input_share_max"]), "{m}");
+    assert!(within(&r), "{}", r["estimate"]);
+    assert_eq!(r["verdict"]["trusted"], true, "{}", r["verdict"]);
+    let off = json(&beamctl(&["replay", &path, "--prewhiten", "off", "--json"]));
+    assert_eq!(off["prewhitening"]["mode"], "off");
+    assert_eq!(off["prewhitening"]["applied"], false);
+    assert!(!within(&off), "{}", off["estimate"]);
+    let clean = json(&beamctl(&[
+        "replay",
+        &format!("{dir}/lab_noise40_prbs/record.csv.gz"),
+        "--json",
+    ]));
+    let p = &clean["prewhitening"];
+    assert_eq!(p["applied"], false, "{p}");
+    assert_eq!(p["runs"], 0);
+    assert_eq!(p["noise_model"]["order"], 0, "{p}");
+}
+
+/// A wrong model's residual is coloured too, but by u: one mode fitted to
+/// a two-mode record (numpy/scipy, white noise) leaves the second mode's
+/// response in the residual, which the FIR of u explains beyond what
+/// noise would (`input_share` above `input_share_max`). It is not
+/// prewhitened (the noise model would absorb the missing mode and the
+/// verdict, which tests the whitened record, would trust it), and the
+/// verdict reads the structured residual.
+#[test]
+fn a_missing_mode_is_not_whitened_away() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../host-tests/data/records/lab_2mode_5khz/record.csv.gz"
+    );
+    let o = beamctl(&["replay", path, "--modes", "1", "--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let r = json(&o);
+    let p = &r["prewhitening"];
+    assert_eq!(p["applied"], false, "{p}");
+    assert_eq!(p["runs"], 0, "{p}");
+    let m = &p["noise_model"];
+    assert!(num(&m["prediction_gain"]) >= 2.0, "{m}");
+    assert!(num(&m["input_share"]) > num(&m["input_share_max"]), "{m}");
+    assert_eq!(r["verdict"]["trusted"], false, "{}", r["verdict"]);
+    let codes: Vec<&str> = r["verdict"]["reasons"]
+        .as_array()
+        .expect("reasons")
+        .iter()
+        .filter_map(|c| c["code"].as_str())
+        .collect();
+    assert!(codes.contains(&"residual_structured"), "{codes:?}");
 }
 
 /// The flags fix their part of the choice: `--modes`, `--output` and

@@ -32,4 +32,30 @@ fn main() {
     row!("ls", 1, LeastSquaresEstimator<f32, 2, 3>, LeastSquaresEstimator<f64, 2, 3>);
     row!("ls", 2, LeastSquaresEstimator<f32, 4, 7>, LeastSquaresEstimator<f64, 4, 7>);
     row!("ls", 3, LeastSquaresEstimator<f32, 6, 11>, LeastSquaresEstimator<f64, 6, 11>);
+    use beamest::estimator::robust::{CompactRecord, Head, Pending, Robust2, Robust2Compact};
+    row!("robust, 2 s record", 2, Robust2<f32>, Robust2<f64>);
+    row!(
+        "robust, 2 s compact record (the QEMU image's)",
+        2,
+        Robust2Compact<f32>,
+        Robust2Compact<f64>
+    );
+    row!(
+        "- of which the compact record",
+        2,
+        CompactRecord<f32>,
+        CompactRecord<f64>
+    );
+    row!(
+        "robust without record (a head, `Head`)",
+        2,
+        Head<f32, 4, 7, 28>,
+        Head<f64, 4, 7, 28>
+    );
+    row!(
+        "a robust model update in progress (`Pending`)",
+        2,
+        Pending<f32, 4, 7, 28>,
+        Pending<f64, 4, 7, 28>
+    );
 }

@@ -4,15 +4,20 @@
 //! ```text
 //! cargo build --release -p host-tests --example guard_cost
 //! valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
-//!   target/release/examples/guard_cost monitor f32     # none | guard | monitor; f32 | f64
+//!   target/release/examples/guard_cost monitor f32     # none | guard | monitor | lines; f32 | f64
 //! ```
 //!
 //! The samples (the paper's plant under 0.1·square(7 Hz), noise-free, 20 s)
 //! and the settings (`startup_filter`) are computed first in every mode;
 //! (count(mode) − count(none))/200,000 is the guard's cost per sample
 //! (the monitor's construction included: ≈ 10 per sample). The monitor is given the plant's own Θ
-//! (a cost measurement: any converged model costs the same).
+//! (a cost measurement: any converged model costs the same). `lines`: the
+//! guard and the line remover after it, the mains at 50 Hz and its
+//! harmonics 1–7 (`beamest::guard::lines`, as the firmware runs it after
+//! `SetLineRemoval`); (count(lines) − count(guard))/200,000 is the
+//! remover's cost per sample.
 
+use beamest::guard::lines::{LineCanceller, LineSpec, MAX_LINES};
 use beamest::guard::{GuardConfig, ResidualMonitor, SensorGuard};
 use beamest::model::paper_plant_tf;
 use beamest::rig::Scenario;
@@ -42,6 +47,15 @@ fn run<T: Real>(mode: &str, samples: &[(f64, f64)]) {
         m.set_theta(Some(&theta));
         m
     });
+    let mut lines = (mode == "lines").then(|| {
+        let specs: Vec<LineSpec> = (1..=7)
+            .map(|k| LineSpec {
+                freq_hz: 50.0 * f64::from(k),
+                y_phasor: [0.0, 0.0],
+            })
+            .collect();
+        LineCanceller::<T, MAX_LINES>::new(&specs, TS_S, 0.2).expect("valid")
+    });
     let mut acc = T::ZERO;
     for (i, (u, y)) in samples.iter().enumerate() {
         let (u, y) = (T::from_f64(*u), T::from_f64(*y));
@@ -50,7 +64,11 @@ fn run<T: Real>(mode: &str, samples: &[(f64, f64)]) {
             Some(m) => g.push_monitored(u, y, true, i as u64, Some(m)),
         };
         if let Some(o) = out {
-            acc += o.y;
+            let (ou, oy) = match lines.as_mut() {
+                Some(c) => c.push(o.u, o.y),
+                None => (o.u, o.y),
+            };
+            acc += oy + ou;
         }
     }
     black_box(acc);

@@ -9,7 +9,7 @@
 //! seeds 1…N. "RMS" is over the seeds, "max" the largest |error|.
 
 use beamest::crlb::{FisherAccumulator, ModelSet};
-use beamest::estimator::robust::{Robust2, RobustConfig};
+use beamest::estimator::robust::{Robust2, Robust2Compact, RobustConfig};
 use beamest::estimator::{
     Adaptive2, AdaptiveConfig, GradientConfig, GradientEstimator, LeastSquaresConfig,
     LeastSquaresEstimator,
@@ -24,6 +24,14 @@ type Build = fn(&FilterConfig, &[f64], &[f64]) -> Errors;
 
 fn robust<T: Real>(f: &FilterConfig, u: &[f64], y: &[f64]) -> Errors {
     let mut est = Box::new(Robust2::<T>::new(f, &RobustConfig::default()).expect("config"));
+    run(&mut *est, u, y, 0, &mut |_, _| {})
+}
+
+/// The firmware's form: the compact record (u in 16 bits, y in block
+/// means), `f32`.
+fn robust_compact(f: &FilterConfig, u: &[f64], y: &[f64]) -> Errors {
+    let mut est =
+        Box::new(Robust2Compact::<f32>::new(f, &RobustConfig::default()).expect("config"));
     run(&mut *est, u, y, 0, &mut |_, _| {})
 }
 
@@ -51,9 +59,13 @@ fn main() {
     let rec = Record::paper(seconds);
     let mut crb = FisherAccumulator::from_tf(&paper_plant_tf(), &[-2.0, 2.0], 1e-4).expect("plant");
     crb.push_all(rec.u.iter().copied());
-    let rows: [(&str, Build); 5] = [
+    let rows: [(&str, Build); 6] = [
         ("robust (f64)", robust::<f64>),
         ("robust (f32)", robust::<f32>),
+        (
+            "robust (f32, compact record: the firmware's)",
+            robust_compact,
+        ),
         ("adaptive, paper's law (f64)", adaptive),
         ("gradient (47) (f64)", gradient),
         ("least squares (48) (f64)", least_squares),

@@ -263,7 +263,8 @@ def replay(u: Any, y: Any, ts: Optional[float] = None, t: Any = None, *,
     precision, modes, weights, lambda_, band_hz, beam, paper_gains,
     paper_exp_gains, range, level_correction, no_level_correction,
     residual_monitor, crlb,
-    noise_sd, model_set, csv, plot. ``file`` is the report's ``file``.
+    noise_sd, model_set, csv, plot, lines, mains, prewhiten. ``file`` is
+    the report's ``file``.
     ``series_hz``: evaluations per second of record kept in
     :attr:`ReplayResult.series` (10 = the drift grid, 1000 = ``--csv``'s).
 

@@ -16,6 +16,7 @@ __all__ = [
     "RawSamples",
     "Status",
     "Ack",
+    "SelfTestReport",
     "CommandEcho",
     "FrameError",
     "LinkCounters",
@@ -91,6 +92,9 @@ class Status:
     status_rate_hz: float
     #: λ is the device's automatic rule's (may change without a command)
     lambda_automatic: bool
+    #: the self-test: "not run", "running", "passed", or "failed: …" /
+    #: "not measured: …" with the checks' names
+    self_test: str
     kind: str = "status"
 
 
@@ -104,6 +108,56 @@ class Ack:
     result: str
     detail: str
     kind: str = "ack"
+
+
+@dataclass(frozen=True)
+class SelfTestReport:
+    """The result of the device's self-test (PROTOCOL.md §4.5). Values not
+    measured are NaN."""
+
+    seq: int
+    first_sample: int
+    last_sample: int
+    #: the self-test at start-up (else one started by a SelfTest command)
+    at_boot: bool
+    #: every check passed
+    passed: bool
+    #: the checks that failed / could not be measured: adc_id,
+    #: adc_registers, drdy_rate, loopback, noise
+    failed: Tuple[str, ...]
+    not_measured: Tuple[str, ...]
+    adc_id: int
+    #: MODE, CLOCK, GAIN1 as read back and as configured (masked)
+    adc_registers: Tuple[int, ...]
+    adc_expected: Tuple[int, ...]
+    drdy_rate_hz: float
+    drdy_expected_hz: float
+    #: relative
+    drdy_tolerance: float
+    conversions: int
+    ticks: int
+    tone_hz: float
+    tone_amplitude_v: float
+    loopback_gain: float
+    expected_gain: float
+    #: relative
+    gain_tolerance: float
+    offset_v: float
+    offset_tolerance_v: float
+    delay_samples: float
+    expected_delay_samples: float
+    delay_tolerance_samples: float
+    #: σ of y with the drive at zero (units of y)
+    noise_sd: float
+    #: one code of y / √12
+    floor_sd: float
+    #: RMS of y under ``excitation``
+    signal_rms: float
+    snr_db: float
+    snr_min_db: float
+    #: the default excitation, in ``beamctl send`` syntax
+    excitation: str
+    kind: str = "selftest"
 
 
 @dataclass(frozen=True)
@@ -149,14 +203,27 @@ class LinkCounters:
     partial_bytes: int
 
 
-Frame = Union[Estimate, RawSamples, Status, Ack, CommandEcho, FrameError]
+Frame = Union[Estimate, RawSamples, Status, Ack, SelfTestReport, CommandEcho, FrameError]
 
-_TUPLES = ("flag_names", "omega", "zeta", "bbar", "theta", "u", "y")
+_TUPLES = (
+    "flag_names",
+    "omega",
+    "zeta",
+    "bbar",
+    "theta",
+    "u",
+    "y",
+    "failed",
+    "not_measured",
+    "adc_registers",
+    "adc_expected",
+)
 _CLASSES = {
     "estimate": Estimate,
     "raw": RawSamples,
     "status": Status,
     "ack": Ack,
+    "selftest": SelfTestReport,
     "command_echo": CommandEcho,
     "error": FrameError,
 }

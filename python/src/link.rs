@@ -86,12 +86,60 @@ fn frame_dict<'py>(py: Python<'py>, f: &Frame) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("raw_decimation", t.raw_decimation)?;
             d.set_item("status_rate_hz", f64::from(t.status_rate_hz))?;
             d.set_item("lambda_automatic", s.lambda_automatic)?;
+            d.set_item("self_test", text::self_test_state_text(s.self_test))?;
         }
         Message::Ack(a) => {
             d.set_item("kind", "ack")?;
             d.set_item("command_seq", a.command_seq)?;
             d.set_item("result", text::result_name(a.result))?;
             d.set_item("detail", text::result_text(a.result))?;
+        }
+        Message::SelfTestReport(r) => {
+            let names = |c: beam_protocol::SelfTestChecks| {
+                beam_protocol::SelfTestChecks::ALL
+                    .iter()
+                    .filter(|(b, _)| c.contains(*b))
+                    .map(|(_, n)| *n)
+                    .collect::<Vec<_>>()
+            };
+            d.set_item("kind", "selftest")?;
+            d.set_item("first_sample", r.first_sample)?;
+            d.set_item("last_sample", r.last_sample)?;
+            d.set_item("at_boot", r.at_boot)?;
+            d.set_item("passed", r.passed())?;
+            d.set_item("failed", names(r.failed))?;
+            d.set_item("not_measured", names(r.not_measured))?;
+            d.set_item("adc_id", r.adc.id)?;
+            d.set_item("adc_registers", r.adc.registers.to_vec())?;
+            d.set_item("adc_expected", r.adc.expected.to_vec())?;
+            let f = |v: f32| f64::from(v);
+            let dr = &r.drdy;
+            d.set_item("drdy_rate_hz", f(dr.rate_hz))?;
+            d.set_item("drdy_expected_hz", f(dr.expected_hz))?;
+            d.set_item("drdy_tolerance", f(dr.tolerance))?;
+            d.set_item("conversions", dr.conversions)?;
+            d.set_item("ticks", dr.ticks)?;
+            let l = &r.loopback;
+            for (k, v) in [
+                ("tone_hz", l.tone_hz),
+                ("tone_amplitude_v", l.amplitude_v),
+                ("loopback_gain", l.gain),
+                ("expected_gain", l.expected_gain),
+                ("gain_tolerance", l.gain_tolerance),
+                ("offset_v", l.offset_v),
+                ("offset_tolerance_v", l.offset_tolerance_v),
+                ("delay_samples", l.delay_samples),
+                ("expected_delay_samples", l.expected_delay_samples),
+                ("delay_tolerance_samples", l.delay_tolerance_samples),
+                ("noise_sd", r.noise.noise_sd),
+                ("floor_sd", r.noise.floor_sd),
+                ("signal_rms", r.noise.signal_rms),
+                ("snr_db", r.noise.snr_db),
+                ("snr_min_db", r.noise.snr_min_db),
+            ] {
+                d.set_item(k, f(v))?;
+            }
+            d.set_item("excitation", grammar::excitation_text(&r.noise.excitation))?;
         }
         Message::Command(c) => {
             d.set_item("kind", "command_echo")?;

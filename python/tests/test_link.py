@@ -80,6 +80,16 @@ def test_decoder_equals_monitor_file_on_a_qemu_capture(beamctl, tmp_path):
     # ones do.
     assert estimates[0].omega == ()
     assert any(len(e.omega) == 2 for e in estimates)
+    # The self-test at start-up: one report, every check passed, the
+    # values of the simulated bench (PROTOCOL.md §9.7).
+    [report] = [f for f in frames if f.kind == "selftest"]
+    assert report.at_boot and report.passed, report
+    assert report.failed == () and report.not_measured == ()
+    assert report.adc_id >> 8 == 0x22 and report.adc_registers == report.adc_expected
+    assert report.drdy_rate_hz == report.drdy_expected_hz == 10_000.0
+    assert abs(report.delay_samples - 2.15) < 1e-3 and report.snr_db >= report.snr_min_db
+    statuses = [f for f in frames if f.kind == "status"]
+    assert statuses[0].self_test == "running" and statuses[-1].self_test == "passed"
 
 
 def decode_as_monitor_does(beamctl, data, tmp_path):
@@ -122,7 +132,11 @@ def decode_as_monitor_does(beamctl, data, tmp_path):
         elif f.kind == "raw":
             assert f.first_sample_index == int(r["sample_index"])
             assert f.decimation == int(r["decimation"]) and len(f.u) == int(r["samples"])
+        elif f.kind == "selftest":
+            assert f.first_sample == int(r["sample_index"])
+            assert f.passed == (r["self_test"] == "passed")
         elif f.kind == "status":
+            assert f.self_test == r["self_test"]
             assert f.uptime_samples == int(r["sample_index"])
             assert f.waveform == r["waveform"] and f.waveform_params == r["waveform_params"]
             assert f.firmware == r["firmware"] and f.modes == int(r["modes"])

@@ -35,7 +35,7 @@ def score(repo):
 def test_the_corpus_is_there(repo):
     # Every record named below, and each with its reference.
     names = records(repo)
-    assert len(names) == 16, names
+    assert len(names) == 23, names
     assert set(RIGHT_WITH_NO_FLAGS) | set(KNOWN_GAPS) <= set(names)
     # Every record with a scored reference is right with no flags.
     scored = [n for n in names
@@ -78,7 +78,8 @@ RIGHT_WITH_NO_FLAGS = [
     "lab_hum50_chirp", "lab_hum50_harmonics_prbs", "lab_hum60_prbs", "lab_impact_accel",
     "lab_mode3_above_chirp", "lab_noise40_prbs", "lab_noise60_multisine",
     "lab_offset_drift_square", "lab_offset_step_prbs", "lab_velocity_prbs",
-]
+    "lab_colour40_prbs", "lab_colour60_multisine",
+] + [f"lab_colour45_multisine_s{k}" for k in range(1, 6)]
 
 
 @pytest.mark.parametrize("name", RIGHT_WITH_NO_FLAGS)
@@ -90,3 +91,26 @@ def test_no_flags_is_right(repo, score, name):
     s = score(ref, 0 if r.no_estimate_reason is None else 1, r.to_dict())
     assert s["pass"], (name, s)
     assert r.trusted
+
+
+# Coloured noise (issue 16): the five seeds of one experiment (a bridge
+# amplifier's low-pass noise at 45 dB and a 16-bit ADC, numpy/scipy),
+# replayed with no flags (the coloured-noise pass prewhitens u and y,
+# docs/REPLAY.md "Coloured noise"): the RMS relative error over the seeds
+# is within 2x the Cramer-Rao bound for that noise spectrum
+# (reference.json `crb`, generate_lab.py), for every omega and zeta, in f64
+# and f32.
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_coloured_noise_rms_error_within_twice_the_bound(repo, precision):
+    sq = []
+    for k in range(1, 6):
+        folder = repo / RECORDS / f"lab_colour45_multisine_s{k}"
+        ref = json.loads((folder / "reference.json").read_text())
+        u, y, ts = beamest.read_replay_csv(folder / "record.csv.gz")
+        r = beamest.replay(u, y, ts=ts, precision=precision).to_dict()
+        assert r["prewhitening"]["applied"], r["prewhitening"]
+        t, c, e = ref["truth"], ref["crb"], r["estimate"]
+        sq.append([((e["omega"][i] / t["omega_rad_s"][i] - 1) / c["omega_rel"][i]) ** 2 for i in range(2)]
+                  + [((e["zeta"][i] / t["zeta"][i] - 1) / c["zeta_rel"][i]) ** 2 for i in range(2)])
+    ratios = [(sum(s[j] for s in sq) / len(sq)) ** 0.5 for j in range(4)]
+    assert max(ratios) <= 2.0, ratios

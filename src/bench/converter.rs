@@ -36,7 +36,11 @@
 //! timing, which the estimator then models (`FilterConfig::timing`).
 //!
 //! Faults are injected in the models ([`ConverterModels::adc`]: bad CRC,
-//! stuck data, saturation, dropped conversions, bus errors, brown-out).
+//! stuck data, saturation, dropped conversions, a slow or missing data
+//! rate, another part's ID, a register that reads back wrong, bus errors,
+//! brown-out) and in the rig's front end ([`ConverterRig::set_noise`],
+//! [`ConverterRig::set_monitor_connected`]); the self-test's faults are
+//! [`crate::bench::BenchFault`].
 //!
 //! # Ownership
 //! The models sit in [`ConverterModels`] (`RefCell`s); each driver owns a
@@ -143,8 +147,18 @@ pub struct ConverterRig<'a> {
     front_end: AnalogFrontEnd,
     amplifier_gain: f64,
     noise: Option<GaussianNoise<f64>>,
+    /// Lines added to y (mains hum): amplitude, phase step per tick and
+    /// phase now (rad); `hum_len` of them.
+    hum: [(f64, f64, f64); MAX_HUM_LINES],
+    hum_len: usize,
+    /// The monitor channel sees the amplifier (false: its input is
+    /// grounded, a fault).
+    monitor_connected: bool,
     ticks: u64,
 }
+
+/// Lines a [`ConverterRig`] can add to y.
+const MAX_HUM_LINES: usize = 4;
 
 impl<'a> ConverterRig<'a> {
     /// A rig around `plant` (at its current state), converting y and u to
@@ -175,8 +189,24 @@ impl<'a> ConverterRig<'a> {
             front_end,
             amplifier_gain,
             noise: None,
+            hum: [(0.0, 0.0, 0.0); MAX_HUM_LINES],
+            hum_len: 0,
+            monitor_connected: true,
             ticks: 0,
         })
+    }
+
+    /// The same rig with lines in y that u does not drive, as a strain
+    /// gauge picks up the mains: each (frequency Hz, amplitude in units of
+    /// y, phase at the first tick rad) adds amplitude·sin(2πf·t + phase)
+    /// before the bridge, at sample period `ts_s`; at most
+    /// four (more are ignored).
+    pub fn with_hum(mut self, lines: &[(f64, f64, f64)], ts_s: f64) -> Self {
+        for (slot, &(f, a, p)) in self.hum.iter_mut().zip(lines) {
+            *slot = (a, core::f64::consts::TAU * f * ts_s, p);
+        }
+        self.hum_len = lines.len().min(MAX_HUM_LINES);
+        self
     }
 
     /// The same rig with white noise added to y before the bridge (an
@@ -186,6 +216,19 @@ impl<'a> ConverterRig<'a> {
             noise: Some(noise),
             ..self
         }
+    }
+
+    /// Set or remove the white noise on y at run time (a fault: a noisy
+    /// bridge, interference).
+    pub(crate) fn set_noise(&mut self, noise: Option<GaussianNoise<f64>>) {
+        self.noise = noise;
+    }
+
+    /// Connect or disconnect the monitor channel (disconnected: its input
+    /// reads 0 V, as an open monitor wire into a grounded divider — no
+    /// DAC → ADC loopback).
+    pub(crate) fn set_monitor_connected(&mut self, connected: bool) {
+        self.monitor_connected = connected;
     }
 
     /// The same rig with the converters' `timing` (the ADC's sinc³, the
@@ -218,11 +261,17 @@ impl<'a> ConverterRig<'a> {
         if let Some(n) = self.noise.as_mut() {
             y += n.sample();
         }
+        for (amp, step, phase) in self.hum.iter_mut().take(self.hum_len) {
+            y += *amp * libm::sin(*phase);
+            *phase = libm::fmod(*phase + *step, core::f64::consts::TAU);
+        }
         let monitor_v = self.plant.measured_drive();
-        adc.set_inputs([
-            self.front_end.bridge_volts(y),
-            self.front_end.monitor_volts(monitor_v),
-        ]);
+        let monitor_in = if self.monitor_connected {
+            self.front_end.monitor_volts(monitor_v)
+        } else {
+            0.0
+        };
+        adc.set_inputs([self.front_end.bridge_volts(y), monitor_in]);
         adc.convert();
         self.ticks = self.ticks.wrapping_add(1);
         Ok(RigTick { u_v, y, monitor_v })

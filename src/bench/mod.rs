@@ -60,8 +60,9 @@ use crate::pipeline::{
     adc_scales, BridgeConfig, ConversionConfig, DacLatch, Eq17, InputSource, Linearisation,
     OutputQuantity, PipelineConfig,
 };
-use crate::rig::{ConverterTiming, ModalPlant, PlantError};
+use crate::rig::{ConverterTiming, GaussianNoise, ModalPlant, PlantError};
 use crate::scalar::Real;
+use crate::selftest::SelfTestConfig;
 use ads131m02::PgaGain;
 use beam_protocol::budget::uart_bytes_per_s;
 use beam_protocol::{self as protocol, EstimatorKind, EstimatorSettings, Limits, TelemetryRates};
@@ -72,6 +73,14 @@ pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
 pub const TS_S: f64 = 1.0 / SAMPLE_RATE_HZ;
 /// Actuator volts per DAC volt.
 pub const AMPLIFIER_GAIN: f64 = 10.0;
+
+/// The mains hum `cargo xtask qemu --hum` injects into the ADC model's
+/// bridge input ([`ConverterRig::with_hum`]): (frequency Hz, amplitude m,
+/// phase rad). 50 Hz at 3% and 150 Hz at 1% of y's RMS under the bench's
+/// excitation (4.73e-3 m: the paper's 0.1 V square wave at 7 Hz); the
+/// bench beam's second mode (245.4 rad/s, 39.1 Hz) lies 11 Hz below the
+/// first line.
+pub const HUM: [(f64, f64, f64); 2] = [(50.0, 2.0e-4, 0.3), (150.0, 6.7e-5, 1.1)];
 /// Excitation amplitude on the piezo (V): the paper's 0.1; also U0.
 pub const EXCITATION_V: f64 = 0.1;
 /// Excitation frequency (Hz): the paper's 7.
@@ -90,6 +99,17 @@ pub const TELEMETRY_EVERY: u32 = 100;
 pub const STUCK_AFTER: u16 = 25;
 /// Output weights C̄ (eq. 24) of the two modes, for b̄ (eq. 32).
 pub const OUTPUT_WEIGHT: [f64; 2] = [-2.0, 2.0];
+/// The clock the emulated board times its sample interrupt with (Hz):
+/// QEMU `mps2-an386`'s 25 MHz core clock (SysTick), 2,500 per sample;
+/// host tests that run the bench's self-test count their ticks in it too.
+pub const CLOCK_HZ: f64 = 25e6;
+/// The loopback tone of the self-test on the actuator (V): ten times the
+/// default excitation, inside the ±10 V window.
+pub const SELF_TEST_TONE_V: f32 = 1.0;
+/// The white noise on y of [`BenchFault::Noise`] (m): about 40 dB below
+/// the y of the self-test's signal phase.
+pub(crate) const NOISE_FAULT_SD_M: f64 = 2e-5;
+
 /// The DAC's new value takes effect this long after DRDY (s): the board
 /// writes it after reading the ADC frame, ≈ 15 µs at its SPI clocks
 /// (docs/RIG.md, "Timing": 12 bytes at 10 MHz, then 3 at 12.5 MHz).
@@ -136,6 +156,14 @@ pub fn adc_config() -> ads131m02::Config {
 /// The AD5761R settings: ±10 V, straight binary, 0 V at power-up.
 pub fn dac_config() -> ad5761r::Config {
     ad5761r::Config::default()
+}
+
+/// One step of the DAC in actuator volts (its LSB × [`AMPLIFIER_GAIN`]):
+/// every u the pipeline commands is a multiple of it, so the robust
+/// estimator's compact record keeps u exactly on this grid
+/// (`RobustConfig::input_step`).
+pub fn input_step_v() -> f64 {
+    f64::from(dac_config().transfer().lsb_volts()) * AMPLIFIER_GAIN
 }
 
 /// Codes → y (eq. 17 deflection, m) and → actuator volts, at the ADC
@@ -235,6 +263,107 @@ pub fn link_config(baud: u32) -> LinkConfig {
         limits: link_limits(baud),
         firmware: FIRMWARE_VERSION,
         rules: FlagRules::default(),
+        self_test: self_test_config(),
+    }
+}
+
+/// What the self-test expects of the bench: its sample rate against
+/// [`CLOCK_HZ`], the ADC's configuration [`adc_config`], the loopback at
+/// the converters' timing ([`output_timing`]'s delay plus the hold's half
+/// sample: 2.15 samples), one code of y from [`conversion`], and the
+/// default excitation of [`link_settings`] as the SNR's signal.
+pub fn self_test_config() -> SelfTestConfig {
+    let y_code = conversion()
+        .compile::<f64>()
+        .map_or(f64::NAN, |c| c.y_from_code(1) - c.y_from_code(0));
+    SelfTestConfig {
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        clock_hz: CLOCK_HZ,
+        adc: adc_config(),
+        tone_amplitude_v: SELF_TEST_TONE_V,
+        expected_delay_samples: output_timing().delay_samples + 0.5,
+        y_code,
+        excitation: link_settings().excitation,
+    }
+}
+
+/// A fault of the bench that one check of the self-test must catch (and
+/// no other fail): QEMU's `selftest_fault=NAME` and the host tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BenchFault {
+    /// The ADC answers with another part's ID (an ADS131M04, 24xxh).
+    AdcId,
+    /// GAIN1 reads back with bit 0 flipped.
+    AdcRegisters,
+    /// No conversions at all (no CLKIN, DRDY missing).
+    DrdyMissing,
+    /// Conversions at 95 % of the sample rate (a slow clock).
+    DrdyRate,
+    /// The monitor channel's input grounded: no DAC → ADC loopback.
+    NoLoopback,
+    /// White noise of `NOISE_FAULT_SD_M` on y.
+    Noise,
+}
+
+impl BenchFault {
+    /// Every fault, with its name.
+    pub const ALL: [(Self, &'static str); 6] = [
+        (Self::AdcId, "adc_id"),
+        (Self::AdcRegisters, "adc_registers"),
+        (Self::DrdyMissing, "drdy_missing"),
+        (Self::DrdyRate, "drdy_rate"),
+        (Self::NoLoopback, "no_loopback"),
+        (Self::Noise, "noise"),
+    ];
+
+    /// The fault of this name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(_, n)| *n == name).map(|(f, _)| *f)
+    }
+
+    /// The fault's name.
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(f, _)| *f == self)
+            .map_or("", |(_, n)| n)
+    }
+
+    /// The check that must fail, and those that cannot be measured with
+    /// it (no conversions: neither the loopback nor the noise).
+    pub fn expected(self) -> (beam_protocol::SelfTestChecks, beam_protocol::SelfTestChecks) {
+        use beam_protocol::SelfTestChecks as C;
+        match self {
+            Self::AdcId => (C::ADC_ID, C::default()),
+            Self::AdcRegisters => (C::ADC_REGISTERS, C::default()),
+            Self::DrdyMissing => (C::DRDY_RATE, C::LOOPBACK.with(C::NOISE)),
+            Self::DrdyRate => (C::DRDY_RATE, C::default()),
+            Self::NoLoopback => (C::LOOPBACK, C::default()),
+            Self::Noise => (C::NOISE, C::default()),
+        }
+    }
+
+    /// Inject the fault into `rig` (its models and front end), from the
+    /// next tick on.
+    pub fn apply(self, rig: &mut ConverterRig<'_>) {
+        match self {
+            Self::NoLoopback => rig.set_monitor_connected(false),
+            // The seed is arbitrary; σ > 0 is valid.
+            Self::Noise => rig.set_noise(GaussianNoise::new(NOISE_FAULT_SD_M, 7).ok()),
+            Self::AdcId | Self::AdcRegisters | Self::DrdyMissing | Self::DrdyRate => {
+                let Ok(mut adc) = rig.models().adc.try_borrow_mut() else {
+                    return;
+                };
+                match self {
+                    Self::AdcId => adc.set_id(0x2400),
+                    Self::AdcRegisters => {
+                        adc.set_register_fault(Some((ads131m02::Register::Gain, 0x0001)))
+                    }
+                    Self::DrdyMissing => adc.set_data_rate(0, 1),
+                    _ => adc.set_data_rate(19, 20),
+                }
+            }
+        }
     }
 }
 

@@ -217,6 +217,16 @@ impl<T: Real, const L: usize> LineCanceller<T, L> {
     fn y_weights(&self) -> impl Iterator<Item = [T; 2]> + '_ {
         self.lines.iter().take(self.len).map(|l| l.wy)
     }
+
+    /// The amplitude of each line in y as the canceller holds it now,
+    /// |(a, b)| of its weights (the peak of the sinusoid it subtracts), in
+    /// the order the lines were given: what it has found of each line.
+    pub fn y_amplitudes(&self) -> impl Iterator<Item = T> + '_ {
+        self.lines
+            .iter()
+            .take(self.len)
+            .map(|l| (l.wy[0] * l.wy[0] + l.wy[1] * l.wy[1]).sqrt())
+    }
 }
 
 #[cfg(test)]
@@ -325,6 +335,38 @@ mod tests {
             }
         }
         assert!(worst < 5e-6, "{worst}");
+    }
+
+    /// Started from zero weights on a line already present (the firmware),
+    /// the line left in y's output decays as e^(−t/τ): the settling time
+    /// docs/FIRMWARE.md states (to 1e-3 of the line in 6.9τ), and the
+    /// weights then hold the line's amplitude.
+    #[test]
+    fn from_zero_weights_the_line_decays_with_the_time_constant() {
+        let ts = 1e-4;
+        let tau = 0.2;
+        let amp = 0.03;
+        let mut c = LineCanceller::<f32, 1>::new(&[spec(50.0)], ts, tau).unwrap();
+        let peak_at = |from: f64, to: f64, c: &mut LineCanceller<f32, 1>, k0: &mut u32| {
+            let mut peak = 0.0f64;
+            while f64::from(*k0) * ts < to {
+                let t = f64::from(*k0) * ts;
+                let (_, e) = c.push(0.0, (amp * (TAU * 50.0 * t + 0.4).sin()) as f32);
+                if t >= from {
+                    peak = peak.max(f64::from(e).abs());
+                }
+                *k0 += 1;
+            }
+            peak
+        };
+        let mut k = 0u32;
+        for n in [1.0, 3.0, 6.9] {
+            let peak = peak_at(n * tau - 0.02, n * tau, &mut c, &mut k);
+            let want = amp * (-n).exp();
+            assert!((peak / want - 1.0).abs() < 0.1, "{n} τ: {peak} vs {want}");
+        }
+        let found: f32 = c.y_amplitudes().next().unwrap();
+        assert!((f64::from(found) / amp - 1.0).abs() < 2e-3, "{found}");
     }
 
     #[test]

@@ -16,14 +16,69 @@
 //! running generator inside the lock and written back only if every
 //! setter accepted it, so a refused change leaves the output untouched.
 
-use crate::estimator::robust::{RobustConfig, RobustEstimator};
+use crate::estimator::robust::{Head, RecordStore, RobustConfig, RobustEstimator};
 use crate::estimator::{AdaptiveConfig, ConfigError, Estimator};
 use crate::excitation::{self, Excitation, ExcitationError, Generator};
 use crate::filter_bank::{FilterConfig, FilterConfigError};
+use crate::guard::lines::{LineCanceller, LineSpec, MAX_LINES};
 use crate::pipeline::{Counters, PiezoDac, Pipeline, PipelineError, Sink, StrainAdc};
 use crate::pipeline::{RawBlock, TelemetryRecord};
 use crate::scalar::Real;
 use beam_protocol::{self as protocol, EstimatorSettings, RejectReason, Waveform, WaveformKind};
+
+/// The line canceller a [`protocol::LineRemoval`] asks for at sample rate
+/// `fs_hz` (validated already): the mains and its harmonics
+/// 1..=`harmonics` below the Nyquist frequency, weights from zero; `None`
+/// when off.
+///
+/// # Errors
+/// [`RejectReason::LineRemoval`] for settings the canceller refuses.
+pub(crate) fn line_canceller<T: Real>(
+    l: &protocol::LineRemoval,
+    fs_hz: f64,
+) -> Result<Option<LineCanceller<T, MAX_LINES>>, RejectReason> {
+    if l.is_off() {
+        return Ok(None);
+    }
+    let mains = f64::from(l.mains_hz);
+    let mut specs = [LineSpec {
+        freq_hz: mains,
+        y_phasor: [0.0, 0.0],
+    }; MAX_LINES];
+    let mut n = 0;
+    for k in 1..=l.harmonics.min(protocol::LineRemoval::MAX_HARMONICS) {
+        let f = f64::from(k) * mains;
+        if f < 0.5 * fs_hz {
+            if let Some(s) = specs.get_mut(n) {
+                s.freq_hz = f;
+                n += 1;
+            }
+        }
+    }
+    LineCanceller::new(
+        specs.get(..n).unwrap_or_default(),
+        1.0 / fs_hz,
+        f64::from(l.time_constant_s),
+    )
+    .map(Some)
+    .map_err(|_| RejectReason::LineRemoval)
+}
+
+/// How long the law is held after the line remover is switched
+/// (samples): five time constants (a line present at the switch is then
+/// down to e^(−5) ≈ 0.7% of itself in y, the weights starting from zero;
+/// [`crate::guard::lines`]). 0 when switched off.
+pub(crate) fn line_settling_samples(l: &protocol::LineRemoval, fs_hz: f64) -> u32 {
+    if l.is_off() {
+        return 0;
+    }
+    let n = libm::round(5.0 * f64::from(l.time_constant_s) * fs_hz);
+    if n >= f64::from(u32::MAX) {
+        u32::MAX
+    } else {
+        n as u32
+    }
+}
 
 /// What the link changes in the running sample task. Implemented by
 /// [`Pipeline`]; each call is made with the sample interrupt masked
@@ -54,6 +109,13 @@ pub trait Control<T> {
     fn counters(&self) -> Counters;
     /// [`Pipeline::next_sample_index`].
     fn next_sample_index(&self) -> u64;
+    /// [`Pipeline::set_line_removal`].
+    fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32);
+    /// [`Pipeline::is_frozen`].
+    fn is_frozen(&self) -> bool;
+    /// The ADC's ID and configuration registers read back
+    /// ([`StrainAdc::read_back`]): two SPI frames, for the self-test.
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind>;
 }
 
 impl<T, E, A, D, S, R, const NP: usize, const NS: usize> Control<T>
@@ -88,11 +150,20 @@ where
     fn excitation_mut(&mut self) -> &mut Excitation<T> {
         Pipeline::excitation_mut(self)
     }
+    fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32) {
+        Pipeline::set_line_removal(self, lines, hold);
+    }
     fn counters(&self) -> Counters {
         Pipeline::counters(self)
     }
     fn next_sample_index(&self) -> u64 {
         Pipeline::next_sample_index(self)
+    }
+    fn is_frozen(&self) -> bool {
+        Pipeline::is_frozen(self)
+    }
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind> {
+        self.converters_mut().0.read_back()
     }
 }
 
@@ -127,6 +198,35 @@ pub trait Device {
     /// Take back an estimator the pipeline no longer runs (e.g. to reuse
     /// its static storage for the next [`Device::build_estimator`]).
     fn recycle_estimator(&mut self, old: Self::Estimator);
+
+    /// Put `estimator` (from [`Device::build_estimator`]) in the running
+    /// one's place at λ = `lambda_rad_s`, adaptation resumed if `resume`,
+    /// inside one lock; returns the estimator to recycle (the replaced one,
+    /// or `estimator` itself refused: an invalid λ) and the index of the
+    /// next sample. The default swaps ([`Control::replace_estimator`]); a
+    /// board that builds a new estimator into the running one's storage
+    /// (one slot for a large record) overrides it.
+    fn swap_estimator(
+        &mut self,
+        estimator: Self::Estimator,
+        lambda_rad_s: f64,
+        resume: bool,
+    ) -> (Result<Self::Estimator, Self::Estimator>, u64) {
+        self.with_pipeline(|pl| {
+            let swap = pl.replace_estimator(estimator, lambda_rad_s);
+            if swap.is_ok() && resume {
+                pl.resume();
+            }
+            (swap, pl.next_sample_index())
+        })
+    }
+    /// Return when a sample tick has just ended, so that the next lock
+    /// (the self-test's register read-back: two SPI frames) ends before
+    /// the next conversion completes; a conversion completing during it
+    /// would be output by the read's frame and missed by the next tick.
+    /// The default returns at once: right for a board whose converter
+    /// converts only inside the sample interrupt (the QEMU models).
+    fn align_to_sample(&mut self) {}
 }
 
 /// The core's estimator settings for the protocol's: the board's filter
@@ -186,23 +286,54 @@ pub fn robust_configs<const NP: usize>(
 }
 
 /// Rebuild the two-mode robust estimator in `slot` for `settings` on the
-/// filter bank `filter` ([`robust_configs`]), its start-up law from θ(0) =
-/// `theta0` ([`with_theta0`]), in place ([`RobustEstimator::rebuild`]: a
-/// board's static slot is larger than its stack). On a refusal `slot` is
+/// filter bank `filter` ([`robust_configs`], u kept in the record on the
+/// grid `input_step`, [`RobustConfig::input_step`]: the board's DAC step in
+/// actuator volts), its start-up law from θ(0) = `theta0`
+/// ([`with_theta0`]), in place ([`RobustEstimator::rebuild`]: a board's
+/// static slot is larger than its stack). On a refusal `slot` is
 /// unchanged.
 ///
 /// # Errors
 /// `EstimatorUnavailable` for a `theta0` of another length than 7, and
 /// [`reject_config`]'s reason for settings the estimator refuses.
-pub fn rebuild_robust<T: Real, const B: usize>(
-    slot: &mut RobustEstimator<T, 4, 7, 28, B>,
+pub fn rebuild_robust<T: Real, const B: usize, R: RecordStore<T>>(
+    slot: &mut RobustEstimator<T, 4, 7, 28, B, R>,
     settings: &EstimatorSettings,
     filter: &FilterConfig,
     theta0: &[f64],
+    input_step: f64,
 ) -> Result<(), RejectReason> {
+    let (filter, law) = robust_law(settings, filter, theta0, input_step)?;
+    slot.rebuild(&filter, &law).map_err(reject_config)
+}
+
+/// What [`rebuild_robust`] builds, without the record: the head a board
+/// with one record slot installs into the running estimator
+/// ([`RobustEstimator::install`], inside its lock).
+///
+/// # Errors
+/// As [`rebuild_robust`].
+pub fn robust_head<T: Real>(
+    settings: &EstimatorSettings,
+    filter: &FilterConfig,
+    theta0: &[f64],
+    input_step: f64,
+) -> Result<Head<T, 4, 7, 28>, RejectReason> {
+    let (filter, law) = robust_law(settings, filter, theta0, input_step)?;
+    Head::new(&filter, &law).map_err(reject_config)
+}
+
+/// [`robust_configs`] with the start and the record's u grid.
+fn robust_law(
+    settings: &EstimatorSettings,
+    filter: &FilterConfig,
+    theta0: &[f64],
+    input_step: f64,
+) -> Result<(FilterConfig, RobustConfig<7>), RejectReason> {
     let (filter, mut law) = robust_configs::<7>(settings, filter.lambda_rad_s, filter);
     law.startup = with_theta0(law.startup, theta0).ok_or(RejectReason::EstimatorUnavailable)?;
-    slot.rebuild(&filter, &law).map_err(reject_config)
+    law.input_step = input_step;
+    Ok((filter, law))
 }
 
 /// `law` starting from θ(0) = `theta0` (scaled; empty: unchanged);

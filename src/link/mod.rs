@@ -74,8 +74,8 @@ pub(crate) mod tune;
 pub(crate) mod tx;
 
 pub use control::{
-    estimator_configs, rebuild_robust, reject_config, robust_configs, with_theta0, Control, Device,
-    ExcitationPlan,
+    estimator_configs, rebuild_robust, reject_config, robust_configs, robust_head, with_theta0,
+    Control, Device, ExcitationPlan,
 };
 pub use estimate::{estimate, Convergence, EstimateContext, FlagRules};
 pub(crate) use raw::RawAssembler;
@@ -86,11 +86,12 @@ pub use tx::{Sent, Transmitter, TxSink, TxStats};
 use crate::filter_bank::{FilterConfig, SignalScales};
 use crate::pipeline::{recover, Counters, RawBlock, Recovered, TelemetryRecord};
 use crate::scalar::Real;
+use crate::selftest::{Next, Phase, SelfTestBlock, SelfTestConfig, SelfTestRun, QUIET};
 use crate::tuning::{TuningConfig, TuningError};
 use beam_protocol::budget::MAX_COMMAND_ENCODED_LEN;
 use beam_protocol::{
     Ack, AckResult, Command, Decoder, EstimatorSettings, FirmwareVersion, Limits, LinkCounters,
-    Message, RejectReason, Status, StatusFlags, TelemetryRates,
+    Message, RejectReason, SelfTestReport, SelfTestState, Status, StatusFlags, TelemetryRates,
 };
 
 /// This crate's version, for [`Status::firmware`].
@@ -134,6 +135,8 @@ pub struct LinkConfig {
     pub firmware: FirmwareVersion,
     /// Thresholds of the EXCITED and CONVERGED flags.
     pub rules: FlagRules,
+    /// What the self-test expects of this board.
+    pub self_test: SelfTestConfig,
 }
 
 /// The settings in force, as the protocol states them.
@@ -211,6 +214,8 @@ pub struct DeviceLink {
     accepted: u32,
     rejected: u32,
     frozen_by_command: bool,
+    /// The line remover as last commanded (off at boot).
+    line_removal: beam_protocol::LineRemoval,
     started_at: Option<u64>,
     /// The first sample of an estimator (re)start whose law has not
     /// updated yet (see `EstimateContext::no_update_yet`).
@@ -230,6 +235,15 @@ pub struct DeviceLink {
     next_status_at: u64,
     /// TX frames dropped when the last estimate got through.
     drops_at_last_estimate: u32,
+    /// The self-test running, if one is.
+    self_test: Option<SelfTestRun>,
+    /// Adaptation resumes when the self-test ends (it was not frozen
+    /// when the test started).
+    resume_after_test: bool,
+    /// The self-test as Status reports it.
+    self_test_state: SelfTestState,
+    /// The first and last samples of the latest self-test that ended.
+    last_test_span: Option<(u64, u64)>,
 }
 
 impl DeviceLink {
@@ -261,6 +275,7 @@ impl DeviceLink {
             accepted: 0,
             rejected: 0,
             frozen_by_command: false,
+            line_removal: beam_protocol::LineRemoval::OFF,
             started_at: None,
             fresh_since: None,
             last_record: None,
@@ -271,6 +286,10 @@ impl DeviceLink {
             next_estimate_at: 0,
             next_status_at: 0,
             drops_at_last_estimate: 0,
+            self_test: None,
+            resume_after_test: false,
+            self_test_state: SelfTestState::NotRun,
+            last_test_span: None,
         })
     }
 
@@ -303,9 +322,11 @@ impl DeviceLink {
         self.settings.estimator.lambda_rad_s.is_none()
     }
 
-    /// The sample task should still hand start-up pairs over.
+    /// The sample task should hand start-up pairs over: the tuning rule's
+    /// window is open and no self-test runs (at start-up the self-test
+    /// comes first, so the window sees the default excitation alone).
     pub fn collecting_startup(&self) -> bool {
-        self.tuner.collecting()
+        self.tuner.collecting() && self.self_test.is_none()
     }
 
     /// One block of start-up pairs from the sample task (see `tune`).
@@ -359,6 +380,11 @@ impl DeviceLink {
     /// sample. A failed first build is an error (nothing runs); a failed
     /// re-centring keeps the running estimator and stops the rule.
     pub fn poll<D: Device>(&mut self, dev: &mut D) -> Result<Option<Tuned>, RejectReason> {
+        // Nothing is swapped in while the self-test owns the drive: the
+        // build waits for its end.
+        if self.self_test.is_some() {
+            return Ok(None);
+        }
         let Some(p) = self.tuner.take_pending() else {
             return Ok(None);
         };
@@ -379,13 +405,7 @@ impl DeviceLink {
             }
         };
         let resume = p.kind == BuildKind::First && !self.frozen_by_command;
-        let (swap, at) = dev.with_pipeline(|pl| {
-            let swap = pl.replace_estimator(est, filter.lambda_rad_s);
-            if swap.is_ok() && resume {
-                pl.resume();
-            }
-            (swap, pl.next_sample_index())
-        });
+        let (swap, at) = dev.swap_estimator(est, filter.lambda_rad_s, resume);
         match swap {
             Ok(old) => dev.recycle_estimator(old),
             Err(refused) => {
@@ -447,7 +467,7 @@ impl DeviceLink {
             }
         }
         self.last_record = Some(index);
-        if self.is_automatic() && !self.frozen_by_command {
+        if self.is_automatic() && !self.frozen_by_command && self.self_test.is_none() {
             self.tuner
                 .on_record(index, &record.theta, record.lambda_rad_s);
         } else {
@@ -493,7 +513,10 @@ impl DeviceLink {
             dropped_elsewhere: dropped != self.drops_at_last_estimate,
             no_update_yet: self.fresh_since.is_some(),
         };
-        let msg = estimate::estimate(record, rec, &ctx, &mut self.convergence);
+        let mut msg = estimate::estimate(record, rec, &ctx, &mut self.convergence);
+        if self.in_self_test(record.sample_index) {
+            msg.flags = msg.flags.with(StatusFlags::SELF_TEST);
+        }
         // A dropped estimate is flagged by the next one that gets through.
         if let Sent::Queued(_) = self.tx.send(&msg.into(), ANSWER_RESERVE_BYTES, tx) {
             self.drops_at_last_estimate = dropped;
@@ -555,6 +578,11 @@ impl DeviceLink {
         }
     }
 
+    /// The line remover as last commanded ([`Command::SetLineRemoval`]).
+    pub fn line_removal(&self) -> beam_protocol::LineRemoval {
+        self.line_removal
+    }
+
     /// Send a Status with the counters read now (inside the lock).
     pub(crate) fn send_status_now<D: Device>(&mut self, dev: &mut D, tx: &mut impl TxSink) {
         let (counters, uptime) = dev.with_pipeline(|p| (p.counters(), p.next_sample_index()));
@@ -585,6 +613,7 @@ impl DeviceLink {
             },
             telemetry: self.settings.telemetry,
             lambda_automatic: self.is_automatic(),
+            self_test: self.self_test_state,
         }
     }
 
@@ -622,12 +651,7 @@ impl DeviceLink {
             ..current
         };
         let est = dev.build_estimator(s, &filter, &[])?;
-        let (swap, at) = dev.with_pipeline(|p| {
-            (
-                p.replace_estimator(est, filter.lambda_rad_s),
-                p.next_sample_index(),
-            )
-        });
+        let (swap, at) = dev.swap_estimator(est, filter.lambda_rad_s, false);
         match swap {
             Ok(old) => dev.recycle_estimator(old),
             Err(refused) => {
@@ -657,6 +681,9 @@ impl DeviceLink {
         dev: &mut D,
     ) -> Result<(), RejectReason> {
         c.validate(&self.config.limits)?;
+        if self.self_test.is_some() && *c != Command::RequestStatus {
+            return Err(RejectReason::Busy);
+        }
         let fs = self.config.limits.sample_rate_hz;
         match c {
             Command::SetExcitation(x) => {
@@ -698,8 +725,178 @@ impl DeviceLink {
                 }
             }
             Command::RequestStatus => {}
+            Command::SetLineRemoval(l) => {
+                let canceller = control::line_canceller::<D::Real>(l, f64::from(fs))?;
+                let hold = control::line_settling_samples(l, f64::from(fs));
+                dev.with_pipeline(|p| p.set_line_removal(canceller, hold));
+                self.line_removal = *l;
+            }
+            Command::SelfTest => {
+                if self.started_at.is_none() {
+                    return Err(RejectReason::Busy);
+                }
+                self.start_self_test(dev, false)?;
+            }
         }
         Ok(())
+    }
+
+    // ----- The self-test (`crate::selftest`) -----
+
+    /// A self-test is running: the board's sample interrupt copies its
+    /// ticks ([`crate::selftest::Collector`]) and hands the blocks to
+    /// [`DeviceLink::on_self_test_block`].
+    pub fn self_test_running(&self) -> bool {
+        self.self_test.is_some()
+    }
+
+    /// The self-test as Status reports it.
+    pub fn self_test_state(&self) -> SelfTestState {
+        self.self_test_state
+    }
+
+    /// Sample `index` lies in the running or the latest self-test.
+    fn in_self_test(&self, index: u64) -> bool {
+        let running = self
+            .self_test
+            .as_ref()
+            .is_some_and(|r| index >= r.first_sample());
+        let last = self
+            .last_test_span
+            .is_some_and(|(a, b)| (a..=b).contains(&index));
+        running || last
+    }
+
+    /// Start the self-test (`at_boot`: the one at start-up, before the
+    /// tuning rule's window; otherwise the `SelfTest` command): one lock
+    /// freezes adaptation, reads the ADC's ID and configuration back and
+    /// sets the drive to zero. `Busy` if one runs already.
+    pub fn start_self_test<D: Device>(
+        &mut self,
+        dev: &mut D,
+        at_boot: bool,
+    ) -> Result<(), RejectReason> {
+        if self.self_test.is_some() {
+            return Err(RejectReason::Busy);
+        }
+        let fs = f64::from(self.config.limits.sample_rate_hz);
+        let quiet = ExcitationPlan::<D::Real>::new(&QUIET, &self.settings.excitation, fs)?;
+        dev.align_to_sample();
+        let (was_frozen, read_back, applied, at) = dev.with_pipeline(|p| {
+            let was_frozen = p.is_frozen();
+            let applied = quiet.apply(p.excitation_mut());
+            if applied.is_ok() {
+                p.freeze();
+            }
+            (
+                was_frozen,
+                p.adc_read_back(),
+                applied,
+                p.next_sample_index(),
+            )
+        });
+        applied?;
+        self.resume_after_test = !was_frozen;
+        self.self_test = Some(SelfTestRun::new(
+            &self.config.self_test,
+            at_boot,
+            at,
+            read_back,
+        ));
+        self.self_test_state = SelfTestState::Running;
+        Ok(())
+    }
+
+    /// One block of the self-test's ticks from the sample interrupt: the
+    /// next phase's drive is set when one ends; after the last the
+    /// excitation in force is restored, adaptation resumed (unless it was
+    /// frozen before), the [`SelfTestReport`] queued on `tx` and returned.
+    pub fn on_self_test_block<D: Device>(
+        &mut self,
+        block: &SelfTestBlock<D::Real>,
+        dev: &mut D,
+        tx: &mut impl TxSink,
+    ) -> Option<SelfTestReport> {
+        let next = self.self_test.as_mut()?.push(block)?;
+        let (phase, drive, from) = match next {
+            Next::Begin(Phase::Tone) => (Phase::Tone, self.config.self_test.tone(), QUIET),
+            Next::Begin(Phase::Signal) => (
+                Phase::Signal,
+                self.config.self_test.excitation,
+                self.config.self_test.tone(),
+            ),
+            Next::Begin(Phase::Quiet) | Next::Finish => {
+                let run = self.self_test.take()?;
+                return Some(self.finish_self_test(run, dev, tx));
+            }
+        };
+        let fs = f64::from(self.config.limits.sample_rate_hz);
+        let applied = ExcitationPlan::<D::Real>::new(&drive, &from, fs).and_then(|plan| {
+            dev.with_pipeline(|p| {
+                plan.apply(p.excitation_mut())
+                    .map(|()| p.next_sample_index())
+            })
+        });
+        match applied {
+            Ok(at) => {
+                if let Some(run) = self.self_test.as_mut() {
+                    run.begin(phase, at);
+                }
+                None
+            }
+            // The board's settings refuse the test's drive: end it with
+            // what it has (the rest is reported not measured).
+            Err(_) => {
+                let run = self.self_test.take()?;
+                Some(self.finish_self_test(run, dev, tx))
+            }
+        }
+    }
+
+    /// End the running self-test now with what it has measured (the board
+    /// has seen no sample for long: DRDY stopped). `None` if none runs.
+    pub fn abort_self_test<D: Device>(
+        &mut self,
+        dev: &mut D,
+        tx: &mut impl TxSink,
+    ) -> Option<SelfTestReport> {
+        let run = self.self_test.take()?;
+        Some(self.finish_self_test(run, dev, tx))
+    }
+
+    /// Restore the excitation in force (from its phase 0) and adaptation,
+    /// report.
+    fn finish_self_test<D: Device>(
+        &mut self,
+        run: SelfTestRun,
+        dev: &mut D,
+        tx: &mut impl TxSink,
+    ) -> SelfTestReport {
+        let fs = f64::from(self.config.limits.sample_rate_hz);
+        let restore = ExcitationPlan::<D::Real>::new(
+            &self.settings.excitation,
+            &self.config.self_test.excitation,
+            fs,
+        );
+        let resume = self.resume_after_test;
+        let at = dev.with_pipeline(|p| {
+            // The settings in force were accepted when they were set.
+            let _ = restore.and_then(|plan| plan.apply(p.excitation_mut()));
+            if resume {
+                p.resume();
+            }
+            p.next_sample_index()
+        });
+        let first = run.first_sample();
+        let last = at.saturating_sub(1).max(first);
+        let report = run.report(last);
+        self.last_test_span = Some((first, last));
+        self.self_test_state = SelfTestState::Done {
+            failed: report.failed,
+            not_measured: report.not_measured,
+        };
+        self.tx.send(&report.clone().into(), 0, tx);
+        report
     }
 }
 

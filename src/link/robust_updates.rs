@@ -12,7 +12,9 @@
 //! left. Every one of these locks is timed by the board's clock
 //! ([`LockSpans`]).
 
-use crate::estimator::robust::{Pending, Phase, RobustEstimator, UpdateError};
+use crate::estimator::robust::{
+    Pending, Phase, RecordStore, RobustEstimator, Samples, UpdateError,
+};
 use crate::scalar::Real;
 
 /// Recorded samples between two updates (the host default,
@@ -25,13 +27,13 @@ pub const UPDATE_EVERY: usize = 1_000;
 const LOOK_EVERY: u32 = 16;
 
 /// A board's access to the running two-mode robust estimator (record of
-/// `B` samples) inside the sample interrupt's lock.
-pub trait RobustAccess<T: Real, const B: usize> {
+/// `B` samples kept in `S`) inside the sample interrupt's lock.
+pub trait RobustAccess<T: Real, const B: usize, S: RecordStore<T> = Samples<T, B>> {
     /// Run `f` on the running robust estimator with the sample interrupt
     /// masked; `None` if the pipeline runs another kind.
     fn with_robust<R>(
         &mut self,
-        f: impl FnOnce(&mut RobustEstimator<T, 4, 7, 28, B>) -> R,
+        f: impl FnOnce(&mut RobustEstimator<T, 4, 7, 28, B, S>) -> R,
     ) -> Option<R>;
 }
 
@@ -106,7 +108,10 @@ impl<T: Real, S: LockSpans> RobustUpdates<T, S> {
     }
 
     /// One step of work, if the pipeline runs the robust estimator.
-    pub fn poll<const B: usize>(&mut self, dev: &mut impl RobustAccess<T, B>) {
+    pub fn poll<const B: usize, R: RecordStore<T>>(
+        &mut self,
+        dev: &mut impl RobustAccess<T, B, R>,
+    ) {
         let t0 = S::now();
         match self.pending.take() {
             None => self.seed(dev),
@@ -142,7 +147,7 @@ impl<T: Real, S: LockSpans> RobustUpdates<T, S> {
     }
 
     /// Seed an update when one is due, and build its model outside the lock.
-    fn seed<const B: usize>(&mut self, dev: &mut impl RobustAccess<T, B>) {
+    fn seed<const B: usize, R: RecordStore<T>>(&mut self, dev: &mut impl RobustAccess<T, B, R>) {
         self.idle += 1;
         if self.idle < LOOK_EVERY {
             return;
@@ -240,7 +245,7 @@ mod tests {
             est: ExternalUpdates(Box::leak(Box::new(Slot::new(&f0, &law).unwrap()))),
         };
         // A second build into the same slot, as a new command would.
-        rebuild_robust(board.est.inner_mut(), &settings, &filter, &[]).unwrap();
+        rebuild_robust(board.est.inner_mut(), &settings, &filter, &[], 0.0).unwrap();
         let mut updates = RobustUpdates::<f64, Count>::new(4, 4);
         let mut plant =
             ModalPlant::with_numerator(&PAPER_OMEGA, &PAPER_ZETA, &PAPER_B, 1e-4).unwrap();

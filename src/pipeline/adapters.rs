@@ -135,6 +135,11 @@ impl<SPI: SpiDevice> StrainAdc for Ads131m02<SPI> {
             Err(e) => Err(e),
         }
     }
+
+    /// [`Ads131m02::read_back`]: one multi-register read (two frames).
+    fn read_back(&mut self) -> Result<ads131m02::ReadBack, FaultKind> {
+        Ads131m02::read_back(self).map_err(|e| e.kind())
+    }
 }
 
 /// The AD5761R as the pipeline's DAC, in `f32` (the driver's own

@@ -109,4 +109,26 @@ pub struct Tick<T> {
     pub fed: Option<(T, T)>,
     /// The estimator's verdict, if it was stepped.
     pub step: Option<StepStatus>,
+    /// Actuator volts the DAC holds from this tick on (its quantised
+    /// value × the amplifier gain; NaN if the write failed or, with
+    /// [`DacLatch::NextTick`], before the first latch).
+    pub held_v: T,
+    /// This tick's conversion, before the estimator's pairing, guard and
+    /// holds (what the self-test measures).
+    pub reading: TickReading<T>,
+}
+
+/// One tick's conversion as the converter delivered it (converted to
+/// physical units; no pairing, guard or prefilter).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickReading<T> {
+    /// A new conversion was there to read: the converter did not report
+    /// the data stale (ADS131M02: STATUS.DRDY clear). A frame that failed
+    /// its CRC or on the bus counts: DRDY had announced a conversion.
+    pub fresh: bool,
+    /// The bridge channel as y (NaN: no valid conversion, or saturated).
+    pub y: T,
+    /// The monitor channel as actuator volts (NaN: no valid conversion,
+    /// or at full scale).
+    pub monitor_v: T,
 }

@@ -78,6 +78,13 @@ pub trait StrainAdc {
     /// Read the conversion that has just completed (called once per tick,
     /// right after data-ready).
     fn read(&mut self) -> Result<AdcReading, Self::Error>;
+
+    /// Read the converter's ID and configuration registers back, between
+    /// two samples (the self-test). `Err`: the read failed (its kind), or
+    /// this converter cannot (the default, [`FaultKind::Other`]).
+    fn read_back(&mut self) -> Result<ads131m02::ReadBack, FaultKind> {
+        Err(FaultKind::Other)
+    }
 }
 
 /// Result of a DAC write.

@@ -24,7 +24,9 @@
 //!    optionally eq. 17's deflection), monitor code → actuator volts.
 //! 5. **Pair u with y** as the estimator's contract requires ([`Estimator::step`]:
 //!    u held over the coming period, y sampled now) — see *Alignment*.
-//! 6. **Prefilter** u and y identically (optional, `prefilter`).
+//! 6. **Line remover** and **prefilter** on u and y identically (both
+//!    optional: the mains and its harmonics, [`Pipeline::set_line_removal`],
+//!    [`crate::guard::lines`]; a low-pass, `prefilter`).
 //! 7. **Estimator step**; an invalid sample is passed as NaN (see *Bad
 //!    samples*).
 //! 8. **Raw block** of the (u, y) pairs (optional, decimated) and, every K
@@ -113,7 +115,7 @@ pub(crate) mod telemetry;
 
 pub(crate) use adapters::adc_scales;
 pub use adapters::{bring_up, lost_configuration, BringUp, BringUpError};
-pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick};
+pub use config::{DacLatch, InputSource, PipelineConfig, PipelineError, Tick, TickReading};
 pub use convert::{
     AdcScale, AnalogFrontEnd, BridgeConfig, Conversion, ConversionConfig, ConversionError, Eq17,
     Linearisation, OutputQuantity, ADS131M02_VREF_V,
@@ -130,6 +132,7 @@ pub use telemetry::{
 
 use crate::estimator::Estimator;
 use crate::excitation::Excitation;
+use crate::guard::lines::{LineCanceller, MAX_LINES};
 use crate::guard::MAX_DELAY;
 use crate::guard::{GuardConfig, GuardError, SensorGuard};
 use crate::scalar::Real;
@@ -149,6 +152,8 @@ pub struct Pipeline<T, E, A, D, S, R, const NP: usize, const NS: usize> {
     excitation: Excitation<T>,
     conv: Conversion<T>,
     prefilter: Option<Prefilter<T>>,
+    /// The line remover on u and y after the guard (`None`: off).
+    lines: Option<LineCanceller<T, MAX_LINES>>,
     pf_u: PrefilterState<T>,
     pf_y: PrefilterState<T>,
     input: InputSource,
@@ -247,6 +252,7 @@ where
             excitation,
             conv,
             prefilter,
+            lines: None,
             pf_u: PrefilterState::default(),
             pf_y: PrefilterState::default(),
             input: config.input,
@@ -305,13 +311,25 @@ where
         };
 
         // 3.–4. Screen the converter's report and convert.
+        // A new conversion unless the converter said there was none (a
+        // frame that failed its CRC or on the bus still had one behind it).
+        let fresh = !matches!(&reading, Ok(r) if r.flags.stale);
         let (y, y_ok, u_mon, mon_ok) = self.screen(reading);
+        let nan = T::from_f64(f64::NAN);
+        let held_v = match held_now {
+            Some((u, true)) => u,
+            _ => nan,
+        };
+        let read = TickReading {
+            fresh,
+            y: if y_ok { y } else { nan },
+            monitor_v: if mon_ok { u_mon } else { nan },
+        };
 
         // 5. The pair for step(u held over the coming period, y now).
         // A u that is not known (the DAC write failed, the monitor
         // saturated) travels as NaN, so that a sample rejected for its y
         // alone still carries its true u (below).
-        let nan = T::from_f64(f64::NAN);
         let known = |u: T, u_ok: bool| if u_ok { u } else { nan };
         let pair = match self.input {
             InputSource::Commanded => held_now.map(|(u, u_ok)| (known(u, u_ok), y, u_ok && y_ok)),
@@ -322,7 +340,7 @@ where
         };
         let Some((u, y, ok)) = pair else {
             // Start-up: nothing held yet to pair with.
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         // The float-level checks (rails, stuck runs through the delay
         // line, so a run is rejected from its first sample) and the level
@@ -344,12 +362,12 @@ where
             self.estimator.hold(hold);
         }
         let Some(g) = out else {
-            return self.idle(index, commanded_v);
+            return idle(index, commanded_v, held_v, read);
         };
         let (u, y, ok, fed_index) = (g.u, g.y, g.fault.is_none(), g.index);
 
-        // 6. Prefilter (fed the last good values across a bad sample; a
-        // known u is fed as it is).
+        // 6. Line remover and prefilter (fed the last good values across
+        // a bad sample; a known u is fed as it is).
         let (u_in, y_in) = if ok {
             self.last_good = (u, y);
             (u, y)
@@ -357,6 +375,10 @@ where
             (u, self.last_good.1)
         } else {
             self.last_good
+        };
+        let (u_in, y_in) = match self.lines.as_mut() {
+            Some(c) => c.push(u_in, y_in),
+            None => (u_in, y_in),
         };
         let (u_f, y_f) = match &self.prefilter {
             Some(p) => (
@@ -401,15 +423,8 @@ where
             commanded_v,
             fed: Some(fed),
             step,
-        }
-    }
-
-    fn idle(&self, index: u64, commanded_v: T) -> Tick<T> {
-        Tick {
-            sample_index: index,
-            commanded_v,
-            fed: None,
-            step: None,
+            held_v,
+            reading: read,
         }
     }
 
@@ -608,6 +623,21 @@ where
         Ok(old)
     }
 
+    /// [`Pipeline::replace_estimator`] for a new estimator built where the
+    /// running one lies (a board with one slot for a large estimator):
+    /// `rebuild` turns the running estimator into the new one, which then
+    /// starts as a swapped-in one would (its λ, a new time series, the
+    /// settling hold). With an invalid λ nothing happens (`false`).
+    pub fn rebuild_estimator(&mut self, lambda_rad_s: f64, rebuild: impl FnOnce(&mut E)) -> bool {
+        if !(lambda_rad_s > 0.0 && lambda_rad_s.is_finite()) {
+            return false;
+        }
+        self.lambda_rad_s = lambda_rad_s;
+        rebuild(&mut self.estimator);
+        self.restart_series();
+        true
+    }
+
     fn restart_series(&mut self) {
         self.pf_u = PrefilterState::default();
         self.pf_y = PrefilterState::default();
@@ -636,6 +666,23 @@ where
             }
             self.changes_held = sup.changes;
         }
+    }
+
+    /// The line remover (built outside the lock; `None`: off): from the
+    /// next tick u and y pass it after the guard, its weights from zero,
+    /// and the law is held for `hold` samples (with the estimator's
+    /// settling time, the longer), while a line already in y decays in
+    /// its output (`crate::link`'s rule: five time constants).
+    pub fn set_line_removal(&mut self, lines: Option<LineCanceller<T, MAX_LINES>>, hold: u32) {
+        self.lines = lines;
+        let n = self.estimator.settling_samples().max(hold);
+        self.estimator.hold(n);
+    }
+
+    /// The line remover's view of each line it removes: the amplitude in y
+    /// its weights hold now, in the order of its lines (none when off).
+    pub fn line_amplitudes(&self) -> impl Iterator<Item = T> + '_ {
+        self.lines.iter().flat_map(|c| c.y_amplitudes())
     }
 
     /// Counters back to zero (the excitation's clamp counter is read
@@ -732,6 +779,18 @@ where
     /// Take the pipeline apart.
     pub fn into_parts(self) -> (E, A, D, S, R) {
         (self.estimator, self.adc, self.dac, self.telemetry, self.raw)
+    }
+}
+
+/// A tick that fed nothing to the estimator.
+fn idle<T>(index: u64, commanded_v: T, held_v: T, reading: TickReading<T>) -> Tick<T> {
+    Tick {
+        sample_index: index,
+        commanded_v,
+        fed: None,
+        step: None,
+        held_v,
+        reading,
     }
 }
 

@@ -121,6 +121,49 @@ pub(crate) fn add_lazy<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
     *lo += err + e;
 }
 
+/// [`add_lazy`] with Dekker's Fast2Sum for the leading words (3 flops
+/// instead of [`two_sum`]'s 6): exact when |hi| ≥ |p| (or hi = 0), which
+/// holds for an accumulator that is large against each of its increments
+/// — P̃ and Q̃ of the adaptive law sum ~10⁵ increments over their memory.
+/// Where it fails (|hi| < |p|: the first samples, an entry passing through
+/// zero) the sum is still hi + lo + p + e to within ulp(p)·2⁻ᵖ; how often
+/// that happens on the paper's and the random plants, and what it costs:
+/// docs/NUMERICS.md, "The step at 1,200 instructions".
+#[inline(always)]
+pub(crate) fn add_fast<T: Real>(hi: &mut T, lo: &mut T, p: T, e: T) {
+    #[cfg(test)]
+    fast2sum_audit::note(*hi, p);
+    let (s, err) = fast_two_sum(*hi, p);
+    *hi = s;
+    *lo += err + e;
+}
+
+/// Test builds only: counts [`add_fast`]'s calls and those whose Fast2Sum
+/// precondition |hi| ≥ |p| fails (per thread, so parallel tests do not
+/// mix), for the tests that measure how rare the failures are.
+#[cfg(test)]
+pub(crate) mod fast2sum_audit {
+    use crate::scalar::Real;
+    use std::cell::Cell;
+
+    std::thread_local! {
+        static COUNTS: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
+    }
+
+    pub(crate) fn note<T: Real>(hi: T, p: T) {
+        let bad = hi != T::ZERO && hi.abs() < p.abs();
+        COUNTS.with(|c| {
+            let (n, b) = c.get();
+            c.set((n + 1, b + u64::from(bad)));
+        });
+    }
+
+    /// (calls, failed preconditions) since the last `take` on this thread.
+    pub(crate) fn take() -> (u64, u64) {
+        COUNTS.with(|c| c.replace((0, 0)))
+    }
+}
+
 /// (xh + xl)·(yh + yl) as an unevaluated sum p + e with p = fl(xh·yh):
 /// the exact error of p ([`two_prod`]), then the cross terms xh·yl and
 /// xl·yh each added by a fused multiply-add (xl·yl, below the working
@@ -189,6 +232,17 @@ impl<T: Real, const N: usize> CompensatedArray<T, N> {
             self.hi[i] = hi;
         } else {
             self.hi[i] += p + e;
+        }
+    }
+
+    /// [`CompensatedArray::renormalize`] by Fast2Sum (for trailing words
+    /// of a few ulp of the leading ones: exact, see [`fast_two_sum`]), out
+    /// of line (inlined into [`residual_exact`], the compiler kept the
+    /// renormalized words in registers for the products and spilled them).
+    #[inline(never)]
+    pub(crate) fn renormalize_fast(&mut self) {
+        for (h, l) in self.hi.iter_mut().zip(self.lo.iter_mut()) {
+            (*h, *l) = fast_two_sum(*h, *l);
         }
     }
 
@@ -318,61 +372,128 @@ impl<T: Real> Dot2<T> {
     }
 }
 
+/// Rows of a packed symmetric matrix that [`each_row!`] unrolls: laws of
+/// up to 11 parameters (three modes).
+pub(crate) const UNROLLED_ROWS: usize = 11;
+
+/// `$body` once for each row index `$i` = 0, 1, …, [`UNROLLED_ROWS`] − 1,
+/// `$i` a constant in each (so a row function generic over it has
+/// compile-time loop bounds and unrolls completely; rows past the
+/// matrix's size return at once).
+macro_rules! each_row {
+    ($i:ident => $body:expr) => {{
+        {
+            const $i: usize = 0;
+            $body;
+        }
+        {
+            const $i: usize = 1;
+            $body;
+        }
+        {
+            const $i: usize = 2;
+            $body;
+        }
+        {
+            const $i: usize = 3;
+            $body;
+        }
+        {
+            const $i: usize = 4;
+            $body;
+        }
+        {
+            const $i: usize = 5;
+            $body;
+        }
+        {
+            const $i: usize = 6;
+            $body;
+        }
+        {
+            const $i: usize = 7;
+            $body;
+        }
+        {
+            const $i: usize = 8;
+            $body;
+        }
+        {
+            const $i: usize = 9;
+            $body;
+        }
+        {
+            const $i: usize = 10;
+            $body;
+        }
+    }};
+}
+pub(crate) use each_row;
+
+/// Index of entry (i, j), i ≤ j, in a packed upper triangle of NP rows
+/// (row i starts after the i rows above it, of NP, NP − 1, … entries).
+#[inline(always)]
+pub(crate) const fn packed_index<const NP: usize>(i: usize, j: usize) -> usize {
+    i * NP - i * i.saturating_sub(1) / 2 + (j - i)
+}
+
 /// The residual W = Pθ − Q of eq. 35 (the adaptive law's W̃ over its lazy
 /// scale) for a symmetric P stored as a packed upper triangle (row by row,
 /// `NS = NP(NP+1)/2`) of double words, and double-word Q and θ: P and Q
 /// are renormalized in place on the way (the law accumulates them lazily
-/// with [`add_lazy`], and renormalizing them at every θ step keeps its
+/// with [`add_fast`], and renormalizing them at every θ step keeps its
 /// accuracy: leaving the trailing words at ~√64 ulp cost up to 2.5× in the
 /// ω, ζ errors of the worst-conditioned plants, docs/NUMERICS.md). Every
 /// term P_ij·θ_j is a product of two double words exact up to ~2⁻⁴⁷
-/// ([`product_dd`]), summed by [`Dot2::add_dw`]; row i of the packed
-/// P adds P_ij·θ_j to W_i and, by symmetry, P_ij·θ_i to W_j (j > i).
-/// Meant for `T::COMPENSATED` (in `f64` it is merely exact and slow).
+/// ([`product_dd`]), summed by [`Dot2::add_dw`] from −Q_i over j = 0, 1,
+/// … in order. One W_i at a time (its accumulator in registers; each
+/// entry above the diagonal is read twice, renormalized at its first
+/// read). Meant for `T::COMPENSATED` (in `f64` it is merely exact and
+/// slow). Out of line: inlined, the compiler carried the renormalized
+/// words in registers (and spilled them) into the caller's use of P.
+#[inline(never)]
 pub(crate) fn residual_exact<T: Real, const NP: usize, const NS: usize>(
     p: &mut CompensatedArray<T, NS>,
     q: &mut CompensatedArray<T, NP>,
     theta: &CompensatedArray<T, NP>,
 ) -> [T; NP] {
-    let mut th = [(T::ZERO, T::ZERO); NP];
-    for ((f, &h), &l) in th.iter_mut().zip(theta.hi.iter()).zip(theta.lo.iter()) {
-        *f = (h, l);
+    p.renormalize_fast();
+    q.renormalize_fast();
+    let mut w = [T::ZERO; NP];
+    if NP > UNROLLED_ROWS {
+        for i in 0..NP {
+            residual_row(i, p, q, theta, &mut w);
+        }
+    } else {
+        each_row!(I => residual_row(I, p, q, theta, &mut w));
     }
-    let mut acc = [Dot2::<T>::new(); NP];
-    for ((a, qh), ql) in acc.iter_mut().zip(q.hi.iter_mut()).zip(q.lo.iter_mut()) {
-        (*qh, *ql) = fast_two_sum(*qh, *ql);
-        *a = Dot2::from_dw(-*qh, -*ql);
-    }
-    // (Loops run to a fixed bound NP with an early exit, so the compiler
-    // unrolls them completely; see `linalg::ldlt_solve_packed_floored`.)
-    let mut off = 0;
-    for i in 0..NP {
-        let (Some(&(th_ih, th_il)), Some(&acc_start)) = (th.get(i), acc.get(i)) else {
+    w
+}
+
+/// W_i of [`residual_exact`] (nothing for i ≥ NP).
+#[inline(always)]
+fn residual_row<T: Real, const NP: usize, const NS: usize>(
+    i: usize,
+    p: &CompensatedArray<T, NS>,
+    q: &CompensatedArray<T, NP>,
+    theta: &CompensatedArray<T, NP>,
+    w: &mut [T; NP],
+) {
+    let (Some(&qh), Some(&ql), Some(wi)) = (q.hi.get(i), q.lo.get(i), w.get_mut(i)) else {
+        return;
+    };
+    let mut acc = Dot2::from_dw(-qh, -ql);
+    for j in 0..NP {
+        let k = packed_index::<NP>(i.min(j), i.max(j));
+        let (Some(&h), Some(&l), Some(&th), Some(&tl)) =
+            (p.hi.get(k), p.lo.get(k), theta.hi.get(j), theta.lo.get(j))
+        else {
             break;
         };
-        let mut acc_i = acc_start;
-        for t in 0..NP {
-            let (Some(h), Some(l), Some(&(th_jh, th_jl))) =
-                (p.hi.get_mut(off + t), p.lo.get_mut(off + t), th.get(i + t))
-            else {
-                break;
-            };
-            (*h, *l) = fast_two_sum(*h, *l);
-            let (p, e) = product_dd(*h, *l, th_jh, th_jl);
-            acc_i.add_dw(p, e);
-            if t > 0 {
-                if let Some(acc_j) = acc.get_mut(i + t) {
-                    let (p, e) = product_dd(*h, *l, th_ih, th_il);
-                    acc_j.add_dw(p, e);
-                }
-            }
-        }
-        if let Some(a) = acc.get_mut(i) {
-            *a = acc_i;
-        }
-        off += NP - i;
+        let (pr, e) = product_dd(h, l, th, tl);
+        acc.add_dw(pr, e);
     }
-    acc.map(Dot2::value)
+    *wi = acc.value();
 }
 
 #[cfg(test)]

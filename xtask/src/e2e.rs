@@ -4,7 +4,7 @@
 //!
 //! 1. the decoded estimates converge to the simulated beam's truth: the
 //!    last physically valid estimate within 1e-3 on ω1, ω2, ζ1, ζ2 after
-//!    5 s, with the EXCITED, PHYSICALLY_VALID and CONVERGED flags;
+//!    6 s, with the EXCITED, PHYSICALLY_VALID and CONVERGED flags;
 //!    estimates during the injected ADC faults carry SENSOR_FAULT and
 //!    ADC_SATURATED;
 //! 2. the link is clean: no sequence gap, no duplicate, no CRC or other
@@ -28,6 +28,13 @@
 //!    10% away from 50) while the estimate still meets check 1. Nothing the
 //!    device uses comes from the truth; only this host compares with it.
 //!
+//! 5. the self-test: the one at start-up reported, every check passed; at
+//!    4 s a `SelfTest` command is accepted, a `Reset` right after it is
+//!    refused (Busy), the report comes with every check passed, the
+//!    estimates made during it carry SELF_TEST with Θ̂ held, and the
+//!    excitation in force (0.2 V) is back afterwards; the estimate meets
+//!    check 1 at the end of the 6 s run.
+//!
 //! The schedule runs on the device's clock (the sample index in the frames),
 //! so it does not depend on how fast the host runs QEMU. The run is also
 //! judged from the firmware's log as the plain run is
@@ -41,8 +48,8 @@ use std::time::{Duration, Instant};
 
 use beam_protocol::{
     encode, AckResult, Command, Decoder, Estimate, EstimatorSettings, Excitation, Frame,
-    LinkCounters, Message, RejectReason, Status, StatusFlags, TelemetryRates, Waveform,
-    MAX_ENCODED_LEN,
+    LinkCounters, Message, RejectReason, SelfTestReport, Status, StatusFlags, TelemetryRates,
+    Waveform, MAX_ENCODED_LEN,
 };
 use beamest::model::{PAPER_OMEGA, PAPER_ZETA};
 
@@ -50,12 +57,13 @@ use crate::emulator::{session, LinkHost};
 use crate::QEMU;
 
 /// What a stream of device frames contained.
-#[derive(Debug, Default, Clone, Copy)]
+#[derive(Debug, Default, Clone)]
 pub struct Tally {
     pub estimates: u64,
     pub raw: u64,
     pub status: u64,
     pub acks: u64,
+    pub self_tests: u64,
     pub other: u64,
     /// Estimates before the first one with modes.
     pub without_modes_first: u64,
@@ -65,11 +73,13 @@ pub struct Tally {
     /// roots of the A(s) that the estimate's own Θ̂ and λ define, or gains
     /// b̄ that are not §4.0's for the emulated rig's output weights (§9.6).
     pub meaning_violations: u64,
-    /// Estimates with modes that arrived before any Status naming λ: read
-    /// (and checked) from their own Θ̂ and λ alone.
+    /// Estimates with modes whose λ no Status had named when they arrived
+    /// (before the first Status with a λ, or after a re-centring before
+    /// the Status that names the new λ): read (and checked) from their own
+    /// Θ̂ and λ alone.
     pub with_modes_before_lambda_status: u64,
-    /// A Status with some λ has arrived.
-    pub lambda_status_seen: bool,
+    /// The λ values (f32 bits) Statuses have named so far.
+    pub lambdas_named: Vec<u32>,
 }
 
 /// How far (relative to the size of the terms) a coefficient of A(s) from
@@ -216,7 +226,7 @@ pub fn gains_follow_from_theta(e: &Estimate, weights: &[f64]) -> bool {
 }
 
 impl Tally {
-    fn count(&mut self, m: &Message) {
+    pub(crate) fn count(&mut self, m: &Message) {
         if let Message::Estimate(e) = m {
             if self.without_modes_first == self.estimates && e.modes.is_empty() {
                 self.without_modes_first += 1;
@@ -224,18 +234,23 @@ impl Tally {
             if !estimate_means_what_it_says(e) {
                 self.meaning_violations += 1;
             }
-            if !self.lambda_status_seen && !e.modes.is_empty() {
+            if !e.modes.is_empty() && !self.lambdas_named.contains(&e.lambda_rad_s.to_bits()) {
                 self.with_modes_before_lambda_status += 1;
             }
         }
         if let Message::Status(s) = m {
-            self.lambda_status_seen |= s.estimator.lambda_rad_s.is_some();
+            if let Some(l) = s.estimator.lambda_rad_s {
+                if !self.lambdas_named.contains(&l.to_bits()) {
+                    self.lambdas_named.push(l.to_bits());
+                }
+            }
         }
         let c = match m {
             Message::Estimate(_) => &mut self.estimates,
             Message::RawSamples(_) => &mut self.raw,
             Message::Status(_) => &mut self.status,
             Message::Ack(_) => &mut self.acks,
+            Message::SelfTestReport(_) => &mut self.self_tests,
             Message::Command(_) => &mut self.other,
         };
         *c += 1;
@@ -247,6 +262,8 @@ pub struct Capture {
     pub counters: LinkCounters,
     pub tally: Tally,
     pub last_status: Option<Status>,
+    /// The self-test reports, in order.
+    pub reports: Vec<SelfTestReport>,
 }
 
 impl Capture {
@@ -267,8 +284,8 @@ impl Capture {
         let t = &self.tally;
         format!(
             "{} bytes, {} frames ({} estimates, {} status, {} raw-sample blocks, {} acks); \
-             {} estimates before the first with modes, {} with modes before the first Status \
-             naming λ (read from their own Θ̂ and λ), {} estimates against PROTOCOL.md §4.0/§4.1; \
+             {} estimates before the first with modes, {} with modes at a λ no Status had named \
+             yet (read from their own Θ̂ and λ), {} estimates against PROTOCOL.md §4.0/§4.1; \
              lost {}, CRC errors {}, other frame errors {}, duplicates {}, out of order {}{}",
             c.bytes,
             c.frames_ok,
@@ -300,16 +317,20 @@ pub fn decode_capture(bytes: &[u8]) -> Capture {
     let mut dec: Decoder = Decoder::new();
     let mut tally = Tally::default();
     let mut last_status = None;
+    let mut reports = Vec::new();
     for f in dec.feed(bytes).flatten() {
         tally.count(&f.message);
-        if let Message::Status(s) = f.message {
-            last_status = Some(s);
+        match f.message {
+            Message::Status(s) => last_status = Some(s),
+            Message::SelfTestReport(r) => reports.push(r),
+            _ => {}
         }
     }
     Capture {
         counters: *dec.counters(),
         tally,
         last_status,
+        reports,
     }
 }
 
@@ -317,6 +338,11 @@ pub fn decode_capture(bytes: &[u8]) -> Capture {
 const RAW_ON_AT: u64 = 5_000;
 const REFUSED_AT: u64 = 10_000;
 const AMPLITUDE_AT: u64 = 15_000;
+/// The self-test on command: after the fault schedule (its quarantines
+/// end by 4 s), 1 s before the end of the run.
+const SELF_TEST_AT: u64 = 40_000;
+/// The run's simulated length (s).
+const SECONDS: &str = "6";
 /// The raw samples' decimation (1 kHz) and the two amplitudes (V).
 const RAW_DECIMATION: u16 = 10;
 const AMPLITUDE_BEFORE_V: f32 = 0.1;
@@ -345,6 +371,10 @@ enum Step {
     WaitAmplitude,
     AmplitudeSent,
     AmplitudeStatusSent,
+    WaitSelfTest,
+    SelfTestSent,
+    BusySent,
+    SelfTestRunning,
     Done,
 }
 
@@ -368,6 +398,8 @@ struct Host {
     /// Newest raw-sample index received before the amplitude command.
     raw_before_amplitude: Option<u64>,
     acks: Vec<(u32, AckResult)>,
+    /// Self-test reports (the one at boot, the one commanded).
+    reports: Vec<SelfTestReport>,
     /// The last RequestStatus has been acknowledged: the next Status is its
     /// answer (a periodic Status may come between the request and its Ack).
     status_acked: bool,
@@ -393,6 +425,7 @@ impl Host {
             refused_result: None,
             raw_before_amplitude: None,
             acks: Vec::new(),
+            reports: Vec::new(),
             status_acked: false,
         }
     }
@@ -433,6 +466,13 @@ impl Host {
                 }
                 Message::Status(s) => self.on_status(s),
                 Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
+                Message::SelfTestReport(r) => {
+                    if !r.at_boot && self.step == Step::SelfTestRunning {
+                        self.step = Step::Done;
+                        self.sent_at = None;
+                    }
+                    self.reports.push(r)
+                }
                 Message::Command(_) => self.fail("the device sent a Command frame".into()),
             }
         }
@@ -468,6 +508,10 @@ impl Host {
                     Command::SetExcitation(excitation(AMPLITUDE_REFUSED_V)),
                 )?;
             }
+            Step::WaitSelfTest if now >= SELF_TEST_AT => {
+                self.step = Step::SelfTestSent;
+                self.send(link, Command::SelfTest)?;
+            }
             Step::WaitAmplitude if now >= AMPLITUDE_AT => {
                 self.step = Step::AmplitudeSent;
                 self.raw_before_amplitude = self.raw.last().map(|r| r.0);
@@ -491,7 +535,7 @@ impl Host {
             }
             Step::AmplitudeStatusSent if self.after_amplitude.is_none() && self.status_acked => {
                 self.after_amplitude = Some(s.clone());
-                self.step = Step::Done;
+                self.step = Step::WaitSelfTest;
                 self.sent_at = None;
             }
             Step::AutoStatusSent if self.after_auto.is_none() && self.status_acked => {
@@ -523,6 +567,15 @@ impl Host {
             (Step::AmplitudeSent, AckResult::Accepted) => {
                 self.step = Step::AmplitudeStatusSent;
                 self.send(link, Command::RequestStatus)?;
+            }
+            (Step::SelfTestSent, AckResult::Accepted) => {
+                // While it runs every other command is refused.
+                self.step = Step::BusySent;
+                self.send(link, Command::Reset)?;
+            }
+            (Step::BusySent, AckResult::Rejected(RejectReason::Busy)) => {
+                self.step = Step::SelfTestRunning;
+                self.sent_at = Some(Instant::now());
             }
             (Step::FixedSent, AckResult::Accepted) => {
                 self.step = Step::AutoSent;
@@ -575,11 +628,12 @@ impl LinkHost for Host {
 /// Run the test (see the module doc).
 pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     let mut host = Host::new();
-    let (status, wall, log) = session(elf, None, timeout, &mut host)?;
+    let (status, wall, log) = session(elf, Some(SECONDS), timeout, &mut host)?;
     let capture = Capture {
         counters: *host.dec.counters(),
-        tally: host.tally,
+        tally: host.tally.clone(),
         last_status: host.last_status.clone(),
+        reports: host.reports.clone(),
     };
     println!("\ne2e: UART0 as decoded by the host: {}", capture.summary());
     check(&mut host, &capture);
@@ -661,9 +715,9 @@ fn check(h: &mut Host, capture: &Capture) {
                     "estimate at t = {t:.2} s off the truth by {worst:.1e}"
                 ));
             }
-            if e.sample_index < 49_000 {
+            if e.sample_index < 59_000 {
                 fails.push(format!(
-                    "the last valid estimate is from t = {t:.2} s, not 5 s"
+                    "the last valid estimate is from t = {t:.2} s, not 6 s"
                 ));
             }
             let want = StatusFlags::EXCITED
@@ -683,10 +737,11 @@ fn check(h: &mut Host, capture: &Capture) {
         }
         None => fails.push("no physically valid estimate".into()),
     }
-    // 100 Hz from the start-up window (0.2 s) to 5 s.
-    if h.estimates.len() >= 470 {
+    // 100 Hz from the estimator's start (after the self-test at start-up,
+    // 0.67 s, and the 0.2 s start-up window) to 6 s.
+    if h.estimates.len() >= 510 {
         pass(format!(
-            "{} estimates (100 Hz after the 0.2 s start-up window)",
+            "{} estimates (100 Hz after the self-test and the 0.2 s start-up window)",
             h.estimates.len()
         ));
     } else {
@@ -755,12 +810,83 @@ fn check(h: &mut Host, capture: &Capture) {
             None
         }
     };
-    // Raw samples: u at the old level before the command, the new after.
+    // 5. The self-test: at start-up and on command, every check passed;
+    // while it ran the estimate was held and flagged, another command
+    // refused (Busy), and the drive restored after it.
+    let commanded = h.reports.iter().find(|r| !r.at_boot).cloned();
+    match h.reports.as_slice() {
+        [boot, cmd] if boot.at_boot && !cmd.at_boot && boot.passed() && cmd.passed() => {
+            pass(format!(
+                "self-tests: at start-up (samples {}–{}) and on command (samples {}–{}), every \
+                 check passed; on command: DRDY {} Hz, loopback gain {} delay {} samples, noise \
+                 σ {:e} (floor {:e}), SNR {} dB",
+                boot.first_sample,
+                boot.last_sample,
+                cmd.first_sample,
+                cmd.last_sample,
+                cmd.drdy.rate_hz,
+                cmd.loopback.gain,
+                cmd.loopback.delay_samples,
+                cmd.noise.noise_sd,
+                cmd.noise.floor_sd,
+                cmd.noise.snr_db
+            ))
+        }
+        r => fails.push(format!("self-test reports: {r:?}")),
+    }
+    let test_span = commanded
+        .as_ref()
+        .map_or(0..=0, |r| r.first_sample..=r.last_sample);
+    let during: Vec<&Estimate> = h
+        .estimates
+        .iter()
+        .filter(|e| test_span.contains(&e.sample_index))
+        .collect();
+    let held = during.iter().all(|e| {
+        e.flags.contains(StatusFlags::SELF_TEST)
+            && during.first().is_some_and(|f| f.theta == e.theta)
+    });
+    let flagged_outside = h
+        .estimates
+        .iter()
+        .filter(|e| !test_span.contains(&e.sample_index))
+        .filter(|e| e.flags.contains(StatusFlags::SELF_TEST))
+        .count();
+    if during.len() >= 60 && held && flagged_outside == 0 {
+        pass(format!(
+            "{} estimates during the commanded self-test, all flagged SELF_TEST with Θ̂ held; \
+             none flagged outside it",
+            during.len()
+        ));
+    } else {
+        fails.push(format!(
+            "estimates during the self-test: {} (held and flagged: {held}), {flagged_outside} \
+             flagged outside it",
+            during.len()
+        ));
+    }
+    if h.acks
+        .iter()
+        .any(|(_, r)| *r == AckResult::Rejected(RejectReason::Busy))
+    {
+        pass("a command during the self-test refused: Busy (15)".into());
+    } else {
+        fails.push("no command refused Busy during the self-test".into());
+    }
+    match &h.last_status {
+        Some(s) if s.excitation.amplitude_v == AMPLITUDE_AFTER_V => {
+            pass("after the self-test the excitation in force is back (Status: 0.2 V)".into())
+        }
+        s => fails.push(format!("the excitation after the self-test: {s:?}")),
+    }
+    // Raw samples: u at the old level before the command, the new after
+    // (except during the commanded self-test: its own drive).
     let level = |lo: u64, hi: u64, amp: f32| {
         let pairs: Vec<f32> = h
             .raw
             .iter()
             .filter(|r| r.0 >= lo && r.0 < hi && r.1.is_finite())
+            .filter(|r| !test_span.contains(&r.0))
             .map(|r| r.1)
             .collect();
         let off = pairs
@@ -799,7 +925,7 @@ fn check(h: &mut Host, capture: &Capture) {
         &mut fails,
     );
 
-    let expected_acks = 8;
+    let expected_acks = 10;
     if h.acks.len() == expected_acks {
         pass(format!(
             "{expected_acks} commands sent, {expected_acks} acknowledgements"

@@ -133,6 +133,8 @@ impl Host {
                 }
                 Message::Status(s) => self.on_status(s, link)?,
                 Message::Ack(a) => self.on_ack(a.command_seq, a.result, link)?,
+                // The boot self-test's report (judged by the plain run).
+                Message::SelfTestReport(_) => {}
                 Message::RawSamples(_) => {}
                 Message::Command(_) => self.fail("the device sent a Command frame".into()),
             }

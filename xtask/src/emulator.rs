@@ -27,12 +27,18 @@ pub enum Serial {
 }
 
 /// The QEMU command line for `elf` with UART0 on `serial`, running
-/// `seconds` of simulated time (the firmware's default 5 s if `None`).
-pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>) -> Command {
+/// `seconds` of simulated time (the firmware's default 5 s if `None`),
+/// with the firmware's other command-line words `args` (e.g.
+/// `selftest_fault=noise`).
+pub fn command(elf: &Path, serial: &Serial, seconds: Option<&str>, args: &[&str]) -> Command {
     let mut semihosting = String::from("enable=on,target=native,arg=qemu-rig");
     if let Some(s) = seconds {
         semihosting.push_str(",arg=seconds=");
         semihosting.push_str(s);
+    }
+    for a in args {
+        semihosting.push_str(",arg=");
+        semihosting.push_str(a);
     }
     let serial = match serial {
         Serial::File(p) => format!("file:{}", p.display()),
@@ -94,13 +100,24 @@ pub(crate) fn session(
     timeout: Duration,
     host: &mut impl LinkHost,
 ) -> Result<(std::process::ExitStatus, f64, String), String> {
+    session_with(elf, seconds, &[], timeout, host)
+}
+
+/// [`session`] with more words on the firmware's command line.
+pub(crate) fn session_with(
+    elf: &Path,
+    seconds: Option<&str>,
+    words: &[&str],
+    timeout: Duration,
+    host: &mut impl LinkHost,
+) -> Result<(std::process::ExitStatus, f64, String), String> {
     let listener =
         TcpListener::bind("127.0.0.1:0").map_err(|e| format!("listening on loopback: {e}"))?;
     let port = listener
         .local_addr()
         .map_err(|e| format!("listening on loopback: {e}"))?
         .port();
-    let mut cmd = command(elf, &Serial::Connect(port), seconds);
+    let mut cmd = command(elf, &Serial::Connect(port), seconds, words);
     cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
     println!("running: {cmd:?}");
     let start = Instant::now();

@@ -13,8 +13,13 @@
 //!   sent on UART0 and check them; exit with QEMU's status (the
 //!   firmware's verdict). `--e2e`: the end-to-end test over a loopback
 //!   socket ([`e2e`]); `--robust`: the device switched to the robust
-//!   estimator over the link ([`e2e_robust`]); `--monitor`: `beamctl
-//!   monitor` attached ([`qemu`]).
+//!   estimator over the link ([`e2e_robust`]); `--selftest-faults`: the
+//!   self-test against each simulated bench fault ([`selftest_faults`]);
+//!   `--hum`: mains hum in the ADC model and the line remover selected
+//!   over the link ([`e2e_hum`]); `--hostile`: hostile input into UART0 RX for 60 s ([`hostile`]);
+//!   `--monitor`: `beamctl monitor` attached ([`qemu`]).
+//! * `soak [--seconds S]` — the hostile run ([`hostile`]) for 10
+//!   simulated minutes with periodic commands.
 //! * `flash` — build the reference board's image (NUCLEO-H743ZI2) for the
 //!   Cortex-M7, check it, flash and run it through `probe-rs run` (defmt
 //!   log on the console).
@@ -27,15 +32,18 @@
 
 mod callgraph;
 mod e2e;
+mod e2e_hum;
 mod e2e_robust;
 mod e2e_tuning;
 mod emulator;
+mod hostile;
 mod image;
 mod layout;
 mod m7;
 mod memory_map;
 mod qemu;
 mod rig_report;
+mod selftest_faults;
 
 use std::env;
 use std::fs;
@@ -107,8 +115,10 @@ struct Image {
     bin: &'static str,
     cpu: Cpu,
     memory_x: &'static str,
-    /// Flash and static RAM targets to report against (bytes), if any.
-    budget: Option<(u64, u64)>,
+    /// The static-RAM budget the image must keep (bytes), if any: a hard
+    /// check. (The flash is reported, not budgeted: issue 18 retired the
+    /// 64 KiB target.)
+    ram_budget: Option<u64>,
     /// The sample interrupt's handler, if its call graph must be free of
     /// panics, software floating point and indirect branches (a hard check);
     /// the image's stack frames are checked then too (none may take half
@@ -131,20 +141,10 @@ const IMAGES: &[Image] = &[
         bin: "qemu-rig",
         cpu: Cpu::Generic,
         memory_x: "src/board/qemu/memory.x",
-        // Issue 6: the QEMU image within 64 KiB of flash and 16 KiB of RAM.
-        budget: Some((64 * 1024, 16 * 1024)),
-        sample_isr: None,
-        placed: &[],
-    },
-    Image {
-        board: "qemu mps2-an386 (Cortex-M4F) + the robust estimator",
-        feature: QEMU_ROBUST_FEATURE,
-        bin: "qemu-rig",
-        cpu: Cpu::Generic,
-        memory_x: "src/board/qemu/memory.x",
-        // Two static slots of the robust estimator's 2 s record (162 KB
-        // each): no 16 KiB budget; the board has 4 MiB.
-        budget: None,
+        // Static RAM (stack excluded) within 96 KiB, the robust estimator's
+        // slot (53 KB) included: an M4F part with 128 KiB or more (issue
+        // 18, the lead's decision; a hard check).
+        ram_budget: Some(96 * 1024),
         sample_isr: None,
         placed: &[],
     },
@@ -154,7 +154,7 @@ const IMAGES: &[Image] = &[
         bin: m7::NUCLEO_IMAGE,
         cpu: Cpu::CortexM7,
         memory_x: "src/board/nucleo/memory.x",
-        budget: None,
+        ram_budget: None,
         sample_isr: Some("EXTI3"),
         // The robust estimator's two slots (f64, 1.8 s record: 2 × 18,000 ×
         // 8 B plus its state), one in the AXI SRAM, one in SRAM1–3
@@ -165,9 +165,6 @@ const IMAGES: &[Image] = &[
 
 /// QEMU's image for `cargo xtask qemu`.
 const QEMU_IMAGE: &str = "qemu-rig";
-/// The feature of the QEMU image that can run the robust estimator
-/// (`cargo xtask qemu --robust`).
-const QEMU_ROBUST_FEATURE: &str = "qemu-robust";
 const QEMU: &str = "qemu-system-arm";
 
 fn main() -> ExitCode {
@@ -175,6 +172,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("firmware") => firmware(),
         Some("qemu") => qemu::run(&args[1..]),
+        Some("soak") => qemu::soak(&args[1..]),
         Some("flash") => m7::flash(),
         Some("fp-bench") => m7::fp_bench(),
         Some("robust-bench") => m7::robust_bench(),
@@ -216,6 +214,28 @@ usage: cargo xtask <command>
                            (SetEstimator kind Robust) and the excitation again at 20.5 s;
                            checks its convergence, no overrun, its model updates' locks
                            bounded (the firmware's verdict), the link clean
+  qemu --hum [--no-remover] [--timeout S]
+                           8 simulated s with mains hum (50 Hz 3%, 150 Hz 1%) added to
+                           the ADC model's input; the host selects the line remover
+                           (SetLineRemoval 50 Hz, 7 harmonics) over the link at once;
+                           checks the lines found (the remover's weights), the estimate
+                           within 1e-3 and the default run's checks. --no-remover: the
+                           same run without selecting it, a measurement (the estimate's
+                           errors and the sample interrupt's cost without the remover)
+  qemu --selftest-faults [--timeout S]
+                           the self-test against each fault of the simulated bench (wrong ADC
+                           ID, a register that reads back wrong, DRDY missing, DRDY at 95 %,
+                           no loopback, noise on y): 1 simulated s each, exactly the fault's
+                           check must fail
+  qemu --hostile [--seconds S] [--timeout S]
+                           hostile input into UART0 RX at the link's full rate for S simulated
+                           seconds (default 60): random bytes, truncated and oversize frames,
+                           valid-CRC frames with random payloads, valid commands out of
+                           range; no overrun, no panic, every bad frame counted, every valid
+                           command answered, the estimate within 1e-3 at the end
+  soak [--seconds S] [--timeout S]
+                           the same for S simulated seconds (default 600) with, every 20 s,
+                           an excitation change, a new estimator, freeze/resume, a self-test
   qemu --monitor [--seconds S] [--beamctl PATH] [-- MONITOR-ARGS...]
                            run the image (default 60 simulated s, 0 = until the monitor
                            quits) with UART0 on a loopback TCP socket and `beamctl monitor
@@ -374,17 +394,19 @@ fn check(image: &Image, root: &Path, elf_path: &Path) -> Result<(), String> {
         flash.origin,
         flash.end()
     );
-    if let Some((flash_max, ram_max)) = image.budget {
-        // A target to report against, not a build failure: the layout and
-        // vector checks above are the hard errors.
-        let verdict = |used: u64, max: u64| if used <= max { "met" } else { "NOT MET" };
+    if let Some(ram_max) = image.ram_budget {
+        // A hard check, like the layout and vector checks above.
         println!(
-            "  target flash ≤ {} KiB: {}; target static RAM ≤ {} KiB: {}",
-            flash_max / 1024,
-            verdict(fp.flash, flash_max),
+            "  static RAM budget ≤ {} KiB: {}",
             ram_max / 1024,
-            verdict(fp.ram, ram_max)
+            if fp.ram <= ram_max { "met" } else { "NOT MET" }
         );
+        if fp.ram > ram_max {
+            return Err(format!(
+                "static RAM {} B over the {} B budget",
+                fp.ram, ram_max
+            ));
+        }
     }
     if let Some(isr) = image.sample_isr {
         let mcpu = match image.cpu {

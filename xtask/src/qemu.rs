@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use crate::emulator::{command, wait, Serial};
 use crate::{
-    build, e2e, e2e_robust, require_tool, rig_report, stream, workspace_root, IMAGES, QEMU,
-    QEMU_IMAGE, QEMU_ROBUST_FEATURE,
+    build, e2e, e2e_hum, e2e_robust, hostile, require_tool, rig_report, selftest_faults, stream,
+    workspace_root, IMAGES, QEMU, QEMU_IMAGE,
 };
 
 /// Default wall-clock limit for one emulated run, s.
@@ -35,6 +35,11 @@ struct Options {
     seconds: Option<String>,
     e2e: bool,
     robust: bool,
+    hum: bool,
+    no_remover: bool,
+    selftest_faults: bool,
+    hostile: bool,
+    soak: bool,
     monitor: bool,
     beamctl: Option<PathBuf>,
     monitor_args: Vec<String>,
@@ -47,6 +52,11 @@ fn parse(args: &[String]) -> Result<Options, String> {
         seconds: None,
         e2e: false,
         robust: false,
+        hum: false,
+        no_remover: false,
+        selftest_faults: false,
+        hostile: false,
+        soak: false,
         monitor: false,
         beamctl: None,
         monitor_args: Vec::new(),
@@ -77,6 +87,10 @@ fn parse(args: &[String]) -> Result<Options, String> {
             }
             "--e2e" => o.e2e = true,
             "--robust" => o.robust = true,
+            "--hum" => o.hum = true,
+            "--no-remover" => o.no_remover = true,
+            "--selftest-faults" => o.selftest_faults = true,
+            "--hostile" => o.hostile = true,
             "--monitor" => o.monitor = true,
             "--beamctl" => {
                 o.beamctl = Some(PathBuf::from(it.next().ok_or("--beamctl needs a path")?))
@@ -95,6 +109,20 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.robust && (o.e2e || o.monitor || o.seconds.is_some()) {
         return Err("qemu --robust runs alone (its own 27 s run on the link)".into());
     }
+    if o.hum
+        && (o.robust || o.e2e || o.monitor || o.hostile || o.selftest_faults || o.seconds.is_some())
+    {
+        return Err("qemu --hum runs alone (its own 8 s run on the link)".into());
+    }
+    if o.no_remover && !o.hum {
+        return Err("qemu: --no-remover needs --hum".into());
+    }
+    if (o.hostile || o.soak) && (o.e2e || o.monitor || o.robust || o.selftest_faults) {
+        return Err("qemu --hostile (and soak) run alone".into());
+    }
+    if o.selftest_faults && (o.e2e || o.monitor || o.robust || o.seconds.is_some()) {
+        return Err("qemu --selftest-faults runs alone (1 s per fault)".into());
+    }
     if o.e2e && o.monitor {
         return Err("qemu: --e2e and --monitor exclude each other".into());
     }
@@ -107,29 +135,55 @@ fn parse(args: &[String]) -> Result<Options, String> {
     Ok(o)
 }
 
+/// `cargo xtask soak [--seconds S] [--timeout S]`: the hostile run with
+/// the soak's periodic commands ([`hostile`]), 600 simulated s by default.
+pub fn soak(args: &[String]) -> Result<(), String> {
+    let mut o = parse(args)?;
+    o.soak = true;
+    // Ten simulated minutes take about ten on this machine.
+    o.timeout = o.timeout.max(Duration::from_secs(3_600));
+    run_options(o)
+}
+
 /// `cargo xtask qemu …`: every mode that ends a run judges it from the
 /// firmware's log ([`rig_report::judge`]).
 pub fn run(args: &[String]) -> Result<(), String> {
-    let o = parse(args)?;
+    run_options(parse(args)?)
+}
+
+fn run_options(o: Options) -> Result<(), String> {
     require_tool(
         QEMU,
         &["--version"],
         "qemu-system-arm is not installed (Debian/Ubuntu: apt-get install qemu-system-arm)",
     )?;
-    // `--robust` needs the image with the robust estimator's slots; every
-    // other mode runs the default image.
-    let feature = if o.robust {
-        QEMU_ROBUST_FEATURE
-    } else {
-        "board-qemu"
-    };
+    // Every mode runs the one QEMU image (the robust estimator is one of
+    // its estimators).
     let image = IMAGES
         .iter()
-        .find(|i| i.bin == QEMU_IMAGE && i.feature == feature)
+        .find(|i| i.bin == QEMU_IMAGE)
         .ok_or("no QEMU image in the image table")?;
     let elf = build(image)?;
     if o.robust {
         e2e_robust::run(&elf, o.timeout)
+    } else if o.hum {
+        e2e_hum::run(&elf, o.timeout, !o.no_remover)
+    } else if o.selftest_faults {
+        selftest_faults::run(&elf, o.timeout)
+    } else if o.hostile || o.soak {
+        let default = if o.soak { 600 } else { 60 };
+        let seconds = match &o.seconds {
+            Some(s) => s
+                .parse::<u64>()
+                .map_err(|_| format!("--seconds {s}: whole seconds for --hostile and soak"))?,
+            None => default,
+        };
+        let opts = hostile::Options {
+            seconds,
+            schedule: o.soak,
+            seed: 18,
+        };
+        hostile::run(&elf, opts, o.timeout)
     } else if o.e2e {
         e2e::run(&elf, o.timeout)
     } else if o.monitor {
@@ -144,7 +198,12 @@ fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     if let Some(dir) = o.uart0.parent() {
         fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
     }
-    let mut cmd = command(elf, &Serial::File(o.uart0.clone()), o.seconds.as_deref());
+    let mut cmd = command(
+        elf,
+        &Serial::File(o.uart0.clone()),
+        o.seconds.as_deref(),
+        &[],
+    );
     cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
     println!("running: {cmd:?}");
     println!("UART0 → {}", o.uart0.display());
@@ -169,10 +228,22 @@ fn plain(elf: &Path, o: &Options) -> Result<(), String> {
     // starts at 0.2 s, the first Status with λ rides the 1 s record) must
     // be among those checked from their own Θ̂ and λ: else the check of
     // PROTOCOL.md §4.0 on them tested nothing.
+    // The self-test at start-up reached the host, every check passed.
+    let boot_report_ok = matches!(link.reports.as_slice(), [r] if r.at_boot && r.passed());
+    println!(
+        "UART0: self-test reports {} ({})",
+        link.reports.len(),
+        if boot_report_ok {
+            "one, at start-up, every check passed"
+        } else {
+            "expected one, at start-up, every check passed"
+        }
+    );
     let link_ok = link.is_clean()
         && link.tally.estimates > 0
         && link.tally.status > 0
-        && link.tally.with_modes_before_lambda_status > 0;
+        && link.tally.with_modes_before_lambda_status > 0
+        && boot_report_ok;
     match (status.success(), verdict, link_ok) {
         (true, Ok(()), true) => Ok(()),
         (false, _, _) => Err(format!("the emulated firmware failed ({status})")),
@@ -223,7 +294,7 @@ fn monitor(elf: &Path, o: &Options) -> Result<(), String> {
     };
     let port = free_port()?;
     let seconds = o.seconds.as_deref().unwrap_or(MONITOR_SECONDS);
-    let mut qemu = command(elf, &Serial::Listen(port), Some(seconds));
+    let mut qemu = command(elf, &Serial::Listen(port), Some(seconds), &[]);
     let log =
         File::create(&log_path).map_err(|e| format!("creating {}: {e}", log_path.display()))?;
     qemu.stdout(Stdio::from(log)).stderr(Stdio::piped());

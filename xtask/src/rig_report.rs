@@ -17,7 +17,13 @@
 //!   produce — every injected bad conversion counted once by kind and
 //!   rejected (a stuck run of n repeats is n + 1 identical codes, all
 //!   rejected), nothing else — for runs that outlast the schedule;
-//! * no overrun, no rig error, an estimator started.
+//! * no overrun, no rig error, an estimator started;
+//! * the self-test at start-up (and every one commanded) reported, every
+//!   check passed (`rig: selftest`, no bench fault injected).
+//!
+//! Runs with a bench fault (`cargo xtask qemu --selftest-faults`) are
+//! judged by [`judge_self_test_fault`] instead: exactly the fault's check
+//! failed.
 //!
 //! With the robust estimator (`--robust`): converged within
 //! [`ROBUST_OMEGA_TOLERANCE`] / [`ROBUST_ZETA_TOLERANCE`], at least one
@@ -125,6 +131,73 @@ fn expected_counters(faults: &[&Line]) -> HashMap<&'static str, u64> {
     c
 }
 
+/// `--hum`: the `rig: hum` line (the lines injected) and the line
+/// remover's `rig: lines` at the end. Every injected line (f, amplitude,
+/// phase) of `hum` must be a harmonic of the remover's mains whose weights
+/// hold its amplitude within `tolerance` (relative), and every other
+/// harmonic less than `empty_share` of the smallest injected line. `Ok`:
+/// what was found, in words.
+pub fn judge_hum(
+    log: &str,
+    hum: &[(f64, f64, f64)],
+    tolerance: f64,
+    empty_share: f64,
+) -> Result<String, String> {
+    let lines: Vec<Line> = log.lines().filter_map(Line::parse).collect();
+    if !lines.iter().any(|l| l.what == "hum") {
+        return Err("the firmware's log has no `rig: hum` line: no hum injected".into());
+    }
+    let Some(r) = lines.iter().rev().find(|l| l.what == "lines") else {
+        return Err("the firmware's log has no `rig: lines` line".into());
+    };
+    let n = r.u64("n") as usize;
+    let mains = r.f64("mains_hz");
+    if n == 0 || !(mains > 0.0) {
+        return Err(format!(
+            "the line remover is off at the end (n={n}, mains {mains} Hz)"
+        ));
+    }
+    let amp = |k: usize| r.f64(&format!("a{k}"));
+    let smallest = hum.iter().map(|h| h.1).fold(f64::INFINITY, f64::min);
+    let mut words = Vec::new();
+    let mut injected = vec![false; n + 1];
+    for &(f, a, _) in hum {
+        let k = (f / mains).round() as usize;
+        if k == 0 || k > n || (k as f64 * mains - f).abs() > 1e-6 * f {
+            return Err(format!(
+                "the injected {f} Hz line is no harmonic the remover holds"
+            ));
+        }
+        injected[k] = true;
+        let found = amp(k);
+        if !((found / a - 1.0).abs() <= tolerance) {
+            return Err(format!(
+                "{f} Hz: the remover holds amplitude {found:.4e}, injected {a:.4e} (more than \
+                 {:.0}% off)",
+                100.0 * tolerance
+            ));
+        }
+        words.push(format!("{f} Hz found at {found:.4e} (injected {a:.4e})"));
+    }
+    for (k, _) in injected.iter().enumerate().skip(1).filter(|(_, i)| !**i) {
+        let a = amp(k);
+        if !(a < empty_share * smallest) {
+            return Err(format!(
+                "harmonic {k} ({} Hz) carries no hum but the remover holds {a:.4e} (≥ {:.0}% of \
+                 {smallest:.4e})",
+                k as f64 * mains,
+                100.0 * empty_share
+            ));
+        }
+    }
+    words.push(format!(
+        "the other {} harmonics below {:.0}% of the smallest line",
+        n - hum.len(),
+        100.0 * empty_share
+    ));
+    Ok(words.join("; "))
+}
+
 /// Judge a run from its log (printing what it judged, as the firmware did
 /// before it only measured); `Err` lists the failed checks.
 pub fn judge(log: &str) -> Result<(), Vec<String>> {
@@ -215,6 +288,11 @@ pub fn judge(log: &str) -> Result<(), Vec<String>> {
         }
         (tuning_ok, ok)
     };
+    let tests = all("selftest");
+    let self_test_ok = check_self_tests(&tests);
+    if !self_test_ok {
+        failures.push("the self-test: not reported at start-up, or a check did not pass".into());
+    }
     let started = end.text("started_at") != "none" && end.values.contains_key("started_at");
     let others_ok = end.u64("overruns") == 0 && end.u64("rig_errors") == 0 && started;
     if !others_ok {
@@ -229,7 +307,7 @@ pub fn judge(log: &str) -> Result<(), Vec<String>> {
         println!("fault counters differ from the injected faults");
         failures.push("fault counters differ from the injected faults".into());
     }
-    let pass = modes_ok && counters_ok && others_ok && first_ok;
+    let pass = modes_ok && counters_ok && others_ok && first_ok && self_test_ok;
     let verdict = if pass { "PASS" } else { "FAIL" };
     if robust_running {
         println!(
@@ -253,6 +331,77 @@ pub fn judge(log: &str) -> Result<(), Vec<String>> {
         Ok(())
     } else {
         Err(failures)
+    }
+}
+
+/// The self-tests of a run without a bench fault: the first at start-up,
+/// every check of every one passed.
+fn check_self_tests(tests: &[&Line]) -> bool {
+    for t in tests {
+        println!(
+            "self-test ({}, samples {}–{}): failed {} not measured {}; ADC ID {}, DRDY {} Hz, \
+             loopback gain {} delay {} samples, noise σ {} SNR {} dB",
+            if t.text("at_boot") == "true" {
+                "at start-up"
+            } else {
+                "on command"
+            },
+            t.text("first"),
+            t.text("last"),
+            t.text("failed"),
+            t.text("not_measured"),
+            t.text("id"),
+            t.f64("drdy_hz"),
+            t.f64("gain"),
+            t.f64("delay"),
+            t.f64("noise_sd"),
+            t.f64("snr_db")
+        );
+    }
+    let first_at_boot = tests.first().is_some_and(|t| t.text("at_boot") == "true");
+    let all_passed = tests.iter().all(|t| {
+        t.text("fault") == "none"
+            && t.values.contains_key("failed")
+            && t.u64("failed") == 0
+            && t.values.contains_key("not_measured")
+            && t.u64("not_measured") == 0
+    });
+    if !(first_at_boot && all_passed) {
+        println!("the self-test at start-up missing, or a check of a self-test did not pass");
+    }
+    first_at_boot && all_passed
+}
+
+/// A run with the bench fault `fault` injected before the self-test at
+/// start-up: its report must name exactly `failed` as failed and
+/// `not_measured` as not measured (bit sets of `SelfTestChecks`).
+pub fn judge_self_test_fault(
+    log: &str,
+    fault: &str,
+    failed: u16,
+    not_measured: u16,
+) -> Result<(), String> {
+    let lines: Vec<Line> = log.lines().filter_map(Line::parse).collect();
+    let Some(t) = lines
+        .iter()
+        .find(|l| l.what == "selftest" && l.text("at_boot") == "true")
+    else {
+        return Err(format!("fault {fault}: no self-test report at start-up"));
+    };
+    let got = (t.u64("failed"), t.u64("not_measured"));
+    let want = (u64::from(failed), u64::from(not_measured));
+    if t.text("fault") == fault && got == want {
+        Ok(())
+    } else {
+        Err(format!(
+            "fault {fault}: the self-test reported fault={} failed={} not_measured={}, expected \
+             failed={} not_measured={}",
+            t.text("fault"),
+            got.0,
+            got.1,
+            want.0,
+            want.1
+        ))
     }
 }
 
@@ -356,6 +505,9 @@ monitor_saturated=50 stuck=101 rejected=166 dac_errors=0 dac_saturated=0 dropped
 rig: tuning automatic=true lambda0=9.415307000e1 lambda=9.415307000e1 phase=converged \
 recentre_threshold=1.000000000e-1 lost_pairs=0 startup_dropped=0
 rig: modes n=2 omega1=3.915330124e1 zeta1=2.070002262e-2 omega2=2.453712616e2 zeta2=1.300003827e-1
+rig: selftest at_boot=true failed=0 not_measured=0 first=0 last=6687 fault=none id=8704 \
+drdy_hz=1.000000000e4 gain=9.998430610e-1 offset_v=4.656612873e-9 delay=2.149998426e0 \
+noise_sd=0.000000000e0 snr_db=1.063805847e2
 rig: end samples=50000 overruns=0 rig_errors=0 started_at=2074 estimator=adaptive
 ";
 
@@ -380,11 +532,27 @@ rig: end samples=50000 overruns=0 rig_errors=0 started_at=2074 estimator=adaptiv
         fails("lost_pairs=0", "lost_pairs=3");
         fails("n=2 omega1", "n=0 omega1");
         fails("rig: end", "rig: ended");
+        fails("at_boot=true", "at_boot=false");
+        fails("failed=0 not_measured=0", "failed=16 not_measured=0");
+        fails("failed=0 not_measured=0", "failed=0 not_measured=8");
+        fails("rig: selftest", "rig: selftests");
         // A short run skips the counter comparison only.
         let short = RUN
             .replace("samples=50000", "samples=30000")
             .replace("stuck=101", "stuck=0");
         assert_eq!(judge(&short), Ok(()));
+    }
+
+    #[test]
+    fn a_fault_run_passes_only_with_exactly_its_check_failed() {
+        let log = RUN
+            .replace("failed=0 not_measured=0", "failed=16 not_measured=0")
+            .replace("fault=none", "fault=noise");
+        assert_eq!(judge_self_test_fault(&log, "noise", 16, 0), Ok(()));
+        assert!(judge_self_test_fault(&log, "noise", 16, 8).is_err());
+        assert!(judge_self_test_fault(&log, "noise", 4, 0).is_err());
+        assert!(judge_self_test_fault(&log, "drdy_rate", 16, 0).is_err());
+        assert!(judge_self_test_fault(RUN, "noise", 16, 0).is_err());
     }
 
     #[test]

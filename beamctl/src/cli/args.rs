@@ -550,6 +550,27 @@ pub struct ReplayArgs {
         beamest::guard::lines::LineSpec,
         crate::judge::lines::RemovedLine,
     )>,
+
+    /// Coloured measurement noise: `auto` fits an AR model to a first
+    /// fit's residual and, when the residual is coloured and not explained
+    /// by u, runs again with u and y through the same whitening filter
+    /// (docs/REPLAY.md, "Coloured noise"); `off` never does.
+    #[arg(long, value_enum, value_name = "auto|off", default_value_t = PrewhitenChoice::Auto)]
+    pub prewhiten: PrewhitenChoice,
+
+    /// The noise model whose whitening filter the run applies (set by the
+    /// prewhitening pass, not a flag).
+    #[arg(skip)]
+    pub whitening: Option<crate::judge::noise::NoiseModel>,
+}
+
+/// `replay --prewhiten`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PrewhitenChoice {
+    /// Prewhiten when the residual is coloured (the default).
+    Auto,
+    /// Never.
+    Off,
 }
 
 /// `replay --lines`.

@@ -5,7 +5,8 @@
 //! * [`args`] — the options of `simulate`, `replay`, `crlb`;
 //! * [`simulate`] (its flags validated in [`simulate::plan`], `--seeds` in
 //!   [`simulate::seeds`]), [`replay`],
-//!   [`crlb`], [`model`], [`monitor`], [`send`] — the subcommands;
+//!   [`crlb`], [`model`], [`monitor`], [`send`], [`selftest`] — the
+//!   subcommands;
 //! * [`estimator_flags`], [`plant_flags`], [`event_flags`] — the estimator,
 //!   plant and event/guard flags, validated;
 //! * [`progress`] — the progress bar of long runs. (The one-line errors
@@ -20,5 +21,6 @@ pub mod monitor;
 pub mod plant_flags;
 pub mod progress;
 pub mod replay;
+pub mod selftest;
 pub mod send;
 pub mod simulate;

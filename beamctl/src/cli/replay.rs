@@ -47,8 +47,10 @@ use beamest::Real;
 use serde::Serialize;
 use std::sync::mpsc::sync_channel;
 
+mod colour;
 mod lines;
 use beamest::guard::lines::LineSpec;
+pub use colour::{Prewhitening, MAX_COLOUR_RUNS};
 pub use lines::{mains_lines, LineRemoval, MAINS_HARMONICS, MAX_LINE_RUNS, NAMED_TOLERANCE};
 
 /// Samples per batch handed from the parsing thread.
@@ -77,6 +79,11 @@ struct Plan {
     lines: Vec<LineSpec>,
     /// What the report says of them.
     line_removal: LineRemoval,
+    /// The noise model whose whitening filter follows the canceller (the
+    /// prewhitening pass's runs; `None` otherwise).
+    whitening: Option<crate::judge::noise::NoiseModel>,
+    /// `--prewhiten`.
+    prewhiten: crate::cli::args::PrewhitenChoice,
 }
 
 /// The modes of a replay whose flags fix the model: `--modes`, else as
@@ -268,6 +275,8 @@ fn plan_for(args: &ReplayArgs, candidate: Option<Candidate>) -> Result<Plan, Cli
         residual_monitor: args.guard.residual_monitor,
         lines: args.removing.iter().map(|r| r.0).collect(),
         line_removal: LineRemoval::of(args),
+        whitening: args.whitening.clone(),
+        prewhiten: args.prewhiten,
     })
 }
 
@@ -294,6 +303,10 @@ pub struct ReplayReport {
     /// The lines in y removed before this estimate (the line pass, docs/REPLAY.md
     /// "Lines in y").
     pub line_removal: LineRemoval,
+    /// The coloured-noise pass: whether u and y were prewhitened before
+    /// this estimate, and the noise model (docs/REPLAY.md, "Coloured
+    /// noise").
+    pub prewhitening: Prewhitening,
     /// Data rows read.
     pub samples: u64,
     /// Record length, samples × Ts (s).
@@ -611,15 +624,16 @@ pub struct CandidateReport {
 
 /// The samples a replay is judged on when the guard changes them: its
 /// output with `level_correction` (offset steps removed, u and y through
-/// the same DC-removing high-pass) and then through the line canceller of
-/// `lines` (if any), a faulty y as NaN; the guard's delay line drops the
-/// last few samples.
+/// the same DC-removing high-pass), then through the line canceller of
+/// `lines` (if any) and the whitening filter `whitening` (if any), a
+/// faulty y as NaN; the guard's delay line drops the last few samples.
 fn conditioned(
     samples: impl Iterator<Item = (f64, f64)>,
     ts: f64,
     range: Option<[f64; 2]>,
     level_correction: bool,
     lines: &[LineSpec],
+    whitening: Option<&[f64]>,
 ) -> Result<Vec<(f64, f64)>, CliError> {
     let fail = |e: &dyn std::fmt::Display| CliError::failure(format!("replay: {e}"));
     let mut guard =
@@ -636,12 +650,17 @@ fn conditioned(
             .map_err(|e| fail(&e))?,
         ),
     };
+    let mut whitener = whitening.map(crate::judge::noise::Whitener::new);
     let mut out = Vec::with_capacity(samples.size_hint().0);
     for (u, y) in samples {
         if let Some(g) = guard.push(u, y) {
             let (u, y) = g.for_estimator();
-            out.push(match canceller.as_mut() {
+            let (u, y) = match canceller.as_mut() {
                 Some(c) => c.push(u, y),
+                None => (u, y),
+            };
+            out.push(match whitener.as_mut() {
+                Some(w) => w.push(u, y),
                 None => (u, y),
             });
         }
@@ -673,10 +692,11 @@ fn execute_auto(
     let pairs = || u.iter().copied().zip(y.iter().copied());
     let with_band = record_band(args, pairs(), ts);
     let args = &with_band;
-    let judged = conditioned(pairs(), ts, range, true, &lines)?;
-    let measured = match lines.as_slice() {
-        [] => None,
-        l => Some(conditioned(pairs(), ts, range, false, l)?),
+    let whitening = args.whitening.as_ref().map(|m| m.whitening.as_slice());
+    let judged = conditioned(pairs(), ts, range, true, &lines, whitening)?;
+    let measured = match (lines.as_slice(), whitening) {
+        ([], None) => None,
+        (l, w) => Some(conditioned(pairs(), ts, range, false, l, w)?),
     };
     let stop = AtomicBool::new(false);
     let next = AtomicUsize::new(0);
@@ -1190,6 +1210,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Stepper<T, D, NP
             Session::<T, D, NP, NS>::new(&plan.est.kinds, plan.est.gains, &tuning, &plan.weights)
                 .and_then(|s| s.with_guard(&guard_config(ts, plan.range, plan.level_correction)))
                 .and_then(|s| s.with_lines(&plan.lines))
+                .map(|s| s.with_whitener(plan.whitening.as_ref().map(|m| m.whitening.as_slice())))
                 .and_then(|s| s.with_monitor(plan.residual_monitor))
                 .map_err(|e| CliError::failure(format!("replay: {e}")))?;
         let dense = csv.is_some() || want_plot;
@@ -1245,13 +1266,14 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 batches.push(batch);
             })?;
             st.end();
-            if plan.level_correction || !plan.lines.is_empty() {
+            if plan.level_correction || !plan.lines.is_empty() || plan.whitening.is_some() {
                 let c = conditioned(
                     batches.iter().flatten().copied(),
                     ts,
                     plan.range,
                     plan.level_correction,
                     &plan.lines,
+                    plan.whitening.as_ref().map(|m| m.whitening.as_slice()),
                 )?;
                 return judge(plan, label, st, || c.iter().copied());
             }
@@ -1270,13 +1292,14 @@ fn replay_sized<T: Real, const D: usize, const NP: usize, const NS: usize>(
                 }
             }
             st.end();
-            if plan.level_correction || !plan.lines.is_empty() {
+            if plan.level_correction || !plan.lines.is_empty() || plan.whitening.is_some() {
                 let c = conditioned(
                     u.iter().copied().zip(y.iter().copied()),
                     ts,
                     plan.range,
                     plan.level_correction,
                     &plan.lines,
+                    plan.whitening.as_ref().map(|m| m.whitening.as_slice()),
                 )?;
                 return judge(plan, label, st, || c.iter().copied());
             }
@@ -1467,6 +1490,7 @@ where
             ts_s: ts,
             selection: None,
             line_removal: plan.line_removal.clone(),
+            prewhitening: Prewhitening::of(plan),
             samples: n,
             duration_s: n as f64 * ts,
             outcome,
@@ -1567,6 +1591,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> StreamSteps
                     mode: "off",
                     removed: Vec::new(),
                 },
+                prewhitening: Prewhitening::default(),
                 samples: n,
                 duration_s: n as f64 * self.ts,
                 outcome: self.session.outcome(
@@ -1717,6 +1742,15 @@ fn render(plan: &Plan, reports: &[ReplayReport]) -> String {
             "lines:  removed from u and y ({}): {}\n",
             first.line_removal.mode,
             each.join(", ")
+        ));
+    }
+    if let (true, Some(m)) = (first.prewhitening.applied, &first.prewhitening.noise_model) {
+        out.push_str(&format!(
+            "noise:  coloured (AR({}) of the residual predicts {:.0}% of its power); u and y \
+             prewhitened by it, the fit and verdict of the prewhitened record (docs/REPLAY.md, \
+             \"Coloured noise\")\n",
+            m.order,
+            100.0 * (1.0 - 1.0 / m.prediction_gain)
         ));
     }
     let columns: Vec<Column<'_>> = reports

@@ -316,22 +316,8 @@ impl LagSums {
         if !(r[0] > 0.0 && r[0].is_finite()) {
             return 1.0;
         }
-        let mut a = [0.0; WHITENESS_LAGS + 1];
-        let mut err = r[0];
-        for m in 1..=WHITENESS_LAGS {
-            let acc: f64 = r[m] - (1..m).map(|i| a[i] * r[m - i]).sum::<f64>();
-            let kappa = acc / err;
-            if !(kappa.abs() < 1.0) {
-                break;
-            }
-            let prev = a;
-            a[m] = kappa;
-            for i in 1..m {
-                a[i] = prev[i] - kappa * prev[m - i];
-            }
-            err *= 1.0 - kappa * kappa;
-        }
-        r[0] / err
+        let (errs, _) = super::noise::levinson(r);
+        errs.last().map_or(1.0, |e| r[0] / e)
     }
 }
 

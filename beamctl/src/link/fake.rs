@@ -22,13 +22,17 @@
 //! * an Ack for every command frame it decodes: checked by the core's
 //!   `Command::validate` against [`FakeConfig::limits`], applied only if
 //!   accepted. Frames that do not decode are counted in `rx_frame_errors`
-//!   and not answered, as the protocol says.
+//!   and not answered, as the protocol says;
+//! * after the Ack of a `SelfTest`, at once, a [`SelfTestReport`] in which
+//!   every check passes with the values of a healthy rig
+//!   ([`FakeDevice::self_test_report`]: not measured, made up); its Status
+//!   reports the self-test done from then on.
 
 use beam_protocol::{
     budget::MAX_COMMAND_ENCODED_LEN, Ack, AckResult, Command, Decoder, DeviceCounters, Estimate,
     EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion, Limits, ModeEstimate,
-    RawSamples, Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_ENCODED_LEN,
-    MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
+    RawSamples, SelfTestReport, SelfTestState, Status, StatusFlags, TelemetryRates, UySample,
+    Waveform, MAX_ENCODED_LEN, MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA,
 };
 use beam_protocol::{Encoder, Payload};
 use beamest::model::ModalParams;
@@ -148,6 +152,7 @@ pub struct FakeDevice {
     encoder: Encoder,
     rx: Decoder<MAX_COMMAND_ENCODED_LEN>,
     log: FakeLog,
+    self_test: SelfTestState,
 }
 
 fn period(fs: f32, rate_hz: f32) -> Option<u64> {
@@ -171,6 +176,7 @@ impl FakeDevice {
             encoder: Encoder::new(),
             rx: Decoder::new(),
             log: FakeLog::default(),
+            self_test: SelfTestState::NotRun,
             cfg,
         };
         dev.hold(0);
@@ -256,6 +262,58 @@ impl FakeDevice {
             },
             telemetry: self.rates,
             lambda_automatic: self.estimator.lambda_rad_s.is_none(),
+            self_test: self.self_test,
+        }
+    }
+
+    /// The report of its self-test, ending at the current sample: every
+    /// check passes, with the values a healthy emulated rig reports (ID
+    /// 2203h, the emulated bench's ADC registers, the sample rate, a
+    /// loopback of gain 1 and 2.15 samples, noise 1e-8 against an RMS of
+    /// 3e-3 under its excitation). Made up, not measured.
+    pub fn self_test_report(&self) -> SelfTestReport {
+        use beam_protocol::{AdcCheck, DrdyCheck, LoopbackCheck, NoiseCheck, SelfTestChecks};
+        let registers = beamest::bench::adc_config().expected_registers();
+        let fs = self.sample_rate_hz();
+        let samples: u32 = 6_656;
+        SelfTestReport {
+            first_sample: self.next.saturating_sub(u64::from(samples)),
+            last_sample: self.next.saturating_sub(1),
+            at_boot: false,
+            failed: SelfTestChecks::default(),
+            not_measured: SelfTestChecks::default(),
+            adc: AdcCheck {
+                id: 0x2203,
+                registers,
+                expected: registers,
+            },
+            drdy: DrdyCheck {
+                rate_hz: fs,
+                expected_hz: fs,
+                tolerance: 1e-4,
+                conversions: samples,
+                ticks: samples,
+            },
+            loopback: LoopbackCheck {
+                tone_hz: fs * 10.0 / 2048.0,
+                amplitude_v: 1.0,
+                gain: 1.0,
+                expected_gain: 1.0,
+                gain_tolerance: 0.05,
+                offset_v: 0.0,
+                offset_tolerance_v: 0.02,
+                delay_samples: 2.15,
+                expected_delay_samples: 2.15,
+                delay_tolerance_samples: 0.02,
+            },
+            noise: NoiseCheck {
+                noise_sd: 1e-8,
+                floor_sd: 1e-8,
+                signal_rms: 3e-3,
+                snr_db: 109.5,
+                snr_min_db: 60.0,
+                excitation: self.excitation,
+            },
         }
     }
 
@@ -418,6 +476,14 @@ impl FakeDevice {
                 if result == AckResult::Accepted && command == Command::RequestStatus {
                     self.send_status(out);
                 }
+                if result == AckResult::Accepted && command == Command::SelfTest {
+                    let report = self.self_test_report();
+                    self.send(&report, out);
+                    self.self_test = SelfTestState::Done {
+                        failed: report.failed,
+                        not_measured: report.not_measured,
+                    };
+                }
             }
         }
     }
@@ -441,7 +507,7 @@ impl FakeDevice {
             }
             Command::Freeze => self.frozen = true,
             Command::Resume => self.frozen = false,
-            Command::RequestStatus => {}
+            Command::RequestStatus | Command::SelfTest | Command::SetLineRemoval(_) => {}
         }
         self.hold(k);
     }

@@ -7,8 +7,8 @@
 //! sent again as is.
 
 use beam_protocol::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, OutputKind, Status, TelemetryRates,
-    Waveform, WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, LineRemoval, OutputKind, Status,
+    TelemetryRates, Waveform, WaveformKind,
 };
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
@@ -33,6 +33,47 @@ pub enum CommandArgs {
     Resume,
     /// Ask for a Status and print it.
     Status,
+    /// Set the line remover: the mains and its harmonics removed from u
+    /// and y before the estimator (docs/FIRMWARE.md, "The line remover").
+    Lines(LinesArgs),
+    /// Run the device's self-test (its report arrives later; `beamctl
+    /// selftest` waits for it and prints it).
+    Selftest,
+}
+
+/// Options of `lines`.
+#[derive(Debug, Clone, Args)]
+#[command(group(clap::ArgGroup::new("which").required(true).args(["mains", "off"])))]
+pub struct LinesArgs {
+    /// The mains frequency (Hz; e.g. 50, 60, or the measured 49.6 that
+    /// `beamctl replay` reports): its harmonics 1..=--harmonics below the
+    /// Nyquist frequency are removed.
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub mains: Option<f32>,
+    /// Remove no line.
+    #[arg(long)]
+    pub off: bool,
+    /// Harmonics removed, 1..=7.
+    #[arg(long, value_name = "N", default_value_t = LineRemoval::MAX_HARMONICS)]
+    pub harmonics: u8,
+    /// The weights' time constant τ (s): the notch is about 1/(πτ) Hz
+    /// wide, a line present at the switch decays as e^(−t/τ).
+    #[arg(long, value_name = "SECONDS", default_value_t = LineRemoval::DEFAULT_TIME_CONSTANT_S, allow_negative_numbers = true)]
+    pub time_constant: f32,
+}
+
+impl LinesArgs {
+    fn build(&self) -> LineRemoval {
+        LineRemoval {
+            mains_hz: if self.off {
+                0.0
+            } else {
+                self.mains.unwrap_or(0.0)
+            },
+            harmonics: self.harmonics,
+            time_constant_s: self.time_constant,
+        }
+    }
 }
 
 /// The values of `--wave`: the waveform kinds by their names
@@ -225,6 +266,8 @@ impl CommandArgs {
             Self::Freeze => Command::Freeze,
             Self::Resume => Command::Resume,
             Self::Status => Command::RequestStatus,
+            Self::Lines(a) => Command::SetLineRemoval(a.build()),
+            Self::Selftest => Command::SelfTest,
         })
     }
 }
@@ -507,6 +550,17 @@ pub fn telemetry_text(t: &TelemetryRates) -> String {
     )
 }
 
+/// `lines --mains … --harmonics … --time-constant …`, or `lines --off`.
+pub fn lines_text(l: &LineRemoval) -> String {
+    if l.is_off() {
+        return "lines --off".to_string();
+    }
+    format!(
+        "lines --mains {} --harmonics {} --time-constant {}",
+        l.mains_hz, l.harmonics, l.time_constant_s
+    )
+}
+
 /// The command in `beamctl send` syntax (without `beamctl send` and the
 /// connection flags).
 pub fn command_text(c: &Command) -> String {
@@ -518,6 +572,8 @@ pub fn command_text(c: &Command) -> String {
         Command::Freeze => "freeze".to_string(),
         Command::Resume => "resume".to_string(),
         Command::RequestStatus => "status".to_string(),
+        Command::SetLineRemoval(l) => lines_text(l),
+        Command::SelfTest => "selftest".to_string(),
     }
 }
 
@@ -708,5 +764,27 @@ pub(crate) mod tests {
             "telemetry --estimates 100 --raw-decimation 0 --status 1"
         );
         assert_eq!(command_text(&Command::RequestStatus), "status");
+        // Lines: written and read back, off and on.
+        for l in [
+            LineRemoval::OFF,
+            LineRemoval {
+                mains_hz: 49.6,
+                harmonics: 3,
+                time_constant_s: 0.5,
+            },
+        ] {
+            let c = Command::SetLineRemoval(l);
+            let text = command_text(&c);
+            assert_eq!(build(&text, None).unwrap(), c, "{text}");
+        }
+        assert_eq!(
+            build("lines --mains 50", None).unwrap(),
+            Command::SetLineRemoval(LineRemoval {
+                mains_hz: 50.0,
+                ..LineRemoval::OFF
+            })
+        );
+        assert!(build("lines", None).is_err());
+        assert!(build("lines --mains 50 --off", None).is_err());
     }
 }

@@ -91,6 +91,7 @@ pub fn columns() -> Vec<String> {
             "estimate_rate_hz",
             "raw_decimation",
             "status_rate_hz",
+            "self_test",
             "command_seq",
             "result",
             "detail",
@@ -230,6 +231,7 @@ impl Recorder {
             Message::RawSamples(r) => ("raw", Some(r.first_sample_index)),
             Message::Status(s) => ("status", Some(s.uptime_samples)),
             Message::Ack(_) => ("ack", None),
+            Message::SelfTestReport(r) => ("selftest", Some(r.first_sample)),
             Message::Command(_) => ("command_echo", None),
         };
         let mut row = self.row(host_s, kind);
@@ -253,6 +255,17 @@ impl Recorder {
                 if let beam_protocol::AckResult::Rejected(r) = a.result {
                     row.set(cols, "detail", r.describe());
                 }
+            }
+            Message::SelfTestReport(r) => {
+                row.set(
+                    cols,
+                    "self_test",
+                    text::self_test_state_text(beam_protocol::SelfTestState::Done {
+                        failed: r.failed,
+                        not_measured: r.not_measured,
+                    }),
+                );
+                row.set(cols, "detail", text::self_test_lines(r).join(" / "));
             }
             Message::Command(c) => row.set(cols, "detail", grammar::command_text(c)),
         }
@@ -455,6 +468,7 @@ fn status_fields(row: &mut Row, cols: &[String], s: &Status) {
     row.set(cols, "estimate_rate_hz", t.estimate_rate_hz);
     row.set(cols, "raw_decimation", t.raw_decimation);
     row.set(cols, "status_rate_hz", t.status_rate_hz);
+    row.set(cols, "self_test", text::self_test_state_text(s.self_test));
 }
 
 #[cfg(test)]
@@ -481,6 +495,6 @@ mod tests {
         s.sort();
         s.dedup();
         assert_eq!(s.len(), c.len());
-        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 33);
+        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 34);
     }
 }

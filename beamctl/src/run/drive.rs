@@ -64,6 +64,29 @@ pub fn drive(cfg: &RunConfig) -> Result<Drive, RunError> {
         min_v: f64::from(limits.piezo_min_v),
         max_v: f64::from(limits.piezo_max_v),
     };
+    firmware_drive(wire, window, fs)
+}
+
+/// A device's excitation `wire` as the device runs it (a generator at
+/// rest, [`ExcitationPlan`] applied), at `fs`, without the bench's limits:
+/// `wire` was accepted by that device (e.g. a self-test report's default
+/// excitation), so the window is the span it covers.
+pub fn device_drive(wire: &protocol::Excitation, fs: f64) -> Result<Drive, RunError> {
+    let a = f64::from(wire.amplitude_v).abs();
+    let o = f64::from(wire.offset_v);
+    let window = SafeWindow {
+        min_v: o - a,
+        max_v: o + a,
+    };
+    firmware_drive(wire, window, fs)
+}
+
+fn firmware_drive(
+    wire: &protocol::Excitation,
+    window: SafeWindow<f64>,
+    fs: f64,
+) -> Result<Drive, RunError> {
+    let refused = |r: protocol::RejectReason| RunError::Setup(format!("excitation {r}"));
     let rest = protocol::Excitation {
         waveform: Waveform::Off,
         amplitude_v: 0.0,

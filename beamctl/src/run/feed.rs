@@ -7,8 +7,9 @@
 //! 1. the guard screens it ([`SensorGuard::push_monitored`]); what leaves
 //!    its delay line (a faulty sample as NaN, which an estimator rejects)
 //!    passes the line canceller if lines are set ([`Feed::with_lines`],
-//!    [`beamest::guard::lines`]) and is the estimators' sample; nothing
-//!    leaves it while it fills;
+//!    [`beamest::guard::lines`]) and then the whitening filter if one is
+//!    set ([`Feed::with_whitener`], [`crate::judge::noise`]), and is the
+//!    estimators' sample; nothing leaves it while it fills;
 //! 2. a hold the guard asks for after a gap or an offset step with the
 //!    high-pass on ([`SensorGuard::take_hold`]) is given to every
 //!    estimator first, whether or not a sample leaves the line;
@@ -26,6 +27,7 @@
 //! offsets and drifts 1.2 s after an ω1 +10% step without this). A gap
 //! hold keeps the model: the plant has not changed.
 
+use crate::judge::noise::Whitener;
 use beamest::estimator::{Estimator, StepStatus};
 use beamest::guard::lines::{
     LineCanceller, LineError, LineSpec, DEFAULT_LINE_TIME_CONSTANT_S, MAX_LINES,
@@ -83,6 +85,8 @@ pub struct Feed {
     guard: SensorGuard<f64>,
     /// The line canceller after the guard (`None`: no lines).
     lines: Option<LineCanceller<f64, MAX_LINES>>,
+    /// The whitening filter after it (`None`: none).
+    whitener: Option<Whitener>,
     ts_s: f64,
     index: u64,
     /// [`CHANGE_QUIET_S`] in samples.
@@ -100,6 +104,7 @@ impl Feed {
         Ok(Self {
             guard: SensorGuard::new(cfg)?,
             lines: None,
+            whitener: None,
             ts_s: cfg.ts_s,
             index: 0,
             quiet: (CHANGE_QUIET_S / cfg.ts_s).round() as u64,
@@ -123,6 +128,13 @@ impl Feed {
             )?)
         };
         Ok(self)
+    }
+
+    /// The same feed with the whitening filter `coeffs` ([1, c_1, …]) on u
+    /// and y after the line canceller; `None`: none.
+    pub fn with_whitener(mut self, coeffs: Option<&[f64]>) -> Self {
+        self.whitener = coeffs.map(Whitener::new);
+        self
     }
 
     /// Give a screened sample to `target` (steps 2–4 of the module docs);
@@ -171,12 +183,16 @@ impl Feed {
     pub fn push(&mut self, u: f64, y: f64, monitor: Option<&mut ResidualMonitor<f64>>) -> Screened {
         let out = self.guard.push_monitored(u, y, true, self.index, monitor);
         self.index += 1;
-        let lines = &mut self.lines;
+        let (lines, whitener) = (&mut self.lines, &mut self.whitener);
         Screened {
             pair: out.map(|g| {
                 let (u, y) = g.for_estimator();
-                match lines {
+                let (u, y) = match lines {
                     Some(c) => c.push(u, y),
+                    None => (u, y),
+                };
+                match whitener {
+                    Some(w) => w.push(u, y),
                     None => (u, y),
                 }
             }),

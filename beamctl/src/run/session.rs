@@ -527,6 +527,14 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> Session<T, D, NP
         Ok(self)
     }
 
+    /// The same session with the whitening filter `coeffs` ([1, c_1, …])
+    /// on u and y after the line canceller ([`Feed::with_whitener`]; set
+    /// after [`Session::with_guard`]); `None`: none.
+    pub fn with_whitener(mut self, coeffs: Option<&[f64]>) -> Self {
+        self.feed = self.feed.with_whitener(coeffs);
+        self
+    }
+
     /// Feed one raw sample: it passes the sensor guard
     /// ([`beamest::guard`]), and the pair leaving the guard's delay line
     /// (faulty ones as NaN, which the estimators reject) goes to every

@@ -112,11 +112,14 @@ impl FrameFormat {
     /// (16-bit words are shifted left by 8, so 1 LSB of a 16-bit word is
     /// 256 codes).
     pub fn data(self, buf: &[u8], index: usize) -> i32 {
-        let wb = self.word_bytes();
-        let mut w = [0u8; MAX_WORD_BYTES];
-        for (k, dst) in w.iter_mut().enumerate().take(wb) {
-            *dst = buf.get(index * wb + k).copied().unwrap_or(0);
-        }
+        let at = index * self.word_bytes();
+        let b = |k: usize| buf.get(at + k).copied().unwrap_or(0);
+        // The word's bytes at known offsets for each length (no loop).
+        let w = match self.word_length {
+            WordLength::Bits16 => [b(0), b(1), 0, 0],
+            WordLength::Bits24 => [b(0), b(1), b(2), 0],
+            WordLength::Bits32ZeroPad | WordLength::Bits32SignExtend => [b(0), b(1), b(2), b(3)],
+        };
         decode_data(self.word_length, w)
     }
 }

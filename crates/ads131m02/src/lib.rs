@@ -237,6 +237,56 @@ impl Config {
     }
 }
 
+impl Config {
+    /// MODE, CLOCK and GAIN1 as [`Ads131m02::configure`] writes them,
+    /// masked to their writable bits: what [`ReadBack::registers`] must
+    /// give.
+    pub const fn expected_registers(&self) -> [u16; 3] {
+        [
+            self.mode().to_bits() & MODE_MASK,
+            self.clock().to_bits() & CLOCK_MASK,
+            self.gain().to_bits() & GAIN_MASK,
+        ]
+    }
+}
+
+/// The ID and the configuration registers as [`Ads131m02::read_back`]
+/// found them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReadBack {
+    /// ID (22xxh for the two-channel part).
+    pub id: u16,
+    /// MODE as read.
+    pub mode: u16,
+    /// CLOCK as read.
+    pub clock: u16,
+    /// GAIN1 as read.
+    pub gain: u16,
+}
+
+impl ReadBack {
+    /// The ID names a two-channel ADS131M0x (22xxh, Table 8-12).
+    pub const fn id_ok(&self) -> bool {
+        self.id >> 8 == registers::ID_HIGH_BYTE as u16
+    }
+
+    /// MODE, CLOCK and GAIN1 masked to their writable bits (compare with
+    /// [`Config::expected_registers`]).
+    pub const fn registers(&self) -> [u16; 3] {
+        [
+            self.mode & MODE_MASK,
+            self.clock & CLOCK_MASK,
+            self.gain & GAIN_MASK,
+        ]
+    }
+
+    /// The configuration registers hold `config` (under the masks).
+    pub fn matches(&self, config: &Config) -> bool {
+        self.registers() == config.expected_registers()
+    }
+}
+
 /// One data frame: the STATUS word that answered NULL and both channels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -252,6 +302,10 @@ pub struct Frame {
 pub struct Ads131m02<SPI> {
     spi: SPI,
     format: FrameFormat,
+    /// The NULL command's frame in `format` (command word, its input CRC
+    /// if enabled, zeros): every data read sends it, so it is encoded
+    /// when the format changes ([`Ads131m02::set_format`]), not per frame.
+    null_frame: [u8; MAX_FRAME_BYTES],
     /// The command the device latched at the end of the last frame: the
     /// next frame's first word answers it.
     pending: Command,
@@ -277,6 +331,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         Ads131m02 {
             spi,
             format: FrameFormat::RESET,
+            null_frame: null_frame(FrameFormat::RESET),
             pending: Command::Null,
             gains: [PgaGain::G1; 2],
             enabled: [true; 2],
@@ -320,7 +375,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         self.spi.transfer_in_place(tx)?;
         self.pending = Command::Reset;
         // RESET restores every register (Table 8-12), so the framing too.
-        self.format = FrameFormat::RESET;
+        self.set_format(FrameFormat::RESET);
         self.gains = [PgaGain::G1; 2];
         self.enabled = [true; 2];
         self.configured = false;
@@ -347,7 +402,7 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         self.command(Command::write(Register::Clock), &[clock])?;
         self.command(Command::write(Register::Gain), &[gain])?;
         self.command(Command::write(Register::Mode), &[mode])?;
-        self.format = config.format();
+        self.set_format(config.format());
         self.configured = true;
         self.command(Command::Null, &[])?;
         for (register, wrote, mask) in [
@@ -512,6 +567,25 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         })
     }
 
+    /// Read ID, STATUS, MODE, CLOCK and GAIN1 with one multi-register RREG
+    /// ([`Ads131m02::read_registers`]): two frames, the first a normal data
+    /// frame, the second the answer, which carries no ADC data. For a
+    /// check while converting (the self-test): between two samples, right
+    /// after a data frame was read, so that no conversion completes in
+    /// between (one that did would be output by the RREG frame and missed
+    /// by the next read).
+    pub fn read_back(&mut self) -> Result<ReadBack, Error<SPI::Error>> {
+        let mut r = [0u16; 5];
+        self.read_registers(Register::Id, &mut r)?;
+        let [id, _status, mode, clock, gain] = r;
+        Ok(ReadBack {
+            id,
+            mode,
+            clock,
+            gain,
+        })
+    }
+
     /// Read one register (RREG, then NULL for the answer).
     pub fn read_register(&mut self, register: Register) -> Result<u16, Error<SPI::Error>> {
         self.command(Command::read(register), &[])?;
@@ -570,11 +644,11 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         match register {
             Register::Mode => {
                 let m = Mode::from_bits(value);
-                self.format = FrameFormat {
+                self.set_format(FrameFormat {
                     word_length: m.word_length,
                     crc_type: m.crc_type,
                     rx_crc: m.rx_crc_enable,
-                };
+                });
                 self.configured = !m.reset;
             }
             Register::Clock => self.enabled = Clock::from_bits(value).channel_enable,
@@ -643,26 +717,32 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             let rx = buf.get_mut(..n).ok_or(Error::InvalidArgument)?;
             return Ok((self.transact(rx, cmd, data)?, [0; 2]));
         }
-        let mut buf = [0u8; MAX_FRAME_BYTES];
         let n = self.format.frame_bytes();
+        // A data read (NULL) sends the frame encoded in advance.
+        let null = cmd == Command::Null && data.is_empty();
+        let mut buf = if null {
+            self.null_frame
+        } else {
+            [0u8; MAX_FRAME_BYTES]
+        };
         let rx = buf.get_mut(..n).ok_or(Error::InvalidArgument)?;
-        let response = self.transact(rx, cmd, data)?;
+        let response = if null {
+            self.exchange(rx, cmd)?
+        } else {
+            self.transact(rx, cmd, data)?
+        };
         Ok((response, [self.format.data(rx, 1), self.format.data(rx, 2)]))
+    }
+
+    /// The framing from now on (and the NULL frame encoded in it).
+    fn set_format(&mut self, format: FrameFormat) {
+        self.format = format;
+        self.null_frame = null_frame(format);
     }
 
     /// Put `cmd`, its data words and (if enabled) the input CRC in `tx`.
     fn load_command(&self, tx: &mut [u8], cmd: Command, data: &[u16]) {
-        let f = self.format;
-        tx.fill(0);
-        f.put_word16(tx, 0, cmd.word());
-        for (i, &d) in data.iter().enumerate() {
-            f.put_word16(tx, 1 + i, d);
-        }
-        if f.rx_crc {
-            let covered = (1 + data.len()) * f.word_bytes();
-            let crc = f.crc(tx.get(..covered).unwrap_or(&[]));
-            f.put_word16(tx, 1 + data.len(), crc);
-        }
+        load_command(self.format, tx, cmd, data);
     }
 
     /// Clock one frame in `buf` (its length is the frame length), check
@@ -674,6 +754,11 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
         data: &[u16],
     ) -> Result<Response, Error<SPI::Error>> {
         self.load_command(buf, cmd, data);
+        self.exchange(buf, cmd)
+    }
+
+    /// [`Ads131m02::transact`] with `cmd` already in `buf`.
+    fn exchange(&mut self, buf: &mut [u8], cmd: Command) -> Result<Response, Error<SPI::Error>> {
         self.spi.transfer_in_place(buf)?;
         // The frame completed, so the device latched `cmd`.
         let answered = core::mem::replace(&mut self.pending, cmd);
@@ -714,4 +799,28 @@ impl<SPI: SpiDevice> Ads131m02<SPI> {
             Ok(())
         }
     }
+}
+
+/// Put `cmd`, its data words and (if enabled) the input CRC in `tx`, in
+/// `format`.
+fn load_command(format: FrameFormat, tx: &mut [u8], cmd: Command, data: &[u16]) {
+    tx.fill(0);
+    format.put_word16(tx, 0, cmd.word());
+    for (i, &d) in data.iter().enumerate() {
+        format.put_word16(tx, 1 + i, d);
+    }
+    if format.rx_crc {
+        let covered = (1 + data.len()) * format.word_bytes();
+        let crc = format.crc(tx.get(..covered).unwrap_or(&[]));
+        format.put_word16(tx, 1 + data.len(), crc);
+    }
+}
+
+/// The NULL command's frame in `format` (the bytes of a data read).
+fn null_frame(format: FrameFormat) -> [u8; MAX_FRAME_BYTES] {
+    let mut frame = [0u8; MAX_FRAME_BYTES];
+    if let Some(tx) = frame.get_mut(..format.frame_bytes()) {
+        load_command(format, tx, Command::Null, &[]);
+    }
+    frame
 }

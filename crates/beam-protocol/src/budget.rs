@@ -12,7 +12,7 @@
 
 use super::command::TelemetryRates;
 use super::size::{max, MaxSize};
-use super::telemetry::{Ack, Estimate, ModeEstimate, RawSamples, Status};
+use super::telemetry::{Ack, Estimate, ModeEstimate, RawSamples, SelfTestReport, Status};
 use super::{Command, CRC_LEN, HEADER_LEN, MAX_MODES, MAX_RAW_SAMPLES};
 
 /// Longest [`Estimate`] payload for a model of `modes` modes (clamped to
@@ -28,7 +28,7 @@ pub const fn estimate_payload_max(modes: usize) -> usize {
 /// [`MAX_RAW_SAMPLES`] pairs of `f32` (526 bytes).
 pub const RAW_PAYLOAD_MAX: usize = RawSamples::MAX_SIZE;
 
-/// Longest [`Status`] payload (128 bytes).
+/// Longest [`Status`] payload (136 bytes).
 pub const STATUS_PAYLOAD_MAX: usize = Status::MAX_SIZE;
 
 /// Longest [`Ack`] payload: sequence number and result byte.
@@ -38,6 +38,10 @@ pub const ACK_PAYLOAD_MAX: usize = Ack::MAX_SIZE;
 /// settings).
 pub const COMMAND_PAYLOAD_MAX: usize = Command::MAX_SIZE;
 
+/// Longest [`SelfTestReport`] payload (sent once per self-test, not part
+/// of [`LinkLoad`]).
+pub const SELF_TEST_PAYLOAD_MAX: usize = SelfTestReport::MAX_SIZE;
+
 /// Longest payload of any message: a full raw-sample block.
 pub const MAX_PAYLOAD_LEN: usize = max(
     RAW_PAYLOAD_MAX,
@@ -45,7 +49,10 @@ pub const MAX_PAYLOAD_LEN: usize = max(
         estimate_payload_max(MAX_MODES),
         max(
             STATUS_PAYLOAD_MAX,
-            max(ACK_PAYLOAD_MAX, COMMAND_PAYLOAD_MAX),
+            max(
+                SELF_TEST_PAYLOAD_MAX,
+                max(ACK_PAYLOAD_MAX, COMMAND_PAYLOAD_MAX),
+            ),
         ),
     ),
 );
@@ -156,8 +163,9 @@ mod tests {
         assert_eq!(estimate_payload_max(2), 77);
         assert_eq!(estimate_payload_max(3), 105);
         assert_eq!(RAW_PAYLOAD_MAX, 526);
-        assert_eq!(STATUS_PAYLOAD_MAX, 130);
+        assert_eq!(STATUS_PAYLOAD_MAX, 137);
         assert_eq!(COMMAND_PAYLOAD_MAX, 24);
+        assert_eq!(SELF_TEST_PAYLOAD_MAX, 151);
         assert_eq!(MAX_PAYLOAD_LEN, RAW_PAYLOAD_MAX);
         assert_eq!(MAX_FRAME_LEN, 538);
         // 538 bytes: COBS adds ⌈538/254⌉ = 3, then the delimiter.
@@ -174,10 +182,10 @@ mod tests {
         let link = uart_bytes_per_s(921_600) as f32;
         let rates = TelemetryRates::default();
         let load = LinkLoad::new(&rates, 10_000.0, 2);
-        // 100 Hz · 91 B + 1 Hz · 144 B.
-        assert_eq!(load.total_b_s(), 9_244.0);
+        // 100 Hz · 91 B + 1 Hz · 151 B.
+        assert_eq!(load.total_b_s(), 9_251.0);
         // Next to them, raw samples fit at 5 kHz (d = 2), not at 10 kHz:
-        // 10 kHz · 542/64 B = 84,688 B/s + 9,244 > 92,160.
+        // 10 kHz · 542/64 B = 84,688 B/s + 9,250 > 92,160.
         assert_eq!(min_raw_decimation(&rates, 10_000.0, 2, link), Some(2));
         // Alone (estimates and status off), 10 kHz raw fits.
         let quiet = TelemetryRates {

@@ -442,6 +442,62 @@ impl Default for TelemetryRates {
     }
 }
 
+/// The line remover (issue 16): an adaptive line canceller at the mains
+/// frequency and its harmonics, applied identically to u and y after the
+/// sensor guard and before the estimator (the same LTI notch on both
+/// leaves the u → y transfer function unchanged; docs/FIRMWARE.md, "The
+/// line remover"). Its weights start from zero: a line present at the
+/// switch decays as e^(−t/τ) in the estimator's y, and the device holds
+/// the law meanwhile.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LineRemoval {
+    /// The mains (fundamental) frequency (Hz), 0 < f < f_s/2; 0 = off (the
+    /// other fields are then not used).
+    pub mains_hz: f32,
+    /// Harmonics 1..=`harmonics` of it are removed (those below f_s/2),
+    /// 1..=[`LineRemoval::MAX_HARMONICS`].
+    pub harmonics: u8,
+    /// The weights' time constant τ (s): the notch is about 1/(πτ) Hz
+    /// wide; at least 10 samples, at most [`LineRemoval::MAX_TIME_CONSTANT_S`].
+    pub time_constant_s: f32,
+}
+
+impl MaxSize for LineRemoval {
+    const MAX_SIZE: usize = f32::MAX_SIZE + u8::MAX_SIZE + f32::MAX_SIZE;
+}
+
+impl LineRemoval {
+    /// The highest harmonic a device removes (the mains' odd harmonics to
+    /// the 7th, and the even ones between).
+    pub const MAX_HARMONICS: u8 = 7;
+    /// The longest time constant accepted (s).
+    pub const MAX_TIME_CONSTANT_S: f32 = 100.0;
+    /// The time constant the host tools send by default (s): a notch
+    /// about 1.6 Hz wide, a line gone to 1e-3 of itself 1.4 s after the
+    /// switch.
+    pub const DEFAULT_TIME_CONSTANT_S: f32 = 0.2;
+
+    /// No line removed.
+    pub const OFF: Self = Self {
+        mains_hz: 0.0,
+        harmonics: Self::MAX_HARMONICS,
+        time_constant_s: Self::DEFAULT_TIME_CONSTANT_S,
+    };
+
+    /// Whether this removes nothing (`mains_hz` = 0).
+    pub fn is_off(&self) -> bool {
+        self.mains_hz == 0.0
+    }
+}
+
+impl Default for LineRemoval {
+    /// Off.
+    fn default() -> Self {
+        Self::OFF
+    }
+}
+
 /// A command from the host. Every command is answered by an
 /// [`Ack`](super::Ack) carrying the command frame's sequence number.
 /// Wire value of the variant: its index below (postcard enum tag).
@@ -463,14 +519,25 @@ pub enum Command {
     Resume,
     /// 6: send a [`Status`](super::Status) now.
     RequestStatus,
+    /// 7: run the bring-up self-test (converter ID and registers, DRDY
+    /// rate, DAC → ADC loopback, noise floor and SNR) and send its
+    /// [`SelfTestReport`](super::SelfTestReport) when it ends. The Ack
+    /// says it started; the drive is the self-test's and adaptation is
+    /// held while it runs (`docs/PROTOCOL.md` §5, §9.7).
+    SelfTest,
+    /// 8: set the line remover (protocol version 3).
+    SetLineRemoval(LineRemoval),
 }
 
 impl MaxSize for Command {
-    /// The tag of seven variants and the longest argument.
-    const MAX_SIZE: usize = tag_len(7)
+    /// The tag of eight variants and the longest argument.
+    const MAX_SIZE: usize = tag_len(8)
         + max(
             Excitation::MAX_SIZE,
-            max(EstimatorSettings::MAX_SIZE, TelemetryRates::MAX_SIZE),
+            max(
+                EstimatorSettings::MAX_SIZE,
+                max(TelemetryRates::MAX_SIZE, LineRemoval::MAX_SIZE),
+            ),
         );
 }
 
@@ -510,11 +577,18 @@ pub enum RejectReason {
     Rate = 13,
     /// The telemetry rates would exceed the link budget.
     LinkBudget = 14,
+    /// The device is busy: a self-test is running (every command but
+    /// `RequestStatus` is refused until it ends), or a `SelfTest` came
+    /// before the first estimator started (the start-up window).
+    Busy = 15,
+    /// Line removal: harmonics not in 1..=7, or the time constant shorter
+    /// than 10 samples or longer than 100 s.
+    LineRemoval = 16,
 }
 
 impl RejectReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 14] = [
+    pub const ALL: [Self; 16] = [
         Self::NotFinite,
         Self::Amplitude,
         Self::SafeWindow,
@@ -529,6 +603,8 @@ impl RejectReason {
         Self::EstimatorUnavailable,
         Self::Rate,
         Self::LinkBudget,
+        Self::Busy,
+        Self::LineRemoval,
     ];
 
     /// The reason with this wire code, if any.
@@ -548,6 +624,8 @@ impl RejectReason {
             12 => Self::EstimatorUnavailable,
             13 => Self::Rate,
             14 => Self::LinkBudget,
+            15 => Self::Busy,
+            16 => Self::LineRemoval,
             _ => return None,
         })
     }
@@ -569,6 +647,8 @@ impl RejectReason {
             Self::EstimatorUnavailable => "estimator not available in this firmware",
             Self::Rate => "telemetry rate negative or above the sample rate",
             Self::LinkBudget => "telemetry rates exceed the link budget",
+            Self::Busy => "device busy: a self-test is running, or the estimator has not started",
+            Self::LineRemoval => "line removal: harmonics or time constant out of range",
         }
     }
 }
@@ -761,7 +841,7 @@ mod tests {
             assert_eq!(RejectReason::from_code(*r as u8), Some(*r));
         }
         assert_eq!(RejectReason::from_code(0), None);
-        assert_eq!(RejectReason::from_code(15), None);
+        assert_eq!(RejectReason::from_code(17), None);
         assert_eq!(RejectReason::from_code(255), None);
     }
 

@@ -13,8 +13,8 @@ use serde::Serialize;
 
 use super::budget::MAX_PAYLOAD_LEN;
 use super::{
-    Ack, Command, Estimate, Frame, Kind, Message, RawSamples, Status, CRC, CRC_LEN, DELIMITER,
-    HEADER_LEN, MAGIC, VERSION,
+    Ack, Command, Estimate, Frame, Kind, Message, RawSamples, SelfTestReport, Status, CRC, CRC_LEN,
+    DELIMITER, HEADER_LEN, MAGIC, VERSION,
 };
 
 /// The fixed frame header (8 bytes, little-endian).
@@ -174,12 +174,12 @@ macro_rules! payload {
         }
     )*};
 }
-payload!(Estimate, RawSamples, Status, Ack, Command);
+payload!(Estimate, RawSamples, Status, Ack, SelfTestReport, Command);
 
 /// Structural rules per message, shared by the encoder and the parser.
 #[allow(non_snake_case)]
 mod well_formed {
-    use super::super::{Ack, Command, Estimate, RawSamples, Status, MAX_MODES};
+    use super::super::{Ack, Command, Estimate, RawSamples, SelfTestReport, Status, MAX_MODES};
 
     pub fn Estimate(m: &Estimate) -> bool {
         m.is_consistent()
@@ -191,6 +191,9 @@ mod well_formed {
         (1..=MAX_MODES).contains(&usize::from(m.modes))
     }
     pub fn Ack(_: &Ack) -> bool {
+        true
+    }
+    pub fn SelfTestReport(_: &SelfTestReport) -> bool {
         true
     }
     pub fn Command(_: &Command) -> bool {
@@ -209,6 +212,7 @@ impl Payload for Message {
             Self::RawSamples(m) => m.is_well_formed(),
             Self::Status(m) => m.is_well_formed(),
             Self::Ack(m) => m.is_well_formed(),
+            Self::SelfTestReport(m) => m.is_well_formed(),
             Self::Command(m) => m.is_well_formed(),
         }
     }
@@ -223,6 +227,7 @@ impl Serialize for Message {
             Self::RawSamples(m) => m.serialize(s),
             Self::Status(m) => m.serialize(s),
             Self::Ack(m) => m.serialize(s),
+            Self::SelfTestReport(m) => m.serialize(s),
             Self::Command(m) => m.serialize(s),
         }
     }
@@ -399,6 +404,7 @@ pub fn parse_frame(raw: &[u8]) -> Result<Frame, DecodeError> {
         Kind::RawSamples => Message::RawSamples(payload_as(payload)?),
         Kind::Status => Message::Status(payload_as(payload)?),
         Kind::Ack => Message::Ack(payload_as(payload)?),
+        Kind::SelfTestReport => Message::SelfTestReport(payload_as(payload)?),
         Kind::Command => Message::Command(payload_as(payload)?),
     };
     Ok(Frame { seq, message })
@@ -462,11 +468,12 @@ impl<'a> postcard::ser_flavors::Flavor for Compare<'a> {
 mod tests {
     use super::super::budget::{
         encoded_len_max, estimate_payload_max, ACK_PAYLOAD_MAX, COMMAND_PAYLOAD_MAX,
-        RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
+        RAW_PAYLOAD_MAX, SELF_TEST_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
     };
     use super::super::{
-        AckResult, DeviceCounters, EstimatorKind, EstimatorSettings, Excitation, FirmwareVersion,
-        ModeEstimate, RejectReason, StatusFlags, TelemetryRates, UySample, Waveform,
+        AckResult, AdcCheck, DeviceCounters, DrdyCheck, EstimatorKind, EstimatorSettings,
+        Excitation, FirmwareVersion, LoopbackCheck, ModeEstimate, NoiseCheck, RejectReason,
+        SelfTestChecks, SelfTestState, StatusFlags, TelemetryRates, UySample, Waveform,
         MAX_ENCODED_LEN, MAX_RAW_SAMPLES,
     };
     use super::*;
@@ -544,6 +551,42 @@ mod tests {
                 ..TelemetryRates::default()
             },
             lambda_automatic: true,
+            self_test: SelfTestState::Done {
+                failed: SelfTestChecks(u16::MAX),
+                not_measured: SelfTestChecks(u16::MAX),
+            },
+        }
+    }
+
+    /// Every varint at its longest, the longest waveform.
+    fn worst_report() -> SelfTestReport {
+        SelfTestReport {
+            first_sample: u64::MAX,
+            last_sample: u64::MAX,
+            at_boot: true,
+            failed: SelfTestChecks(u16::MAX),
+            not_measured: SelfTestChecks(u16::MAX),
+            adc: AdcCheck {
+                id: u16::MAX,
+                registers: [u16::MAX; 3],
+                expected: [u16::MAX; 3],
+            },
+            drdy: DrdyCheck {
+                rate_hz: 1e4,
+                expected_hz: 1e4,
+                tolerance: 1e-4,
+                conversions: u32::MAX,
+                ticks: u32::MAX,
+            },
+            loopback: LoopbackCheck::default(),
+            noise: NoiseCheck {
+                noise_sd: 2e-5,
+                floor_sd: 1e-8,
+                signal_rms: 1e-3,
+                snr_db: 60.0,
+                snr_min_db: 60.0,
+                excitation: worst_status().excitation,
+            },
         }
     }
 
@@ -565,6 +608,7 @@ mod tests {
             Kind::RawSamples,
             Kind::Status,
             Kind::Ack,
+            Kind::SelfTestReport,
             Kind::Command,
         ] {
             assert_eq!(Kind::from_u8(k as u8), Some(k));
@@ -574,12 +618,13 @@ mod tests {
 
     #[test]
     fn worst_case_sizes_are_reached_exactly() {
-        let cases: [(Message, usize); 7] = [
+        let cases: [(Message, usize); 8] = [
             (worst_estimate(1).into(), estimate_payload_max(1)),
             (worst_estimate(2).into(), estimate_payload_max(2)),
             (worst_estimate(3).into(), estimate_payload_max(3)),
             (worst_raw().into(), RAW_PAYLOAD_MAX),
             (worst_status().into(), STATUS_PAYLOAD_MAX),
+            (worst_report().into(), SELF_TEST_PAYLOAD_MAX),
             (
                 Ack {
                     command_seq: u32::MAX,
@@ -702,13 +747,13 @@ mod tests {
             parse_frame(&frame(&k, &[])),
             Err(DecodeError::UnknownKind(0x7F))
         );
-        // Trailing byte, truncated payload, undefined result code (15 and
+        // Trailing byte, truncated payload, undefined result code (17 and
         // up), the command seq 9 as a non-shortest varint (`89 00`, `89 80
         // 00`): malformed.
         for p in [
             &[9u8, 0, 0][..],
             &[9],
-            &[9, 15],
+            &[9, 17],
             &[9, 0xFF],
             &[0x89, 0x00, 0],
             &[0x89, 0x80, 0x00, 0],
@@ -720,7 +765,7 @@ mod tests {
             );
         }
         // The same in a command: Freeze's variant index 4 as `84 00`;
-        // an undefined variant index (7), waveform index (5) or output
+        // an undefined variant index (9), waveform index (5) or output
         // kind (3); an Option tag or bool byte other than 00/01.
         let c = Header::new(Kind::Command, 1);
         assert_eq!(
@@ -744,7 +789,7 @@ mod tests {
         bad_bool[frozen_at] = 2;
         for p in [
             vec![0x84, 0x00],
-            vec![7],
+            vec![9],
             vec![0, 5, 0, 0, 0, 0, 0, 0, 0, 0],
             bad_option,
             bad_output,
@@ -755,6 +800,10 @@ mod tests {
                 "{p:?}"
             );
         }
+        assert_eq!(
+            parse_frame(&frame(&c, &[7])).unwrap().message,
+            Message::Command(Command::SelfTest)
+        );
         let st = Header::new(Kind::Status, 1);
         assert!(parse_frame(&frame(&st, &worst_status_payload())).is_ok());
         assert_eq!(
@@ -881,10 +930,11 @@ mod tests {
 
     /// Bytes after `adaptation_frozen` in [`worst_status_payload`]: the
     /// excitation (chirp: tag 1 + waveform tag 1 + 3 f32, amplitude,
-    /// offset), the estimator settings (kind 1, 4 f32, Some(λ) 5, output 1), the
-    /// rates (f32, u16 max 3, f32) and lambda_automatic (1).
+    /// offset), the estimator settings (kind 1, 4 f32, Some(λ) 5, output
+    /// 1), the rates (f32, u16 max 3, f32), lambda_automatic (1) and the
+    /// self-test state (tag 1, two u16 of 3).
     fn worst_status_tail() -> usize {
-        (1 + 12 + 8) + (1 + 16 + 5 + 1) + (4 + 3 + 4) + 1
+        (1 + 12 + 8) + (1 + 16 + 5 + 1) + (4 + 3 + 4) + 1 + 7
     }
 
     #[test]

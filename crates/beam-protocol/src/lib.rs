@@ -5,7 +5,7 @@
 //! every byte.
 //!
 //! * [`telemetry`]: device → host messages ([`Estimate`], [`RawSamples`],
-//!   [`Status`], [`Ack`]);
+//!   [`Status`], [`Ack`], [`SelfTestReport`]);
 //! * [`command`]: host → device [`Command`]s;
 //! * [`validate`]: [`Command::validate`] against the device's [`Limits`],
 //!   which the device runs on every command before it applies it;
@@ -83,8 +83,8 @@ pub use heapless;
 
 pub use budget::{LinkLoad, MAX_ENCODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN};
 pub use command::{
-    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, OutputKind, RejectReason,
-    TelemetryRates, UnknownEstimator, UnknownOutput, Waveform, WaveformKind,
+    Command, EstimatorKind, EstimatorSettings, Excitation, Limits, LineRemoval, OutputKind,
+    RejectReason, TelemetryRates, UnknownEstimator, UnknownOutput, Waveform, WaveformKind,
 };
 pub use decoder::{Decoder, Feed, LinkCounters};
 pub use frame::{
@@ -92,7 +92,8 @@ pub use frame::{
     Header, Payload,
 };
 pub use telemetry::{
-    Ack, AckResult, DeviceCounters, Estimate, FirmwareVersion, ModeEstimate, RawSamples, Status,
+    Ack, AckResult, AdcCheck, DeviceCounters, DrdyCheck, Estimate, FirmwareVersion, LoopbackCheck,
+    ModeEstimate, NoiseCheck, RawSamples, SelfTestChecks, SelfTestReport, SelfTestState, Status,
     StatusFlags, UySample,
 };
 
@@ -134,6 +135,8 @@ pub enum Kind {
     Status = 0x03,
     /// [`Ack`], device → host.
     Ack = 0x04,
+    /// [`SelfTestReport`], device → host.
+    SelfTestReport = 0x05,
     /// [`Command`], host → device.
     Command = 0x80,
 }
@@ -146,6 +149,7 @@ impl Kind {
             0x02 => Some(Self::RawSamples),
             0x03 => Some(Self::Status),
             0x04 => Some(Self::Ack),
+            0x05 => Some(Self::SelfTestReport),
             0x80 => Some(Self::Command),
             _ => None,
         }
@@ -169,6 +173,8 @@ pub enum Message {
     Status(Status),
     /// Device → host: the answer to a command.
     Ack(Ack),
+    /// Device → host: the result of a self-test.
+    SelfTestReport(SelfTestReport),
     /// Host → device: a command.
     Command(Command),
 }
@@ -181,6 +187,7 @@ impl Message {
             Self::RawSamples(_) => Kind::RawSamples,
             Self::Status(_) => Kind::Status,
             Self::Ack(_) => Kind::Ack,
+            Self::SelfTestReport(_) => Kind::SelfTestReport,
             Self::Command(_) => Kind::Command,
         }
     }
@@ -195,7 +202,7 @@ macro_rules! message_from {
         }
     )*};
 }
-message_from!(Estimate, RawSamples, Status, Ack, Command);
+message_from!(Estimate, RawSamples, Status, Ack, SelfTestReport, Command);
 
 /// A decoded frame: the sender's sequence number and the message.
 #[derive(Debug, Clone, PartialEq)]

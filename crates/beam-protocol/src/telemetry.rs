@@ -7,11 +7,11 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use super::command::{EstimatorKind, EstimatorSettings, Excitation, RejectReason, TelemetryRates};
-use super::size::{fields_of, MaxSize};
+use super::size::{fields_of, tag_len, MaxSize};
 use super::{MAX_MODES, MAX_RAW_SAMPLES, MAX_THETA};
 
 /// Status flags of an [`Estimate`]: a bit field, sent as a postcard `u16`
-/// (varint). Bits 13–15 are reserved: sent as 0, ignored by receivers.
+/// (varint). Bits 14–15 are reserved: sent as 0, ignored by receivers.
 /// (Bits 10–12 were reserved in the first release of version 1; a
 /// receiver of that release ignores them, docs/PROTOCOL.md §4.1.)
 /// "Since the last estimate" below: since the previous Estimate the device
@@ -62,6 +62,10 @@ impl StatusFlags {
     /// The sensor's level changed since the last estimate: an offset step
     /// of y was removed, or a drift flagged.
     pub const SENSOR_LEVEL: Self = Self(1 << 12);
+    /// The estimate's sample fell inside a self-test
+    /// ([`Command::SelfTest`](super::Command::SelfTest), or the one at
+    /// start-up): the drive was the self-test's and adaptation was held.
+    pub const SELF_TEST: Self = Self(1 << 13);
 
     /// True if every bit of `other` is set.
     pub const fn contains(self, other: Self) -> bool {
@@ -298,6 +302,8 @@ pub struct Status {
     /// λ is chosen by the device's automatic rule (it may change without a
     /// command); false: λ is fixed by a `SetEstimator` with `Some(λ)`.
     pub lambda_automatic: bool,
+    /// The self-test: not run yet, running, or the result of the latest.
+    pub self_test: SelfTestState,
 }
 
 impl MaxSize for Status {
@@ -310,7 +316,217 @@ impl MaxSize for Status {
         + Excitation::MAX_SIZE
         + EstimatorSettings::MAX_SIZE
         + TelemetryRates::MAX_SIZE
-        + bool::MAX_SIZE;
+        + bool::MAX_SIZE
+        + SelfTestState::MAX_SIZE;
+}
+
+/// A set of the self-test's checks (a bit field, sent as a postcard
+/// `u16`). Bits 5–15 are reserved: sent as 0, ignored by receivers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(transparent)]
+pub struct SelfTestChecks(pub u16);
+
+impl MaxSize for SelfTestChecks {
+    const MAX_SIZE: usize = u16::MAX_SIZE;
+}
+
+impl SelfTestChecks {
+    /// The ADC's ID register names the part the firmware drives.
+    pub const ADC_ID: Self = Self(1 << 0);
+    /// The ADC's configuration registers read back as written.
+    pub const ADC_REGISTERS: Self = Self(1 << 1);
+    /// The conversion (DRDY) rate against the MCU's clock.
+    pub const DRDY_RATE: Self = Self(1 << 2);
+    /// DAC → ADC loopback on the monitor channel: gain, offset, delay.
+    pub const LOOPBACK: Self = Self(1 << 3);
+    /// The noise floor of y with the drive at zero, as an SNR against the
+    /// default excitation's y.
+    pub const NOISE: Self = Self(1 << 4);
+    /// Every check, in bit order, with its name (`adc_id`, …).
+    pub const ALL: [(Self, &'static str); 5] = [
+        (Self::ADC_ID, "adc_id"),
+        (Self::ADC_REGISTERS, "adc_registers"),
+        (Self::DRDY_RATE, "drdy_rate"),
+        (Self::LOOPBACK, "loopback"),
+        (Self::NOISE, "noise"),
+    ];
+
+    /// True if every bit of `other` is set.
+    pub const fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// `self` with the bits of `other` set.
+    #[must_use]
+    pub const fn with(self, other: Self) -> Self {
+        Self(self.0 | other.0)
+    }
+
+    /// No check in the set.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// The self-test as a Status reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SelfTestState {
+    /// 0: no self-test has run since start-up.
+    #[default]
+    NotRun,
+    /// 1: a self-test is running.
+    Running,
+    /// 2: the latest self-test ended; its checks that failed and those it
+    /// could not measure (both empty: every check passed).
+    Done {
+        /// Checks that failed.
+        failed: SelfTestChecks,
+        /// Checks without the data to judge them (e.g. no conversions).
+        not_measured: SelfTestChecks,
+    },
+}
+
+impl MaxSize for SelfTestState {
+    const MAX_SIZE: usize = tag_len(3) + 2 * SelfTestChecks::MAX_SIZE;
+}
+
+/// The ADC's identity and configuration, read back by the self-test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AdcCheck {
+    /// The ID register as read (ADS131M02: 22xxh).
+    pub id: u16,
+    /// MODE, CLOCK and GAIN1 as read, masked to their writable bits.
+    pub registers: [u16; 3],
+    /// MODE, CLOCK and GAIN1 as configured, masked the same way.
+    pub expected: [u16; 3],
+}
+
+impl MaxSize for AdcCheck {
+    const MAX_SIZE: usize = 7 * u16::MAX_SIZE;
+}
+
+/// The conversion (DRDY) rate measured against the MCU's clock.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DrdyCheck {
+    /// Conversions per second of the MCU's clock (0: none).
+    pub rate_hz: f32,
+    /// The rate the firmware is built for (the sample rate).
+    pub expected_hz: f32,
+    /// Largest relative deviation that passes.
+    pub tolerance: f32,
+    /// New conversions read during the self-test.
+    pub conversions: u32,
+    /// Sample ticks during the self-test (reads attempted).
+    pub ticks: u32,
+}
+
+impl MaxSize for DrdyCheck {
+    const MAX_SIZE: usize = 3 * f32::MAX_SIZE + 2 * u32::MAX_SIZE;
+}
+
+/// DAC → ADC loopback: a test tone on the drive, read back on the
+/// monitor channel (in actuator volts) and compared with the DAC's held
+/// value at the tone's frequency. NaN: not measured.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LoopbackCheck {
+    /// The tone's frequency (Hz).
+    pub tone_hz: f32,
+    /// The tone's amplitude on the actuator (V).
+    pub amplitude_v: f32,
+    /// Monitor amplitude ÷ drive amplitude at the tone.
+    pub gain: f32,
+    /// The gain the firmware expects.
+    pub expected_gain: f32,
+    /// Largest relative deviation of the gain that passes.
+    pub gain_tolerance: f32,
+    /// Monitor mean − drive mean (actuator V).
+    pub offset_v: f32,
+    /// Largest |offset| that passes (V).
+    pub offset_tolerance_v: f32,
+    /// How far the monitor lags the drive written at the same tick
+    /// (samples, from the phase at the tone).
+    pub delay_samples: f32,
+    /// The delay the firmware's timing model assumes (samples).
+    pub expected_delay_samples: f32,
+    /// Largest deviation of the delay that passes (samples).
+    pub delay_tolerance_samples: f32,
+}
+
+impl MaxSize for LoopbackCheck {
+    const MAX_SIZE: usize = fields_of::<Self, f32>() * f32::MAX_SIZE;
+}
+
+/// The noise floor of y with the drive at zero and the SNR against y
+/// under the default excitation. NaN: not measured.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NoiseCheck {
+    /// Standard deviation of y's noise, drive at zero (units of y).
+    pub noise_sd: f32,
+    /// The converter's quantisation floor (one code of y / √12).
+    pub floor_sd: f32,
+    /// RMS of y under `excitation` (units of y).
+    pub signal_rms: f32,
+    /// 20·log10(signal_rms / max(noise_sd, floor_sd)) (dB).
+    pub snr_db: f32,
+    /// The lowest SNR that passes (dB).
+    pub snr_min_db: f32,
+    /// The excitation `signal_rms` was measured under (the device's
+    /// default).
+    pub excitation: Excitation,
+}
+
+impl MaxSize for NoiseCheck {
+    const MAX_SIZE: usize = 5 * f32::MAX_SIZE + Excitation::MAX_SIZE;
+}
+
+/// The self-test's report (kind `05`), sent when a self-test ends: which
+/// checks failed or could not be measured, and every measured value with
+/// what was expected.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SelfTestReport {
+    /// The first sample of the self-test (the drive left the excitation).
+    pub first_sample: u64,
+    /// The last sample of the self-test (the excitation was restored at
+    /// the next).
+    pub last_sample: u64,
+    /// Run at start-up (true) or on a `SelfTest` command.
+    pub at_boot: bool,
+    /// Checks that failed.
+    pub failed: SelfTestChecks,
+    /// Checks without the data to judge them.
+    pub not_measured: SelfTestChecks,
+    /// ID and register read-back.
+    pub adc: AdcCheck,
+    /// Conversion rate.
+    pub drdy: DrdyCheck,
+    /// DAC → ADC loopback.
+    pub loopback: LoopbackCheck,
+    /// Noise floor and SNR.
+    pub noise: NoiseCheck,
+}
+
+impl MaxSize for SelfTestReport {
+    const MAX_SIZE: usize = 2 * u64::MAX_SIZE
+        + bool::MAX_SIZE
+        + 2 * SelfTestChecks::MAX_SIZE
+        + AdcCheck::MAX_SIZE
+        + DrdyCheck::MAX_SIZE
+        + LoopbackCheck::MAX_SIZE
+        + NoiseCheck::MAX_SIZE;
+}
+
+impl SelfTestReport {
+    /// Every check passed.
+    pub fn passed(&self) -> bool {
+        self.failed.is_empty() && self.not_measured.is_empty()
+    }
 }
 
 /// The outcome of a command. On the wire a single byte: 0 = accepted,

@@ -12,7 +12,7 @@ use core::f32::consts::PI;
 use super::budget::LinkLoad;
 use super::command::{check, finite, Limits};
 use super::command::{
-    Command, EstimatorSettings, Excitation, RejectReason, TelemetryRates, Waveform,
+    Command, EstimatorSettings, Excitation, LineRemoval, RejectReason, TelemetryRates, Waveform,
 };
 
 impl Excitation {
@@ -87,6 +87,29 @@ impl TelemetryRates {
     }
 }
 
+impl LineRemoval {
+    /// Check that the numbers are finite and, unless off, that the mains
+    /// frequency is in (0, f_s/2), the harmonics in 1..=[`LineRemoval::MAX_HARMONICS`]
+    /// and the time constant between 10 samples and
+    /// [`LineRemoval::MAX_TIME_CONSTANT_S`].
+    pub fn validate(&self, limits: &Limits) -> Result<(), RejectReason> {
+        finite(&[self.mains_hz, self.time_constant_s])?;
+        if self.is_off() {
+            return Ok(());
+        }
+        check(
+            self.mains_hz > 0.0 && self.mains_hz < limits.nyquist_hz(),
+            RejectReason::Frequency,
+        )?;
+        check(
+            (1..=Self::MAX_HARMONICS).contains(&self.harmonics)
+                && self.time_constant_s >= 10.0 / limits.sample_rate_hz
+                && self.time_constant_s <= Self::MAX_TIME_CONSTANT_S,
+            RejectReason::LineRemoval,
+        )
+    }
+}
+
 impl Command {
     /// Check the command against the device's limits. `Ok` means it can be
     /// applied as it is; `Err` carries the reason for the negative
@@ -96,7 +119,10 @@ impl Command {
             Self::SetExcitation(e) => e.validate(limits),
             Self::SetEstimator(s) => s.validate(limits),
             Self::SetTelemetry(t) => t.validate(limits),
-            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus => Ok(()),
+            Self::SetLineRemoval(l) => l.validate(limits),
+            Self::Reset | Self::Freeze | Self::Resume | Self::RequestStatus | Self::SelfTest => {
+                Ok(())
+            }
         }
     }
 }
@@ -252,12 +278,40 @@ mod tests {
     }
 
     #[test]
+    fn line_removal_table() {
+        let l = |mains_hz: f32, harmonics: u8, time_constant_s: f32| {
+            Command::SetLineRemoval(LineRemoval {
+                mains_hz,
+                harmonics,
+                time_constant_s,
+            })
+            .validate(&LIMITS)
+        };
+        assert_eq!(l(50.0, 7, 0.2), Ok(()));
+        assert_eq!(l(60.0, 1, 100.0), Ok(()));
+        assert_eq!(l(49.6, 3, 1e-3), Ok(()));
+        // Off: the other fields are not used, but must be finite.
+        assert_eq!(l(0.0, 0, 0.0), Ok(()));
+        assert_eq!(l(0.0, 7, f32::NAN), Err(R::NotFinite));
+        assert_eq!(l(f32::INFINITY, 7, 0.2), Err(R::NotFinite));
+        assert_eq!(l(-50.0, 7, 0.2), Err(R::Frequency));
+        assert_eq!(l(5_000.0, 1, 0.2), Err(R::Frequency));
+        assert_eq!(l(50.0, 0, 0.2), Err(R::LineRemoval));
+        assert_eq!(l(50.0, 8, 0.2), Err(R::LineRemoval));
+        assert_eq!(l(50.0, 7, 9e-4), Err(R::LineRemoval));
+        assert_eq!(l(50.0, 7, 101.0), Err(R::LineRemoval));
+        assert_eq!(LineRemoval::default(), LineRemoval::OFF);
+        assert!(LineRemoval::OFF.is_off());
+    }
+
+    #[test]
     fn plain_commands_always_pass() {
         for c in [
             Command::Reset,
             Command::Freeze,
             Command::Resume,
             Command::RequestStatus,
+            Command::SelfTest,
         ] {
             assert_eq!(c.validate(&LIMITS), Ok(()));
         }

@@ -2,7 +2,8 @@
 """Replays every record under host-tests/data/records/ with
 `beamctl replay FILE --json` and a list of flag sets, and scores each
 estimate against the record's reference.json (the acceptance rule there).
-Prints a markdown table; with --json PATH also writes every result.
+Prints a markdown table; with --json PATH also writes every result
+(with each report's verdict and `prewhitening`).
 
     cargo build --release -p beamctl
     python3 host-tests/data/records/baseline.py [--beamctl PATH] [--json PATH]
@@ -283,7 +284,8 @@ def main():
                             "reported": describe(rc, out, err),
                             "estimate": (out or {}).get("estimate"),
                             "validity": (out or {}).get("validity"),
-                            "verdict": (out or {}).get("verdict")})
+                            "verdict": (out or {}).get("verdict"),
+                            "prewhitening": (out or {}).get("prewhitening")})
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
     if args.summary:

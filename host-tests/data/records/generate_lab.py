@@ -2,7 +2,7 @@
 """Lab-like replay records, simulated independently of this project
 (numpy + scipy only; nothing here imports or calls the Rust code).
 
-    python3 host-tests/data/records/generate_lab.py
+    python3 host-tests/data/records/generate_lab.py [NAME ...]
 
 writes, for every record NAME below, host-tests/data/records/NAME/record.csv.gz
 and host-tests/data/records/NAME/reference.json (schema: README.md beside
@@ -36,6 +36,22 @@ Noise: white Gaussian, σ = RMS(y_clean)·10^(−SNR/20), RMS over the whole
 record of the noise-free output (for the offset/drift record: of the
 dynamic part, before offset and drift are added). numpy.random.default_rng
 with a per-record seed.
+
+Coloured noise (the lab_colour* records): y also carries a bridge
+amplifier's noise, white Gaussian through a first-order low-pass at a
+corner f_c with unit power gain (a stationary AR(1) process, pole
+a = exp(−2π·f_c·Ts), started from its stationary distribution), of σ =
+RMS(y_clean)·10^(−SNR/20); optionally a white floor of its own level
+(an ADC's noise), and the 16-bit quantisation of an ADC whose full scale
+is 1.25·max|y| (y_q = LSB·round(y/LSB)). Their Cramér–Rao bound is that
+of Gaussian noise with the known covariance Σ (low-pass + white floor +
+LSB²/12 for the quantisation): F = JᵀΣ⁻¹J, computed exactly by whitening
+J with the noise's innovations (a scalar Kalman filter of the AR(1)
+state observed in the white floor, started from the stationary variance;
+`noise_whiten`): for Gaussian noise of known spectrum the Fisher
+information is that of the prewhitened output error. Stored as `crb`,
+with `crb_white_same_power` (white noise of the same total variance) for
+comparison.
 
 Cramér–Rao bound (white-noise records): θ = (ω_i, ζ_i, b̄_i) per mode,
 J = ∂y/∂θ of the noise-free output by central differences (relative step
@@ -91,7 +107,29 @@ def simulate(w, z, b, kind, ts, u):
     return y
 
 
-def fisher_sigma(w, z, b, kind, ts, u, sigma, nuisance_hz=()):
+def noise_whiten(cols, a, var_lp, var_white):
+    """Σ^(−1/2)·cols for the noise v = s + e, s a stationary AR(1) process
+    (pole a, variance var_lp), e white (variance var_white): the
+    innovations of a scalar Kalman filter of s observed in e, started from
+    the stationary variance, each divided by its standard deviation. Exact:
+    Σ = L·Lᵀ with L the innovations' lower-triangular map (Cholesky), for
+    every column at once."""
+    n = cols.shape[0]
+    out = np.empty_like(cols)
+    s_hat = np.zeros(cols.shape[1])
+    p = var_lp
+    q = (1.0 - a * a) * var_lp
+    for k in range(n):
+        sv = p + var_white
+        innov = cols[k] - s_hat
+        out[k] = innov / np.sqrt(sv)
+        gain = p / sv
+        s_hat = a * (s_hat + gain * innov)
+        p = a * a * (1.0 - gain) * p + q
+    return out
+
+
+def fisher_sigma(w, z, b, kind, ts, u, sigma, nuisance_hz=(), noise=None):
     """Relative CRB σ of ω_i and ζ_i (and b̄_i) for white noise σ; with
     lines in y at `nuisance_hz`, their amplitudes and phases are unknown
     too (two columns cos, sin per line in the Jacobian), so the bound pays
@@ -114,7 +152,11 @@ def fisher_sigma(w, z, b, kind, ts, u, sigma, nuisance_hz=()):
         cols.append(np.cos(2 * np.pi * f * t))
         cols.append(np.sin(2 * np.pi * f * t))
     jac = np.stack(cols, axis=1)
-    fim = jac.T @ jac / sigma**2
+    if noise is None:
+        fim = jac.T @ jac / sigma**2
+    else:
+        jw = noise_whiten(jac, noise["a"], noise["var_lowpass"], noise["var_white"])
+        fim = jw.T @ jw
     cov = np.linalg.inv(fim)
     sd = np.sqrt(np.diag(cov))
     rel = sd[: len(theta)] / np.abs(theta)
@@ -295,6 +337,35 @@ def records():
                  "49.6 Hz (5% of RMS(y)), 148.8 (1%), 248.0 (1%), 347.2 Hz (0.5%) on 40 dB white "
                  "noise; mode 2 (45 Hz) is 4.6 Hz below the first; PRBS 2 ms per bit."),
         ),
+    ] + [
+        (
+            f"lab_colour45_multisine_s{k}",
+            dict(two, kind="strain", fs=5_000, dur=10.0, exc="multisine", snr_db=45.0,
+                 seed=1530 + k, lowpass_hz=20.0, adc_bits=16,
+                 notes="Coloured noise (a bridge amplifier's): white Gaussian noise through a "
+                 "first-order low-pass at 20 Hz (between the modes), 45 dB, then a 16-bit ADC "
+                 "(full scale 1.25·max|y|); 2 modes at 5 kHz, random-phase multisine 2–150 Hz. "
+                 f"Seed {k} of 5 of the same experiment (the RMS over the five is scored)."),
+        )
+        for k in range(1, 6)
+    ] + [
+        (
+            "lab_colour40_prbs",
+            dict(two, kind="strain", fs=10_000, dur=10.0, exc="prbs", snr_db=40.0, seed=1541,
+                 lowpass_hz=50.0, white_floor_db=58.0, adc_bits=16,
+                 notes="Coloured noise: a first-order low-pass at 50 Hz (40 dB) plus a white floor "
+                 "of its own (an ADC's noise, 58 dB) and a 16-bit ADC; PRBS 2 ms per bit."),
+        ),
+        (
+            "lab_colour60_multisine",
+            dict(w=[2 * np.pi * 12.0, 2 * np.pi * 55.6], z=[0.02, 0.012], b=[15.0, 40.0],
+                 kind="strain", fs=10_000, dur=10.0, exc="multisine", snr_db=60.0, seed=1542,
+                 lowpass_hz=8.0, adc_bits=16,
+                 notes="Coloured noise: a first-order low-pass at 8 Hz (below both modes), 60 dB, "
+                 "and a 16-bit ADC (its quantisation within 10 dB of the low-pass noise at the "
+                 "Nyquist frequency); random-phase multisine 2–150 Hz."),
+        ),
+    ] + [
         (
             "lab_above_modes_only",
             dict(two, kind="strain", fs=10_000, dur=10.0, exc="multisine_high", snr_db=60.0, seed=1510,
@@ -363,7 +434,11 @@ def fmt_rows(t, u, y, fs):
 
 
 def main():
+    import sys
+    only = set(sys.argv[1:])  # record names to write (default: all)
     for name, spec in records():
+        if only and name not in only:
+            continue
         rng = np.random.default_rng(spec["seed"])
         fs = spec["fs"]
         ts = 1.0 / fs
@@ -374,8 +449,28 @@ def main():
         y_clean = simulate(w, z, b, kind, ts, u)
         rms = float(np.sqrt(np.mean(y_clean**2)))
         sigma = rms * 10 ** (-spec["snr_db"] / 20)
-        noise = sigma * rng.standard_normal(n)
+        coloured = None
+        if "lowpass_hz" in spec:
+            a = float(np.exp(-2 * np.pi * spec["lowpass_hz"] * ts))
+            g = rng.standard_normal(n)
+            first = sigma * g[0]
+            rest = lfilter([np.sqrt(1 - a * a) * sigma], [1.0, -a], g[1:], zi=[a * first])[0]
+            noise = np.concatenate([[first], rest])
+            sd_white = rms * 10 ** (-spec["white_floor_db"] / 20) if "white_floor_db" in spec else 0.0
+            if sd_white > 0:
+                noise = noise + sd_white * rng.standard_normal(n)
+            coloured = {"a": a, "var_lowpass": sigma**2, "var_white": sd_white**2,
+                        "sd_white": sd_white}
+        else:
+            noise = sigma * rng.standard_normal(n)
         y = y_clean + noise
+        if "adc_bits" in spec:
+            full_scale = 1.25 * float(np.max(np.abs(y)))
+            lsb = 2 * full_scale / 2 ** spec["adc_bits"]
+            y = lsb * np.round(y / lsb)
+            coloured["var_white"] += lsb**2 / 12
+            coloured["lsb"] = lsb
+            coloured["full_scale"] = full_scale
         level = np.zeros(n)
         if "offset_rms" in spec:
             level += spec["offset_rms"] * rms
@@ -413,8 +508,16 @@ def main():
             "modes_total": len(w),
             "output_weights": C_DEFAULT[: len(w)],
             "units": "u: arbitrary (model input); y: arbitrary (model output of G, s·G or s²·G)",
-            "noise": {"kind": "white_gaussian", "snr_db": spec["snr_db"], "sigma": sigma,
-                      "rms_clean_y": rms, "seed": spec["seed"]},
+            "noise": ({"kind": "white_gaussian", "snr_db": spec["snr_db"], "sigma": sigma,
+                       "rms_clean_y": rms, "seed": spec["seed"]} if coloured is None else
+                      {"kind": "lowpass_first_order" + ("_plus_white" if "white_floor_db" in spec else ""),
+                       "snr_db": spec["snr_db"], "sigma": sigma, "corner_hz": spec["lowpass_hz"],
+                       "pole": coloured["a"], "white_floor_db": spec.get("white_floor_db"),
+                       "sigma_white_floor": coloured["sd_white"], "adc_bits": spec["adc_bits"],
+                       "adc_full_scale": coloured["full_scale"], "adc_lsb": coloured["lsb"],
+                       "rms_clean_y": rms, "seed": spec["seed"],
+                       "form": "n_0 = σ·g_0, n_k = a·n_(k−1) + sqrt(1 − a²)·σ·g_k (+ σ_white·g'_k); "
+                               "y = LSB·round((y_clean + n)/LSB)"}),
             "truth": {
                 "omega_rad_s": [float(x) for x in w],
                 "zeta": [float(x) for x in z],
@@ -462,20 +565,30 @@ def main():
         else:
             wm, zm, bm = w, z, b
             lines_hz = [h["freq_hz"] for h in hum]
-            crb = fisher_sigma(wm, zm, bm, kind, ts, u_written, sigma, lines_hz)
+            crb = fisher_sigma(wm, zm, bm, kind, ts, u_written, sigma, lines_hz, coloured)
             method = ("F = JᵀJ/σ², J = ∂y/∂(ω,ζ,b̄) by central differences "
                       "(rel. step 1e-6) of the noise-free output; σ_rel = sqrt(diag F⁻¹)/|θ|")
+            if coloured is not None:
+                method = ("F = JᵀΣ⁻¹J for the Gaussian noise of known covariance Σ (the low-pass, "
+                          "the white floor if any, and the ADC's LSB²/12), J = ∂y/∂(ω,ζ,b̄) by central "
+                          "differences (rel. step 1e-6) of the noise-free output, whitened exactly by "
+                          "the noise's innovations (noise_whiten); σ_rel = sqrt(diag F⁻¹)/|θ|")
+                total = np.sqrt(coloured["var_lowpass"] + coloured["var_white"])
+                ref["crb_white_same_power"] = dict(
+                    fisher_sigma(wm, zm, bm, kind, ts, u_written, total),
+                    note="white noise of the same total variance (information only)")
             if hum:
                 method += ("; J also holds ∂y/∂a_ℓ, ∂y/∂b_ℓ = cos, sin(2π f_ℓ t) of each line (its "
                            "amplitude and phase unknown, its frequency known)")
             ref["crb"] = dict(crb, method=method)
             floor = 1e-3 if hum else 1e-4
             ref["acceptance"] = {
-                "rule": "white_noise_crb",
+                "rule": "white_noise_crb" if coloured is None else "coloured_noise_crb",
                 "modes_scored": len(w),
                 "omega_rel_tol": [max(3 * s, floor) for s in crb["omega_rel"]],
                 "zeta_rel_tol": [max(3 * s, floor) for s in crb["zeta_rel"]],
-                "text": "each ω̂_i, ζ̂_i within max(3σ_CRB, " + ("1e-3" if hum else "1e-4") + ") relative of the truth",
+                "text": "each ω̂_i, ζ̂_i within max(3σ_CRB, " + ("1e-3" if hum else "1e-4") + ") relative of the truth"
+                + ("" if coloured is None else " (σ_CRB for the noise's own spectrum)"),
             }
             if "level" in ref:
                 ref["acceptance"]["text"] += (

@@ -5,8 +5,9 @@
 //! same sequence and settings the firmware runs, with a host on the other
 //! end of the byte rings that decodes with the core's `Decoder`.
 //!
-//! One sample: `rig.tick()`, `pipeline.tick()` and the start-up pairs into
-//! their bounded queue (the sample interrupt); the link runs after every
+//! One sample: `rig.tick()`, `pipeline.tick()`, the start-up pairs and
+//! (while a self-test runs) the self-test's copy of the tick into their
+//! bounded queues (the sample interrupt); the link runs after every
 //! [`SERVICE_EVERY`] samples, as thread mode would between interrupts
 //! (start-up blocks, builds and swaps, records, raw blocks). The lock of the
 //! firmware is trivial here: the tick and the link never interleave.
@@ -16,9 +17,10 @@ use std::collections::VecDeque;
 use ad5761r::Ad5761r;
 use ads131m02::Ads131m02;
 use beam_protocol::{
-    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, MAX_ENCODED_LEN,
+    encode, Command, Decoder, EstimatorSettings, Frame, Message, RejectReason, SelfTestReport,
+    MAX_ENCODED_LEN,
 };
-use beamest::bench::{self, ConverterModels, ConverterRig};
+use beamest::bench::{self, BenchFault, ConverterModels, ConverterRig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig};
 use beamest::filter_bank::FilterConfig;
 use beamest::link::reject_config;
@@ -27,6 +29,7 @@ use beamest::link::{
 };
 use beamest::pipeline::{bring_up, Pipeline, RawBlock, TelemetryRecord, Tick};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::selftest::{Collector, SelfTestBlock};
 use beamest::tuning::{LambdaSource, TuningConfig};
 use heapless::spsc::{Consumer, Producer, Queue};
 
@@ -180,12 +183,35 @@ pub struct Bench<'a> {
     /// Skip the link's servicing (a stalled thread mode).
     pub stalled: bool,
     pub last_tick: Option<Tick<f32>>,
+    /// The sample task's half of the self-test.
+    pub test_collector: Collector<f32>,
+    pub test_out: Producer<'a, SelfTestBlock<f32>>,
+    pub test_in: Consumer<'a, SelfTestBlock<f32>>,
+    /// Every self-test report the link made.
+    pub reports: Vec<SelfTestReport>,
 }
+
+/// Clock ticks per sample of the bench's self-test timing
+/// ([`bench::CLOCK_HZ`] at 10 kHz).
+pub const CLOCK_PER_SAMPLE: u32 = (bench::CLOCK_HZ / bench::SAMPLE_RATE_HZ) as u32;
 
 /// Build the bench with `excitation` instead of the bench's square wave
 /// (if given) and run `f` on it.
 pub fn with_bench<R>(
     excitation: Option<beam_protocol::Excitation>,
+    f: impl FnOnce(&mut Bench<'_>) -> R,
+) -> R {
+    with_bench_opts(excitation, None, false, f)
+}
+
+/// [`with_bench`], with `fault` injected into the rig after the
+/// converters' bring-up and, with `boot_self_test`, the self-test started
+/// before the first sample as the firmware does at start-up (the tuning
+/// rule's window opens after it).
+pub fn with_bench_opts<R>(
+    excitation: Option<beam_protocol::Excitation>,
+    fault: Option<BenchFault>,
+    boot_self_test: bool,
     f: impl FnOnce(&mut Bench<'_>) -> R,
 ) -> R {
     let models = ConverterModels::new();
@@ -201,7 +227,10 @@ pub fn with_bench<R>(
     .unwrap();
     // The board's converter timing (sinc³, DAC latency), which the
     // estimator's filter bank compensates (`bench::filter_config`).
-    let rig = bench::converter_rig(&models).unwrap();
+    let mut rig = bench::converter_rig(&models).unwrap();
+    if let Some(fault) = fault {
+        fault.apply(&mut rig);
+    }
     let mut settings = firmware_settings();
     let mut gen = bench::excitation::<f32>().unwrap();
     if let Some(x) = excitation {
@@ -217,6 +246,8 @@ pub fn with_bench<R>(
     let mut q: Queue<Rec, 16> = Queue::new();
     let mut rq: Queue<Raw, 8> = Queue::new();
     let mut sq: Queue<Raw, 8> = Queue::new();
+    let mut tq: Queue<SelfTestBlock<f32>, 8> = Queue::new();
+    let (test_out, test_in) = tq.split();
     let (prod, records) = q.split();
     let (raw_prod, raws) = rq.split();
     let (startup_out, startup_in) = sq.split();
@@ -240,7 +271,14 @@ pub fn with_bench<R>(
         builds: Vec::new(),
         stalled: false,
         last_tick: None,
+        test_collector: Collector::new(),
+        test_out,
+        test_in,
+        reports: Vec::new(),
     };
+    if boot_self_test {
+        b.link.start_self_test(&mut b.device, true).unwrap();
+    }
     f(&mut b)
 }
 
@@ -256,6 +294,13 @@ impl Bench<'_> {
                 let out = &mut self.startup_out;
                 self.collector.push(u, y, |b| out.enqueue(b).is_ok());
             }
+        }
+        if self.link.self_test_running() {
+            let out = &mut self.test_out;
+            self.test_collector
+                .push(&tick, CLOCK_PER_SAMPLE, |b| out.enqueue(b).is_ok());
+        } else {
+            self.test_collector.stop();
         }
         self.last_tick = Some(tick);
         self.samples += 1;
@@ -278,8 +323,14 @@ impl Bench<'_> {
         }
     }
 
-    /// Thread mode's pass: tuning, records and raw blocks to the link.
+    /// Thread mode's pass: the self-test's blocks, tuning, records and raw
+    /// blocks to the link.
     pub fn service(&mut self, tx: &mut Ring) {
+        while let Some(b) = self.test_in.dequeue() {
+            if let Some(r) = self.link.on_self_test_block(&b, &mut self.device, tx) {
+                self.reports.push(r);
+            }
+        }
         self.tune();
         while let Some(r) = self.records.dequeue() {
             self.link

@@ -11,9 +11,13 @@
 //!   makes the sample path drop records (counted), never wait;
 //! * the EXCITED flag follows the excitation (the threshold's evidence);
 //! * arbitrary bytes on the RX side never panic, and arbitrary commands
-//!   are either applied or refused without a change.
+//!   are either applied or refused without a change;
+//! * the self-test (`selftest`): passes on the healthy bench, each bench
+//!   fault fails exactly its check, a commanded one leaves the estimator
+//!   as it was.
 
 mod bench;
+mod selftest;
 #[path = "../protocol/strategies.rs"]
 #[allow(dead_code)]
 mod strategies;

@@ -10,9 +10,11 @@ use beam_protocol::budget::{
     uart_bytes_per_s, LinkLoad, RAW_PAYLOAD_MAX, STATUS_PAYLOAD_MAX,
 };
 use beam_protocol::{
-    encode, Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
-    Excitation, FirmwareVersion, Message, ModeEstimate, OutputKind, RawSamples, RejectReason,
-    Status, StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN, MAX_ENCODED_LEN,
+    encode, Ack, AckResult, AdcCheck, Command, DeviceCounters, DrdyCheck, Estimate, EstimatorKind,
+    EstimatorSettings, Excitation, FirmwareVersion, LoopbackCheck, Message, ModeEstimate,
+    NoiseCheck, OutputKind, RawSamples, RejectReason, SelfTestChecks, SelfTestReport,
+    SelfTestState, Status, StatusFlags, TelemetryRates, UySample, Waveform, CRC_LEN, HEADER_LEN,
+    MAX_ENCODED_LEN,
 };
 use beamest::modal::modal_from_theta;
 use beamest::model::paper_plant_tf;
@@ -84,6 +86,10 @@ fn golden() -> Vec<(&'static str, Message, u32)> {
         },
         telemetry: TelemetryRates::default(),
         lambda_automatic: false,
+        self_test: SelfTestState::Done {
+            failed: SelfTestChecks::default(),
+            not_measured: SelfTestChecks::default(),
+        },
     };
     vec![
         ("Estimate", golden_estimate().into(), 360_000),
@@ -153,21 +159,70 @@ fn golden() -> Vec<(&'static str, Message, u32)> {
             .into(),
             9,
         ),
+        ("SelfTestReport", golden_report().into(), 360_005),
         ("Command::Freeze", Command::Freeze.into(), 10),
+        ("Command::SelfTest", Command::SelfTest.into(), 11),
     ]
+}
+
+/// The report of the golden frame: the QEMU image's self-test at start-up
+/// with the bench's noise fault (`cargo xtask qemu --selftest-faults`),
+/// its values rounded: NOISE failed, every other check passed.
+fn golden_report() -> SelfTestReport {
+    SelfTestReport {
+        first_sample: 0,
+        last_sample: 6_687,
+        at_boot: true,
+        failed: SelfTestChecks::NOISE,
+        not_measured: SelfTestChecks::default(),
+        adc: AdcCheck {
+            id: 0x2200,
+            registers: [0x1110, 0x0306, 0x0007],
+            expected: [0x1110, 0x0306, 0x0007],
+        },
+        drdy: DrdyCheck {
+            rate_hz: 10_000.0,
+            expected_hz: 10_000.0,
+            tolerance: 1e-4,
+            conversions: 6_688,
+            ticks: 6_688,
+        },
+        loopback: LoopbackCheck {
+            tone_hz: 48.828125,
+            amplitude_v: 1.0,
+            gain: 0.99984,
+            expected_gain: 1.0,
+            gain_tolerance: 0.05,
+            offset_v: 0.0,
+            offset_tolerance_v: 0.02,
+            delay_samples: 2.15,
+            expected_delay_samples: 2.15,
+            delay_tolerance_samples: 0.02,
+        },
+        noise: NoiseCheck {
+            noise_sd: 1.954e-5,
+            floor_sd: 1.124e-8,
+            signal_rms: 2.343e-3,
+            snr_db: 41.58,
+            snr_min_db: 60.0,
+            excitation: Excitation::default(),
+        },
+    }
 }
 
 /// Pinned wire bytes of each golden frame (in `golden()` order).
 const PINNED: &[&str] = &[
     "08 57 BE 03 01 40 7E 05 05 80 A2 95 11 0F 19 02 FB 9C 1C 42 0C 93 A9 3C 9D 11 1A 41 0C 5F 75 43 B8 1E 05 3E 99 2A 81 41 01 08 C8 42 07 EC 51 50 41 21 80 93 C4 80 7F 87 C9 92 4A A7 43 C9 6B E6 C4 04 37 68 4A 5D 1A EB 4A 01 0A D7 23 3B 4F 13 FA B1 00",
     "08 57 BE 03 02 41 7E 05 23 80 A2 95 11 01 03 CD CC CC 3D 52 49 9D 3A CD CC CC 3D 0A D7 A3 3A CD CC CC BD C3 64 AA 3A 65 34 C3 EC 00",
-    "08 57 BE 03 03 42 7E 05 05 80 A2 95 11 04 40 1C 46 02 01 02 02 02 03 01 01 01 02 03 03 02 01 01 02 01 01 07 E0 40 CD CC CC 3D 01 01 01 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 03 C8 42 01 01 03 C8 42 01 01 03 80 3F 05 7A 0B 7C A0 00",
+    "08 57 BE 03 03 42 7E 05 05 80 A2 95 11 04 40 1C 46 02 01 02 02 02 03 01 01 01 02 03 03 02 01 01 02 01 01 07 E0 40 CD CC CC 3D 01 01 01 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 03 C8 42 01 03 C8 42 01 01 03 80 3F 02 02 01 05 8F 32 19 3E 00",
     "08 57 BE 03 04 43 7E 05 02 07 05 21 8D 95 F5 00",
     "08 57 BE 03 04 44 7E 05 07 08 03 EC F0 01 F6 00",
     "06 57 BE 03 80 07 01 01 01 02 04 01 03 80 3F 01 03 C8 42 01 07 20 41 CD CC 4C 3E 01 01 06 3F 9A 82 30 C8 00",
-    "06 57 BE 03 80 08 01 01 02 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 08 C8 42 02 58 E7 5A 7E 00",
+    "06 57 BE 03 80 08 01 01 02 01 01 11 40 1C 46 CD CC 4C 3D CD CC 4C 3D 28 6B 6E 4E 01 01 07 C8 42 29 95 F1 E4 00",
     "06 57 BE 03 80 09 01 01 02 02 01 04 C8 42 02 01 07 80 3F 01 86 EA 57 00",
+    "08 57 BE 03 05 45 7E 05 01 05 9F 34 01 10 0D 80 44 90 22 86 06 07 90 22 86 06 07 04 40 1C 46 0C 40 1C 46 17 B7 D1 38 A0 34 A0 34 04 50 43 42 01 07 80 3F 84 F5 7F 3F 01 07 80 3F CD CC 4C 3D 01 01 01 21 0A D7 A3 3C 9A 99 09 40 9A 99 09 40 0A D7 A3 3C D5 E9 A3 37 0B 1A 41 32 04 8D 19 3B EC 51 26 42 01 04 70 42 01 01 07 E0 40 CD CC CC 3D 01 01 01 05 2B 8D 2D 27 00",
     "06 57 BE 03 80 0A 01 01 06 04 79 2E C3 51 00",
+    "06 57 BE 03 80 0B 01 01 06 07 73 56 AA F5 00",
 ];
 
 fn hex(bytes: &[u8]) -> String {
@@ -513,6 +568,56 @@ fn golden_frames_read_by_an_independent_decoder() {
             Message::Ack(a) => {
                 assert_eq!(r.varint(), u64::from(a.command_seq));
                 assert_eq!(r.byte(), a.result.code());
+            }
+            Message::SelfTestReport(t) => {
+                assert_eq!([r.varint(), r.varint()], [t.first_sample, t.last_sample]);
+                assert_eq!(r.byte(), u8::from(t.at_boot));
+                assert_eq!(
+                    [r.varint(), r.varint()],
+                    [u64::from(t.failed.0), u64::from(t.not_measured.0)]
+                );
+                let adc: Vec<u64> = (0..7).map(|_| r.varint()).collect();
+                let mut want = vec![u64::from(t.adc.id)];
+                want.extend(t.adc.registers.iter().map(|&v| u64::from(v)));
+                want.extend(t.adc.expected.iter().map(|&v| u64::from(v)));
+                assert_eq!(adc, want);
+                let d = &t.drdy;
+                assert_eq!(
+                    [r.f32(), r.f32(), r.f32()],
+                    [d.rate_hz, d.expected_hz, d.tolerance]
+                );
+                assert_eq!(
+                    [r.varint(), r.varint()],
+                    [u64::from(d.conversions), u64::from(d.ticks)]
+                );
+                let l = &t.loopback;
+                let loopback: Vec<f32> = (0..10).map(|_| r.f32()).collect();
+                assert_eq!(
+                    loopback,
+                    [
+                        l.tone_hz,
+                        l.amplitude_v,
+                        l.gain,
+                        l.expected_gain,
+                        l.gain_tolerance,
+                        l.offset_v,
+                        l.offset_tolerance_v,
+                        l.delay_samples,
+                        l.expected_delay_samples,
+                        l.delay_tolerance_samples
+                    ]
+                );
+                let n = &t.noise;
+                let noise: Vec<f32> = (0..5).map(|_| r.f32()).collect();
+                assert_eq!(
+                    noise,
+                    [n.noise_sd, n.floor_sd, n.signal_rms, n.snr_db, n.snr_min_db]
+                );
+                assert_eq!(r.varint(), 1, "Square tag");
+                assert_eq!(
+                    [r.f32(), r.f32(), r.f32()],
+                    [7.0, n.excitation.amplitude_v, n.excitation.offset_v]
+                );
             }
             _ => continue,
         }

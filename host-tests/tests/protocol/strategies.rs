@@ -3,9 +3,10 @@
 //! −0), every integer, every enum variant, vectors of every allowed length.
 
 use beam_protocol::{
-    Ack, AckResult, Command, DeviceCounters, Estimate, EstimatorKind, EstimatorSettings,
-    Excitation, FirmwareVersion, Message, ModeEstimate, OutputKind, RawSamples, RejectReason,
-    Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
+    Ack, AckResult, AdcCheck, Command, DeviceCounters, DrdyCheck, Estimate, EstimatorKind,
+    EstimatorSettings, Excitation, FirmwareVersion, LineRemoval, LoopbackCheck, Message,
+    ModeEstimate, NoiseCheck, OutputKind, RawSamples, RejectReason, SelfTestChecks, SelfTestReport,
+    SelfTestState, Status, StatusFlags, TelemetryRates, UySample, Waveform, MAX_RAW_SAMPLES,
 };
 use proptest::collection::vec;
 use proptest::option;
@@ -166,7 +167,7 @@ pub fn status() -> impl Strategy<Value = Status> {
         any::<bool>(),
         excitation(),
         estimator_settings(),
-        (telemetry_rates(), any::<bool>()),
+        (telemetry_rates(), any::<bool>(), self_test_state()),
     )
         .prop_map(
             |(
@@ -175,7 +176,7 @@ pub fn status() -> impl Strategy<Value = Status> {
                 frozen,
                 excitation,
                 est,
-                (tel, auto),
+                (tel, auto, self_test),
             )| {
                 Status {
                     uptime_samples,
@@ -204,6 +205,79 @@ pub fn status() -> impl Strategy<Value = Status> {
                     estimator: est,
                     telemetry: tel,
                     lambda_automatic: auto,
+                    self_test,
+                }
+            },
+        )
+}
+
+pub fn self_test_state() -> impl Strategy<Value = SelfTestState> {
+    prop_oneof![
+        Just(SelfTestState::NotRun),
+        Just(SelfTestState::Running),
+        (any::<u16>(), any::<u16>()).prop_map(|(f, n)| SelfTestState::Done {
+            failed: SelfTestChecks(f),
+            not_measured: SelfTestChecks(n),
+        }),
+    ]
+}
+
+pub fn self_test_report() -> impl Strategy<Value = SelfTestReport> {
+    (
+        (any::<u64>(), any::<u64>(), any::<bool>()),
+        (any::<u16>(), any::<u16>()),
+        (any::<u16>(), any::<[u16; 3]>(), any::<[u16; 3]>()),
+        (vec(f32_bits(), 3), any::<u32>(), any::<u32>()),
+        vec(f32_bits(), 10),
+        (vec(f32_bits(), 5), excitation()),
+    )
+        .prop_map(
+            |(
+                (first, last, at_boot),
+                (failed, nm),
+                (id, registers, expected),
+                (d, conv, ticks),
+                l,
+                (n, excitation),
+            )| {
+                SelfTestReport {
+                    first_sample: first,
+                    last_sample: last,
+                    at_boot,
+                    failed: SelfTestChecks(failed),
+                    not_measured: SelfTestChecks(nm),
+                    adc: AdcCheck {
+                        id,
+                        registers,
+                        expected,
+                    },
+                    drdy: DrdyCheck {
+                        rate_hz: d[0],
+                        expected_hz: d[1],
+                        tolerance: d[2],
+                        conversions: conv,
+                        ticks,
+                    },
+                    loopback: LoopbackCheck {
+                        tone_hz: l[0],
+                        amplitude_v: l[1],
+                        gain: l[2],
+                        expected_gain: l[3],
+                        gain_tolerance: l[4],
+                        offset_v: l[5],
+                        offset_tolerance_v: l[6],
+                        delay_samples: l[7],
+                        expected_delay_samples: l[8],
+                        delay_tolerance_samples: l[9],
+                    },
+                    noise: NoiseCheck {
+                        noise_sd: n[0],
+                        floor_sd: n[1],
+                        signal_rms: n[2],
+                        snr_db: n[3],
+                        snr_min_db: n[4],
+                        excitation,
+                    },
                 }
             },
         )
@@ -229,6 +303,14 @@ pub fn command() -> impl Strategy<Value = Command> {
         Just(Command::Freeze),
         Just(Command::Resume),
         Just(Command::RequestStatus),
+        (f32_bits(), any::<u8>(), f32_bits()).prop_map(|(mains_hz, harmonics, time_constant_s)| {
+            Command::SetLineRemoval(LineRemoval {
+                mains_hz,
+                harmonics,
+                time_constant_s,
+            })
+        }),
+        Just(Command::SelfTest),
     ]
 }
 
@@ -240,6 +322,7 @@ pub fn device_message() -> impl Strategy<Value = Message> {
         raw_samples().prop_map(Message::RawSamples),
         status().prop_map(Message::Status),
         ack().prop_map(Message::Ack),
+        self_test_report().prop_map(Message::SelfTestReport),
     ]
 }
 
@@ -249,6 +332,7 @@ pub fn message() -> impl Strategy<Value = Message> {
         raw_samples().prop_map(Message::RawSamples),
         status().prop_map(Message::Status),
         ack().prop_map(Message::Ack),
+        self_test_report().prop_map(Message::SelfTestReport),
         command().prop_map(Message::Command),
     ]
 }

@@ -9,9 +9,7 @@
 //! (the lock masks the DRDY interrupt for a setter or a swap).
 
 use beam_protocol::budget::uart_bytes_per_s;
-use beam_protocol::{
-    EstimatorKind, EstimatorSettings, Excitation, Limits, RejectReason, TelemetryRates, Waveform,
-};
+use beam_protocol::{EstimatorKind, EstimatorSettings, Limits, RejectReason, TelemetryRates};
 use beamest::estimator::robust::ExternalUpdates;
 use beamest::estimator::{Adaptive2, Either};
 use beamest::excitation::{MULTISINE_MAX_TONES, PRBS_MAX_ORDER, PRBS_MIN_ORDER};
@@ -47,6 +45,7 @@ pub fn link_config() -> LinkConfig {
         },
         firmware: FIRMWARE_VERSION,
         rules: FlagRules::default(),
+        self_test: rig::self_test_config(),
     }
 }
 
@@ -55,13 +54,7 @@ pub fn link_config() -> LinkConfig {
 /// (`lambda_rad_s = None`), the protocol's default telemetry rates.
 pub fn start_settings() -> Settings {
     Settings {
-        excitation: Excitation {
-            waveform: Waveform::Square {
-                freq_hz: rig::EXCITATION_HZ as f32,
-            },
-            amplitude_v: rig::EXCITATION_AMPLITUDE_V as f32,
-            offset_v: 0.0,
-        },
+        excitation: rig::start_excitation(),
         estimator: EstimatorSettings::default(),
         telemetry: TelemetryRates::default(),
     }
@@ -116,7 +109,8 @@ impl NucleoDevice {
         let Some(slot) = free.take() else {
             return Err(RejectReason::EstimatorUnavailable);
         };
-        match rebuild_robust(slot, settings, filter, theta0) {
+        // (Its record keeps every u as it came: no input grid.)
+        match rebuild_robust(slot, settings, filter, theta0, 0.0) {
             Ok(()) => Ok(Either::Right(ExternalUpdates(slot))),
             Err(e) => {
                 *free = Some(slot);
@@ -160,6 +154,11 @@ impl Device for NucleoDevice {
                 *free = Some(r.into_inner());
             }
         }
+    }
+
+    /// The ADS131M02 converts on its own clock: wait for a tick to end.
+    fn align_to_sample(&mut self) {
+        crate::between_samples();
     }
 }
 

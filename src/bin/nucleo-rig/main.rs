@@ -88,6 +88,7 @@ use beamest::link::{
     robust_configs, BuildKind, DeviceLink, RobustUpdates, StartupCollector, Tuned,
 };
 use beamest::pipeline::{recover, Counters, Pipeline, RawBlock, Recovered, TelemetryRecord};
+use beamest::selftest::{Collector, SelfTestBlock};
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -109,6 +110,8 @@ const TELEMETRY_QUEUE: usize = 8;
 const RAW_QUEUE: usize = 8;
 /// Start-up pair queue (holds 7 blocks of 32 pairs: 22 ms).
 const STARTUP_QUEUE: usize = 8;
+/// Self-test block queue (holds 7 blocks of 32 ticks: 22 ms).
+const SELF_TEST_QUEUE: usize = 8;
 /// Polling DRDY at start-up gives up after this long (µs). The longest
 /// wait is the first, right after `Ads131m02::configure`: a conversion
 /// still running at the reset-default OSR 1024 takes up to
@@ -175,6 +178,9 @@ pub(crate) struct SampleTask {
     /// The start-up window's pairs for thread mode's tuning rule.
     startup: StartupCollector<f64>,
     startup_out: Producer<'static, RawBlock<f64>>,
+    /// The self-test's copy of each tick.
+    selftest: Collector<f64>,
+    selftest_out: Producer<'static, SelfTestBlock<f64>>,
     last_entry: Option<u32>,
     isr: Spans,
     late: u32,
@@ -191,8 +197,12 @@ struct SerialIsr {
 // .bss instead of carrying the task's size of .data initialiser.
 pub(crate) static SAMPLE: Shared<&'static mut SampleTask> = Shared::new();
 static SERIAL: Shared<SerialIsr> = Shared::new();
-/// Thread mode's tuning rule still wants start-up pairs.
-static COLLECTING: AtomicBool = AtomicBool::new(true);
+/// Thread mode's tuning rule wants start-up pairs (set from
+/// `DeviceLink::collecting_startup`: after the self-test at start-up).
+static COLLECTING: AtomicBool = AtomicBool::new(false);
+/// A self-test runs: each tick is copied for it (set from
+/// `DeviceLink::self_test_running`).
+static SELF_TEST: AtomicBool = AtomicBool::new(false);
 /// Sample ticks completed (wraps): thread mode's cue that a sample period
 /// has just begun and the sample interrupt is done with it.
 static TICKS: AtomicU32 = AtomicU32::new(0);
@@ -202,8 +212,9 @@ fn EXTI3() {
     let entry = cycles::now();
     drdy::clear_pending();
     SAMPLE.with(|task| {
+        let mut gap = 0;
         if let Some(last) = task.last_entry {
-            let gap = cycles::between(last, entry);
+            gap = cycles::between(last, entry);
             let missed = cycles::missed_periods(gap, clocks::CYCLES_PER_SAMPLE);
             if missed > 0 {
                 task.pipeline.note_overrun(missed);
@@ -219,6 +230,13 @@ fn EXTI3() {
                 let out = &mut task.startup_out;
                 task.startup.push(u, y, |b| out.enqueue(b).is_ok());
             }
+        }
+        // Each entry is a DRDY edge; the self-test times them on the DWT.
+        if SELF_TEST.load(Ordering::Relaxed) {
+            let out = &mut task.selftest_out;
+            task.selftest.push(&tick, gap, |b| out.enqueue(b).is_ok());
+        } else {
+            task.selftest.stop();
         }
         if drdy::is_pending() {
             task.late = task.late.saturating_add(1);
@@ -294,10 +312,11 @@ fn main() -> ! {
         Err(e) => fatal("bridge null offset", e),
     };
 
-    let (Some(telemetry), Some(raw), Some(startup), Some(tx_ring), Some(rx_ring)) = (
+    let (Some(telemetry), Some(raw), Some(startup), Some(tests), Some(tx_ring), Some(rx_ring)) = (
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<RawBlock<f64>, RAW_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<RawBlock<f64>, STARTUP_QUEUE> = Queue::new()),
+        cortex_m::singleton!(: Queue<SelfTestBlock<f64>, SELF_TEST_QUEUE> = Queue::new()),
         cortex_m::singleton!(: uart::TxRing = Queue::new()),
         cortex_m::singleton!(: uart::RxRing = Queue::new()),
     ) else {
@@ -306,6 +325,7 @@ fn main() -> ! {
     let (telemetry_tx, mut telemetry_rx) = telemetry.split();
     let (raw_tx, mut raw_rx) = raw.split();
     let (startup_tx, mut startup_rx) = startup.split();
+    let (test_tx, mut test_rx) = tests.split();
 
     let mut link =
         match DeviceLink::new(link::link_config(), link::start_settings(), &link::tuning()) {
@@ -320,6 +340,8 @@ fn main() -> ! {
         pipeline,
         startup: StartupCollector::new(),
         startup_out: startup_tx,
+        selftest: Collector::new(),
+        selftest_out: test_tx,
         last_entry: None,
         isr: Spans::default(),
         late: 0,
@@ -354,21 +376,31 @@ fn main() -> ! {
     between_samples();
     info!(
         "sample interrupt running; serial link on USART3 at {} Bd, protocol version {}; \
-         tuning rule's start-up window {} s",
+         self-test, then the tuning rule's start-up window {} s",
         clocks::BAUD,
         beam_protocol::VERSION,
         link.tuner().rule().config().startup_s
     );
+    // The self-test first (docs/RIG.md, "Bring-up"); the window opens
+    // after it.
+    if let Err(e) = link.start_self_test(&mut device, true) {
+        fatal("self-test start", e);
+    }
+    SELF_TEST.store(true, Ordering::Relaxed);
 
     let mut records: u32 = 0;
     let mut last_record = cycles::now();
     loop {
-        while let Some(block) = startup_rx.dequeue() {
-            link.on_startup_block(&block);
-            if !link.collecting_startup() {
-                COLLECTING.store(false, Ordering::Relaxed);
+        while let Some(block) = test_rx.dequeue() {
+            if let Some(r) = link.on_self_test_block(&block, &mut device, &mut tx) {
+                report_self_test(&r, &mut b.led_fault);
             }
         }
+        while let Some(block) = startup_rx.dequeue() {
+            link.on_startup_block(&block);
+        }
+        SELF_TEST.store(link.self_test_running(), Ordering::Relaxed);
+        COLLECTING.store(link.collecting_startup(), Ordering::Relaxed);
         while let Some(record) = telemetry_rx.dequeue() {
             last_record = cycles::now();
             records = records.wrapping_add(1);
@@ -406,6 +438,10 @@ fn main() -> ! {
             b.led_fault.set_high();
             between_samples();
             warn!("no sample for 0.5 s: DRDY stopped (CLKIN, ADC supply, wiring?)");
+            // A self-test waiting for samples ends with what it has.
+            if let Some(r) = link.abort_self_test(&mut device, &mut tx) {
+                report_self_test(&r, &mut b.led_fault);
+            }
         }
         // Woken by the next interrupt (DRDY every 100 µs, SysTick every 10 ms).
         cortex_m::asm::wfi();
@@ -499,6 +535,48 @@ fn report_robust(u: &RobustUpdates<f64, Spans>, dev: &mut NucleoDevice) {
         u.refused,
         u.chunks,
         u.locks.max
+    );
+}
+
+/// A self-test's report on the log (docs/RIG.md, "Bring-up"); LD3 on if a
+/// check did not pass.
+fn report_self_test(
+    r: &beam_protocol::SelfTestReport,
+    led_fault: &mut embassy_stm32::gpio::Output<'static>,
+) {
+    between_samples();
+    if r.passed() {
+        info!(
+            "self-test (samples {}-{}): every check passed",
+            r.first_sample, r.last_sample
+        );
+    } else {
+        warn!(
+            "self-test (samples {}-{}): failed {=u16:#x}, not measured {=u16:#x} (bits: adc_id, \
+             adc_registers, drdy_rate, loopback, noise)",
+            r.first_sample, r.last_sample, r.failed.0, r.not_measured.0
+        );
+        led_fault.set_high();
+    }
+    between_samples();
+    info!(
+        "self-test: ADC ID {=u16:#x}, MODE CLOCK GAIN1 {:#x} (configured {:#x}); DRDY {} Hz ({} \
+         conversions in {} ticks)",
+        r.adc.id, r.adc.registers, r.adc.expected, r.drdy.rate_hz, r.drdy.conversions, r.drdy.ticks
+    );
+    between_samples();
+    info!(
+        "self-test: loopback gain {} offset {} V delay {} samples (expected {}); noise {} (floor \
+         {}), RMS {} under the start-up excitation, SNR {} dB (at least {})",
+        r.loopback.gain,
+        r.loopback.offset_v,
+        r.loopback.delay_samples,
+        r.loopback.expected_delay_samples,
+        r.noise.noise_sd,
+        r.noise.floor_sd,
+        r.noise.signal_rms,
+        r.noise.snr_db,
+        r.noise.snr_min_db
     );
 }
 
@@ -700,7 +778,7 @@ fn wait_drdy() -> Result<(), NullError> {
 /// defmt-rtt blocks (still masked) while its 1 KiB buffer is full: at the
 /// status report's three lines a second it is far from full unless the
 /// host stops reading (then logging, and the samples with it, stall).
-fn between_samples() {
+pub(crate) fn between_samples() {
     let seen = TICKS.load(Ordering::Acquire);
     let start = cycles::now();
     while TICKS.load(Ordering::Acquire) == seen {

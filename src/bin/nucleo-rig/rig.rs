@@ -14,6 +14,7 @@ use beamest::pipeline::{
     AdcScale, BridgeConfig, ConversionConfig, DacLatch, InputSource, Linearisation, OutputQuantity,
     PipelineConfig, ADS131M02_VREF_V,
 };
+use beamest::selftest::SelfTestConfig;
 
 /// Sample rate (Hz): the ADC's data rate (board clock plan).
 pub const SAMPLE_RATE_HZ: f64 = 10_000.0;
@@ -184,4 +185,40 @@ pub fn estimator(y_scale: f64) -> Result<Adaptive2<f64>, ConfigError> {
         ..FilterConfig::default()
     };
     Adaptive2::<f64>::new(&filter, &AdaptiveConfig::default())
+}
+
+/// The self-test's loopback tone on the actuator (V): the start-up
+/// excitation's amplitude, 10 % of the safe window.
+pub const SELF_TEST_TONE_V: f32 = EXCITATION_AMPLITUDE_V as f32;
+
+/// What the self-test expects of this board: DRDY at the sample rate
+/// against the CPU clock (DWT, 400 MHz), the ADC configuration's
+/// registers, the loopback at the converters' timing ([`output_timing`]'s
+/// delay plus the hold's half sample: 2.15 samples), one code of strain at
+/// the bridge's balance, and the start-up excitation as the SNR's signal.
+pub fn self_test_config() -> SelfTestConfig {
+    let y_code = conversion(0.0)
+        .compile::<f64>()
+        .map_or(f64::NAN, |c| c.y_from_code(1) - c.y_from_code(0));
+    SelfTestConfig {
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        clock_hz: f64::from(beamest::board::nucleo::clocks::CPU_HZ),
+        adc: adc_config(),
+        tone_amplitude_v: SELF_TEST_TONE_V,
+        expected_delay_samples: output_timing().delay_samples + 0.5,
+        y_code,
+        excitation: start_excitation(),
+    }
+}
+
+/// The start-up excitation as the serial link states it (the generator:
+/// [`excitation`]).
+pub fn start_excitation() -> beam_protocol::Excitation {
+    beam_protocol::Excitation {
+        waveform: Waveform::Square {
+            freq_hz: EXCITATION_HZ as f32,
+        },
+        amplitude_v: EXCITATION_AMPLITUDE_V as f32,
+        offset_v: 0.0,
+    }
 }

@@ -53,20 +53,21 @@ use beamest::board::qemu::cycles::{self, SpinDelay};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::uart::{RxFill, RxRing, TxDrain, TxRing};
 use beamest::board::qemu::{self as board, interrupt, timer, Board, Handoff, IsrOwned, Shared};
-use beamest::estimator::robust::Robust2;
+use beamest::estimator::robust::{Head, Robust2Compact, RobustConfig};
 use beamest::estimator::{Adaptive2, AdaptiveConfig, Either};
 use beamest::link::{DeviceLink, Settings};
 use beamest::pipeline::{bring_up, Pipeline, PipelineConfig};
 use beamest::tuning::{LambdaSource, TuningConfig};
+use core::mem::MaybeUninit;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::spsc::{Producer, Queue};
 use panic_semihosting as _;
 
 use device::QemuDevice;
-use numfmt::Fixed;
+use numfmt::{Fixed, Sci};
 use report::{finish, log, on_build, Run, LOG_EVERY, OUTPUT_WEIGHT};
-use sample::{Raw, Record, SampleTask, Summary, COLLECTING, RUN_SAMPLES};
+use sample::{Raw, Record, SampleTask, Summary, TestBlock, COLLECTING, RUN_SAMPLES, SELF_TEST};
 
 /// Telemetry queue size (holds `TELEMETRY_QUEUE − 1` records: 130 ms).
 const TELEMETRY_QUEUE: usize = 14;
@@ -77,6 +78,9 @@ const RAW_QUEUE: usize = 8;
 /// "Firmware on the emulated board").
 /// A refused block is counted and its gap handled (`link::tune`).
 const STARTUP_QUEUE: usize = 4;
+/// Self-test block queue size (holds 7 blocks of 32 ticks: 22 ms at
+/// 10 kHz; thread mode's cost per block: BENCHMARKS.md, "The self-test").
+const SELF_TEST_QUEUE: usize = 8;
 
 static SPI_METER: SpiMeter = SpiMeter::new();
 // Large states are handed over by `&'static mut` into `singleton!` storage:
@@ -143,14 +147,24 @@ fn main() -> ! {
     }
     fma_self_check();
     let run_samples = run_length();
+    let fault = selftest_fault();
 
-    let (Some(tx_ring), Some(rx_ring), Some(queue), Some(raw_queue), Some(startup_queue)) = (
+    let (
+        Some(tx_ring),
+        Some(rx_ring),
+        Some(queue),
+        Some(raw_queue),
+        Some(startup_queue),
+        Some(test_queue),
+    ) = (
         cortex_m::singleton!(: TxRing = Queue::new()),
         cortex_m::singleton!(: RxRing = Queue::new()),
         cortex_m::singleton!(: Queue<Record, TELEMETRY_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<Raw, RAW_QUEUE> = Queue::new()),
         cortex_m::singleton!(: Queue<Raw, STARTUP_QUEUE> = Queue::new()),
-    ) else {
+        cortex_m::singleton!(: Queue<TestBlock, SELF_TEST_QUEUE> = Queue::new()),
+    )
+    else {
         fail("static buffers already taken")
     };
     let (mut tx, drain, fill, mut rx) =
@@ -158,14 +172,9 @@ fn main() -> ! {
             .split(timer::PCLK_HZ, board::UART_BAUD, tx_ring, rx_ring);
     TX_DRAIN.put(drain);
     RX_FILL.put(fill);
-    // The bench's link, with the robust estimator selectable too in the
-    // `qemu-robust` image.
-    #[cfg_attr(not(feature = "qemu-robust"), allow(unused_mut))]
+    // The bench's link, with the robust estimator selectable too.
     let mut link_config = bench::link_config(board::UART_BAUD);
-    #[cfg(feature = "qemu-robust")]
-    {
-        link_config.limits.estimators |= EstimatorKind::Robust.bit();
-    }
+    link_config.limits.estimators |= EstimatorKind::Robust.bit();
     let Ok(mut link) = DeviceLink::new(link_config, default_settings(), &tuning()) else {
         fail("tuning settings")
     };
@@ -177,17 +186,32 @@ fn main() -> ! {
     let (producer, mut consumer) = queue.split();
     let (raw_producer, mut raw_consumer) = raw_queue.split();
     let (startup_producer, mut startup_consumer) = startup_queue.split();
+    let (test_producer, mut test_consumer) = test_queue.split();
     let (task, spare) = build_sample_task(
         &config,
         producer,
         raw_producer,
         startup_producer,
+        test_producer,
         run_samples,
     );
     // SAFETY: the chip models were created inside `build_sample_task` and
     // only the task (its rig and its drivers) refers to them.
     SAMPLE_TASK.put(unsafe { IsrOwned::new(task) });
-    let mut device = QemuDevice::new(&SAMPLE_TASK, spare, robust_slots());
+    let (slot, head) = robust_storage();
+    let mut device = QemuDevice::new(&SAMPLE_TASK, spare, slot, head);
+    // The self-test's fault (`selftest_fault=NAME`), after the bring-up
+    // (a wrong ID would stop it), before the self-test.
+    if let Some(f) = fault {
+        device.with_rig(|rig| f.apply(rig));
+        hprintln!("self-test fault injected: {}", f.name());
+    }
+    // The self-test first: the tuning rule's window opens after it.
+    if let Err(e) = link.start_self_test(&mut device, true) {
+        hprintln!("error: the self-test could not start: {}", e);
+        board::exit(false);
+    }
+    SELF_TEST.store(true, core::sync::atomic::Ordering::Relaxed);
     hprintln!(
         "serial link: UART0 at {} baud, protocol version {}; estimates {} Hz, status {} Hz, \
          raw samples off (settable by command); run length {} s{}",
@@ -222,16 +246,35 @@ fn main() -> ! {
         while let Some(block) = raw_consumer.dequeue() {
             link.on_raw(&block, &mut tx);
         }
+        while let Some(block) = test_consumer.dequeue() {
+            let t0 = cycles::now();
+            let report = link.on_self_test_block(&block, &mut device, &mut tx);
+            run.selftest_blocks.add(t0, cycles::now());
+            if let Some(r) = report {
+                report::self_test(&r, fault);
+            }
+        }
         while let Some(block) = startup_consumer.dequeue() {
             if run.first_block.is_none() {
                 run.first_block = Some(block);
             }
             link.on_startup_block(&block);
-            if !link.collecting_startup() {
-                COLLECTING.store(false, core::sync::atomic::Ordering::Relaxed);
-            }
         }
+        SELF_TEST.store(
+            link.self_test_running(),
+            core::sync::atomic::Ordering::Relaxed,
+        );
+        COLLECTING.store(
+            link.collecting_startup(),
+            core::sync::atomic::Ordering::Relaxed,
+        );
+        let (t0, bytes0) = (cycles::now(), link.rx_counters().bytes);
         link.receive(core::iter::from_fn(|| rx.read()), &mut device, &mut tx);
+        let bytes = link.rx_counters().bytes - bytes0;
+        if bytes > 0 {
+            run.receive.add(t0, cycles::now());
+            run.received = run.received.saturating_add(bytes);
+        }
         // The summary first: nothing is swapped in after the last sample.
         if let Some(summary) = SUMMARY.take() {
             b.timer.stop();
@@ -300,6 +343,34 @@ fn run_length() -> u32 {
     }
 }
 
+/// The word `hum=1` on the semihosting command line (`cargo xtask qemu
+/// --hum`): the rig adds [`bench::HUM`] to y.
+fn hum_requested() -> bool {
+    let mut buf = [0u8; 128];
+    board::command_line(&mut buf)
+        .unwrap_or("")
+        .split_ascii_whitespace()
+        .any(|w| w == "hum=1")
+}
+
+/// The self-test's bench fault from the semihosting command line: the word
+/// `selftest_fault=NAME` (`beamest::bench::BenchFault`'s names); none
+/// without it.
+fn selftest_fault() -> Option<bench::BenchFault> {
+    let mut buf = [0u8; 128];
+    let line = board::command_line(&mut buf).unwrap_or("");
+    let name = line
+        .split_ascii_whitespace()
+        .find_map(|w| w.strip_prefix("selftest_fault="))?;
+    match bench::BenchFault::from_name(name) {
+        Some(f) => Some(f),
+        None => {
+            hprintln!("error: selftest_fault={}: no such fault", name);
+            board::exit(false)
+        }
+    }
+}
+
 /// "12" or "2.5" seconds → samples at 10 kHz (whole samples, saturating).
 fn parse_seconds_as_samples(s: &str) -> Option<u32> {
     let (whole, frac) = s.split_once('.').unwrap_or((s, ""));
@@ -332,6 +403,7 @@ fn build_sample_task(
     producer: Producer<'static, Record>,
     raw_producer: Producer<'static, Raw>,
     startup_producer: Producer<'static, Raw>,
+    test_producer: Producer<'static, TestBlock>,
     run_samples: u32,
 ) -> (&'static mut SampleTask, &'static mut Adaptive2<f32>) {
     let Some(models) = cortex_m::singleton!(: ConverterModels = ConverterModels::new()) else {
@@ -360,6 +432,18 @@ fn build_sample_task(
     }
     let Ok(rig) = bench::converter_rig(models) else {
         fail("rig settings")
+    };
+    let rig = if hum_requested() {
+        hprintln!(
+            "rig: hum f1={} a1={} f2={} a2={}",
+            Fixed(bench::HUM[0].0, 1),
+            Sci(bench::HUM[0].1, 4),
+            Fixed(bench::HUM[1].0, 1),
+            Sci(bench::HUM[1].1, 4)
+        );
+        rig.with_hum(&bench::HUM, bench::TS_S)
+    } else {
+        rig
     };
     // Two estimator slots: the stand-in the frozen pipeline holds, and the
     // spare the real estimator is built into (then they alternate).
@@ -392,6 +476,7 @@ fn build_sample_task(
         pipeline,
         &SPI_METER,
         startup_producer,
+        test_producer,
         &SUMMARY,
         run_samples,
     );
@@ -401,39 +486,31 @@ fn build_sample_task(
     (task, spare)
 }
 
-/// Without the `qemu-robust` feature: no robust slots.
-#[cfg(not(feature = "qemu-robust"))]
-fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
-    [None, None]
-}
-
-/// The robust estimator's two slots (in .bss, sizes in BENCHMARKS.md; placeholders
-/// until `SetEstimator` builds one, see [`device`]).
-#[cfg(feature = "qemu-robust")]
-fn robust_slots() -> [Option<&'static mut Robust2<f32>>; 2] {
+/// The robust estimator's slot (its compact record, written where it lies:
+/// `new_in`) and head workspace (sizes: BENCHMARKS.md; placeholders until
+/// `SetEstimator` builds one, see [`device`]).
+fn robust_storage() -> (
+    &'static mut Robust2Compact<f32>,
+    &'static mut Head<f32, 4, 7, 28>,
+) {
     let filter = beamest::filter_bank::FilterConfig {
         timing: beamest::filter_bank::OutputTiming::IDEAL,
         ..bench::filter_config(1.0)
     };
-    let (Ok(a), Ok(b)) = (
-        Robust2::<f32>::new(
-            &filter,
-            &beamest::estimator::robust::RobustConfig::default(),
-        ),
-        Robust2::<f32>::new(
-            &filter,
-            &beamest::estimator::robust::RobustConfig::default(),
-        ),
+    let cfg = RobustConfig::default();
+    let (Some(slot), Ok(head)) = (
+        cortex_m::singleton!(: MaybeUninit<Robust2Compact<f32>> = MaybeUninit::uninit()),
+        Head::<f32, 4, 7, 28>::new(&filter, &cfg),
     ) else {
-        fail("robust estimator settings")
+        fail("robust estimator storage")
     };
-    let (Some(a), Some(b)) = (
-        cortex_m::singleton!(: Robust2<f32> = a),
-        cortex_m::singleton!(: Robust2<f32> = b),
+    let (Ok(slot), Some(head)) = (
+        Robust2Compact::<f32>::new_in(slot, &filter, &cfg),
+        cortex_m::singleton!(: Head<f32, 4, 7, 28> = head),
     ) else {
-        fail("robust estimator slots already placed")
+        fail("robust estimator storage")
     };
-    [Some(a), Some(b)]
+    (slot, head)
 }
 
 /// The bench's start-up settings with the estimator under the automatic

@@ -28,8 +28,23 @@
 //!   lost_pairs= startup_dropped=` — the tuning rule at the end (λ0 of the
 //!   first estimator, λ in use, relative re-centring threshold, start-up
 //!   pairs lost by the rule and blocks refused by its queue);
+//! * `rig: hum f1= a1= f2= a2=` — at boot, with `hum=1` on the command
+//!   line: the lines added to y (Hz, m; `beamest::bench::HUM`);
+//! * `rig: lines n=<lines> mains_hz= tau_s= a1= …` — the line remover at
+//!   the end (`n=0`: off): per line (the mains' harmonics in order) the
+//!   amplitude in y its weights hold (m);
 //! * `rig: modes n=<modes> omega1= zeta1= omega2= zeta2=` — the final
 //!   estimate's recovery (eqs. 30-32; `n=0` and nothing else without one);
+//! * `rig: selftest at_boot=true|false failed= not_measured= first= last=
+//!   fault=<bench fault>|none id= drdy_hz= gain= offset_v= delay= noise_sd=
+//!   snr_db=` — one per self-test report, when it is made (the bit sets
+//!   of `SelfTestChecks` in decimal);
+//! * `rig: link rx_bytes= rx_frames= rx_errors= accepted= rejected=
+//!   tx_frames= tx_dropped_frames= uart_rx_dropped= uart_tx_dropped=
+//!   uart_rx_overruns=` — the serial link's counters at the end (bytes
+//!   decoded, frames delivered and refused by the command decoder,
+//!   commands, frames sent and dropped, bytes lost by the UART's rings and
+//!   its receive overruns);
 //! * `rig: end samples= overruns= rig_errors= started_at=<sample>|none
 //!   estimator=adaptive|robust` — last: the run is over and reported.
 
@@ -40,7 +55,7 @@
     clippy::indexing_slicing
 )]
 
-use beam_protocol::{encode, EstimatorKind, Message, StatusFlags, MAX_ENCODED_LEN};
+use beam_protocol::{encode, EstimatorKind, Message, SelfTestReport, StatusFlags, MAX_ENCODED_LEN};
 use beamest::bench;
 use beamest::board::qemu as board;
 use beamest::board::qemu::cycles::{self, Calibration, SpanSum};
@@ -166,6 +181,13 @@ pub struct Run {
     pub first_block: Option<crate::sample::Raw>,
     /// The robust estimator's model updates (when it runs).
     pub robust: RobustUpdates,
+    /// Thread mode's handling of each self-test block.
+    pub selftest_blocks: SpanSum,
+    /// Thread mode's passes over received bytes (decoding, commands,
+    /// Acks; the sample interrupt's preemptions included) …
+    pub receive: SpanSum,
+    /// … and the bytes they took.
+    pub received: u64,
 }
 
 impl Default for Run {
@@ -176,8 +198,61 @@ impl Default for Run {
             recentred: heapless::Vec::new(),
             first_block: None,
             robust: robust::updates(),
+            selftest_blocks: SpanSum::default(),
+            receive: SpanSum::default(),
+            received: 0,
         }
     }
+}
+
+/// A self-test's report: the log lines and `rig: selftest`.
+pub fn self_test(r: &SelfTestReport, fault: Option<bench::BenchFault>) {
+    hprintln!(
+        "self-test ({}, samples {} to {}): failed {:#06x}, not measured {:#06x}; ADC ID {:04X}h, \
+         registers {:04X}h {:04X}h {:04X}h (configured {:04X}h {:04X}h {:04X}h); DRDY {} Hz ({} \
+         conversions in {} ticks); loopback gain {}, offset {} V, delay {} samples (expected {}); \
+         noise sd {} (floor {}), signal RMS {}, SNR {} dB",
+        if r.at_boot { "at boot" } else { "on command" },
+        r.first_sample,
+        r.last_sample,
+        r.failed.0,
+        r.not_measured.0,
+        r.adc.id,
+        r.adc.registers[0],
+        r.adc.registers[1],
+        r.adc.registers[2],
+        r.adc.expected[0],
+        r.adc.expected[1],
+        r.adc.expected[2],
+        Sci(f64::from(r.drdy.rate_hz), 6),
+        r.drdy.conversions,
+        r.drdy.ticks,
+        Sci(f64::from(r.loopback.gain), 6),
+        Sci(f64::from(r.loopback.offset_v), 3),
+        Sci(f64::from(r.loopback.delay_samples), 6),
+        Sci(f64::from(r.loopback.expected_delay_samples), 6),
+        Sci(f64::from(r.noise.noise_sd), 3),
+        Sci(f64::from(r.noise.floor_sd), 3),
+        Sci(f64::from(r.noise.signal_rms), 4),
+        Sci(f64::from(r.noise.snr_db), 4)
+    );
+    hprintln!(
+        "rig: selftest at_boot={} failed={} not_measured={} first={} last={} fault={} id={} \
+         drdy_hz={} gain={} offset_v={} delay={} noise_sd={} snr_db={}",
+        r.at_boot,
+        r.failed.0,
+        r.not_measured.0,
+        r.first_sample,
+        r.last_sample,
+        fault.map_or("none", bench::BenchFault::name),
+        r.adc.id,
+        Sci(f64::from(r.drdy.rate_hz), 9),
+        Sci(f64::from(r.loopback.gain), 9),
+        Sci(f64::from(r.loopback.offset_v), 9),
+        Sci(f64::from(r.loopback.delay_samples), 9),
+        Sci(f64::from(r.noise.noise_sd), 9),
+        Sci(f64::from(r.noise.snr_db), 9)
+    );
 }
 
 /// Mean instructions of a span sum.
@@ -225,7 +300,7 @@ pub fn finish(
     hprintln!(
         "serial link: {} frames ({} bytes) sent, {} dropped on a full TX ring; commands: {} \
          accepted, {} rejected; received {} bytes, {} frames, {} bad frames; uart0 ring \
-         overflows: tx {} B, rx {} B",
+         overflows: tx {} B, rx {} B; receive overruns {}",
         ts.frames_sent,
         ts.bytes_sent,
         ts.frames_dropped,
@@ -235,14 +310,54 @@ pub fn finish(
         rc.frames_ok,
         rc.errors(),
         uart.tx_dropped,
-        uart.rx_dropped
+        uart.rx_dropped,
+        uart.rx_overruns
     );
+    hprintln!(
+        "rig: link rx_bytes={} rx_frames={} rx_errors={} accepted={} rejected={} tx_frames={} \
+         tx_dropped_frames={} uart_rx_dropped={} uart_tx_dropped={} uart_rx_overruns={}",
+        rc.bytes,
+        rc.frames_ok,
+        rc.errors(),
+        accepted,
+        refused,
+        ts.frames_sent,
+        ts.frames_dropped,
+        uart.rx_dropped,
+        uart.tx_dropped,
+        uart.rx_overruns
+    );
+    if run.received > 0 {
+        hprintln!(
+            "serial link receive: {} instructions per byte received (mean over {} bytes in {} \
+             passes of thread mode: decoding, the commands and their Acks, the sample \
+             interrupt's preemptions included)",
+            Fixed(
+                run.receive.ticks as f64 * f64::from(ipt) / run.received as f64,
+                1
+            ),
+            run.received,
+            run.receive.count
+        );
+    }
     let locks = device.locks();
     hprintln!(
         "pipeline locks from thread mode (commands, start-up): {}, longest {} instructions \
          (the most any of them delayed a sample)",
         locks.count,
         (locks.max_ticks as f32 * ipt) as u32
+    );
+    hprintln!(
+        "self-test: the sample interrupt's copy of a tick {} instructions (mean over {} \
+         ticks, max {}), {} blocks refused; thread mode per 32-tick block {} instructions \
+         (mean over {} blocks, max {})",
+        Fixed(mean(&s.selftest, ipt), 0),
+        s.selftest.count,
+        (s.selftest.max_ticks as f32 * ipt) as u32,
+        s.selftest_dropped,
+        Fixed(mean(&run.selftest_blocks, ipt), 0),
+        run.selftest_blocks.count,
+        (run.selftest_blocks.max_ticks as f32 * ipt) as u32
     );
     rig_faults(s);
     let robust_running = link.settings().estimator.kind == EstimatorKind::Robust;
@@ -318,6 +433,7 @@ pub fn finish(
     }
     rig_tuning(run, link, s.startup_dropped);
     rig_modes(modes.as_ref());
+    rig_lines(s, link);
     hprintln!(
         "rig: end samples={} overruns={} rig_errors={} started_at={} estimator={}",
         s.samples,
@@ -397,6 +513,26 @@ fn rig_tuning(run: &Run, link: &DeviceLink, startup_dropped: u32) {
         Sci(link.tuner().rule().config().recentre_threshold, 9),
         link.tuner().lost_pairs(),
         startup_dropped
+    );
+}
+
+/// `rig: lines` (the line remover at the end: its lines and the
+/// amplitude in y each one's weights hold).
+fn rig_lines(s: &Summary, link: &DeviceLink) {
+    let l = link.line_removal();
+    let mut text: heapless::String<256> = heapless::String::new();
+    for (i, a) in s.line_amplitudes.iter().take(s.lines).enumerate() {
+        let _ = core::fmt::Write::write_fmt(
+            &mut text,
+            format_args!(" a{}={}", i + 1, Sci(f64::from(*a), 4)),
+        );
+    }
+    hprintln!(
+        "rig: lines n={} mains_hz={} tau_s={}{}",
+        s.lines,
+        Fixed(f64::from(l.mains_hz), 3),
+        Fixed(f64::from(l.time_constant_s), 3),
+        text.as_str()
     );
 }
 

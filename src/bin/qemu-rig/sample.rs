@@ -45,19 +45,25 @@ use beamest::bench::ConverterRig;
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::meter::{MeteredSpi, SpiMeter, TimedEstimator};
 use beamest::board::qemu::{self as board, Handoff};
-use beamest::estimator::robust::Robust2;
-use beamest::estimator::{Adaptive2, Either, Estimator, StepStatus};
+use beamest::estimator::robust::{Head, Robust2Compact};
+use beamest::estimator::{Adaptive2, Either, Estimator, Health, StepStatus};
 use beamest::link::StartupCollector;
 use beamest::model::TransferFunction;
 use beamest::pipeline::{Counters, Pipeline, RawBlock, TelemetryRecord};
 use beamest::rig::chips::{Ad5761rModel, Ads131m02Model, Shared};
+use beamest::selftest::{Collector, SelfTestBlock};
+use beamest::supervise::Supervision;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m::peripheral::NVIC;
 use heapless::spsc::Producer;
 
-/// Thread mode's tuning rule still wants start-up pairs (cleared by thread
-/// mode when its window closes).
-pub static COLLECTING: AtomicBool = AtomicBool::new(true);
+/// Thread mode's tuning rule wants start-up pairs (set by thread mode
+/// from `DeviceLink::collecting_startup`: after the boot self-test, until
+/// its window closes).
+pub static COLLECTING: AtomicBool = AtomicBool::new(false);
+/// A self-test runs: every tick is copied for it (set by thread mode from
+/// `DeviceLink::self_test_running`).
+pub static SELF_TEST: AtomicBool = AtomicBool::new(false);
 
 /// Parameters of Θ for two modes (eq. 29: 4n − 1) and of packed P.
 pub const NP: usize = 7;
@@ -71,9 +77,67 @@ pub const PERIOD_FROM: u32 = 10;
 /// See [`PERIOD_FROM`].
 pub const PERIODS: u32 = 6_000;
 
+/// The robust estimator as the pipeline holds it: the image's one slot, or
+/// (only on its way to [`QemuDevice::swap_estimator`](crate::device::QemuDevice::swap_estimator), never stepped by
+/// the pipeline) a new estimator's head to be installed into the running
+/// slot.
+#[derive(Debug)]
+pub enum RobustSlot {
+    /// The slot: the estimator with its record.
+    Slot(&'static mut Robust2Compact<f32>),
+    /// A new estimator without a record.
+    Head(&'static mut Head<f32, 4, NP, 28>),
+}
+
+/// Forward `$call` to the slot's or the head's estimator.
+macro_rules! slot {
+    ($self:expr, $e:ident => $call:expr) => {
+        match $self {
+            RobustSlot::Slot($e) => $call,
+            RobustSlot::Head($e) => $call,
+        }
+    };
+}
+
+impl Estimator<f32, NP> for RobustSlot {
+    /// Out of line: the adaptive law's step, in the same dispatch, keeps
+    /// its registers (BENCHMARKS.md, "Firmware on the emulated board").
+    #[inline(never)]
+    fn step(&mut self, u: f32, y: f32) -> StepStatus {
+        slot!(self, e => e.step(u, y))
+    }
+    fn theta(&self) -> [f32; NP] {
+        slot!(self, e => e.theta())
+    }
+    fn transfer_function(&self) -> TransferFunction<f32> {
+        slot!(self, e => e.transfer_function())
+    }
+    fn reset(&mut self) {
+        slot!(self, e => e.reset())
+    }
+    fn excitation_level(&self) -> Option<f32> {
+        slot!(self, e => e.excitation_level())
+    }
+    fn health(&self) -> Health {
+        slot!(self, e => e.health())
+    }
+    fn information(&self) -> Option<[[f32; NP]; NP]> {
+        slot!(self, e => Estimator::information(&**e))
+    }
+    fn hold(&mut self, samples: u32) {
+        slot!(self, e => e.hold(samples))
+    }
+    fn settling_samples(&self) -> u32 {
+        slot!(self, e => e.settling_samples())
+    }
+    fn supervision(&self) -> Option<Supervision<f32>> {
+        slot!(self, e => e.supervision())
+    }
+}
+
 /// The estimators this image runs (`EstimatorKind` Adaptive or Robust),
 /// each in static storage.
-pub type Choice = Either<&'static mut Adaptive2<f32>, &'static mut Robust2<f32>>;
+pub type Choice = Either<&'static mut Adaptive2<f32>, RobustSlot>;
 /// The estimator the pipeline steps: one of [`Choice`], timed.
 pub type Est = TimedEstimator<Choice>;
 /// The ADS131M02 driver on its model.
@@ -84,6 +148,8 @@ pub type DacDriver = Ad5761r<MeteredSpi<Shared<'static, Ad5761rModel>>>;
 pub type Record = TelemetryRecord<f32, NP, NS>;
 /// A raw-sample block.
 pub type Raw = RawBlock<f32>;
+/// A block of the self-test's ticks.
+pub type TestBlock = SelfTestBlock<f32>;
 /// The pipeline of this image.
 pub type RigPipeline = Pipeline<
     f32,
@@ -173,6 +239,16 @@ pub struct Summary {
     pub startup_dropped: u32,
     /// The steps' statuses: [updated, held (frozen), rejected, skipped].
     pub step_counts: [u32; 4],
+    /// The line remover's amplitude of each line in y at the end (its
+    /// weights), `lines` of them (0: off).
+    pub line_amplitudes: [f32; beamest::guard::lines::MAX_LINES],
+    /// Lines the remover holds.
+    pub lines: usize,
+    /// The self-test's copy of each tick (its cost in the handler), over
+    /// the ticks it collected.
+    pub selftest: SpanSum,
+    /// Self-test blocks the queue refused.
+    pub selftest_dropped: u32,
 }
 
 /// Everything the sample interrupt owns.
@@ -181,6 +257,11 @@ pub struct SampleTask {
     pipeline: RigPipeline,
     startup: StartupCollector<f32>,
     startup_out: Producer<'static, Raw>,
+    selftest: Collector<f32>,
+    selftest_out: Producer<'static, TestBlock>,
+    selftest_span: SpanSum,
+    /// SysTick at the previous handler entry.
+    last_entry: Option<u32>,
     meter: &'static SpiMeter,
     summary_out: &'static Handoff<Summary>,
     run_samples: u32,
@@ -203,6 +284,7 @@ impl SampleTask {
         mut pipeline: RigPipeline,
         meter: &'static SpiMeter,
         startup_out: Producer<'static, Raw>,
+        selftest_out: Producer<'static, TestBlock>,
         summary_out: &'static Handoff<Summary>,
         run_samples: u32,
     ) -> Self {
@@ -212,6 +294,10 @@ impl SampleTask {
             pipeline,
             startup: StartupCollector::new(),
             startup_out,
+            selftest: Collector::new(),
+            selftest_out,
+            selftest_span: SpanSum::default(),
+            last_entry: None,
             meter,
             summary_out,
             run_samples,
@@ -257,12 +343,26 @@ impl SampleTask {
         let tick = self.pipeline.tick();
         let t2 = cycles::now();
         let models = self.meter.ticks().wrapping_sub(m0);
-        // 3. Start-up: the fed pairs out to thread mode's tuning rule.
+        // 3. Start-up: the fed pairs out to thread mode's tuning rule;
+        // the self-test's copy of the tick (timed on the handler's entry).
         if COLLECTING.load(Ordering::Relaxed) {
             if let Some((u, y)) = tick.fed {
                 let out = &mut self.startup_out;
                 self.startup.push(u, y, |b| out.enqueue(b).is_ok());
             }
+        }
+        let elapsed = self
+            .last_entry
+            .map_or(0, |last| cycles::ticks_between(last, entry));
+        self.last_entry = Some(entry);
+        if SELF_TEST.load(Ordering::Relaxed) {
+            let c0 = cycles::now();
+            let out = &mut self.selftest_out;
+            self.selftest
+                .push(&tick, elapsed, |b| out.enqueue(b).is_ok());
+            self.selftest_span.add(c0, cycles::now());
+        } else {
+            self.selftest.stop();
         }
         if NVIC::is_pending(board::Interrupt::TIMER0) {
             self.overruns = self.overruns.saturating_add(1);
@@ -308,6 +408,12 @@ impl SampleTask {
         &mut self.pipeline
     }
 
+    /// The simulated bench (thread mode, inside the lock: a fault for the
+    /// self-test, `selftest_fault=NAME`).
+    pub fn rig_mut(&mut self) -> &mut ConverterRig<'static> {
+        &mut self.rig
+    }
+
     fn inject(&self, k: u32) {
         for (at, fault) in FAULTS {
             let Ok(mut m) = self.rig.models().adc.try_borrow_mut() else {
@@ -327,6 +433,15 @@ impl SampleTask {
 
     fn finish(&mut self) {
         self.finished = true;
+        let mut line_amplitudes = [0.0; beamest::guard::lines::MAX_LINES];
+        let mut lines = 0;
+        for (slot, a) in line_amplitudes
+            .iter_mut()
+            .zip(self.pipeline.line_amplitudes())
+        {
+            *slot = a;
+            lines += 1;
+        }
         self.summary_out.put(Summary {
             samples: self.samples,
             steady: self.steady,
@@ -338,6 +453,10 @@ impl SampleTask {
             tf: self.pipeline.estimator().transfer_function(),
             startup_dropped: self.startup.dropped(),
             step_counts: self.step_counts,
+            line_amplitudes,
+            lines,
+            selftest: self.selftest_span,
+            selftest_dropped: self.selftest.dropped(),
         });
     }
 }

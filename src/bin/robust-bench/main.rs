@@ -1,5 +1,6 @@
 //! What the noise-robust estimator (`beamest::estimator::robust`,
-//! `Robust2<f32>`) would cost in the QEMU image's sample interrupt, counted
+//! `Robust2Compact<f32>`: the QEMU image's, its start-up record in the
+//! compact form) costs in the sample interrupt and in thread mode, counted
 //! in executed instructions on QEMU `mps2-an386` (Cortex-M4F, `f32`):
 //! `cargo xtask robust-bench`.
 //!
@@ -42,13 +43,14 @@
 
 use beamest::board::qemu::cycles::{self, SpanSum};
 use beamest::board::qemu::{self as board};
-use beamest::estimator::robust::{Phase, Robust2, RobustConfig};
+use beamest::estimator::robust::{Phase, Robust2Compact, RobustConfig};
 use beamest::estimator::Estimator;
 use beamest::excitation::SquareWave;
 use beamest::modal::modal_from_tf;
 use beamest::model::{PAPER_B, PAPER_OMEGA, PAPER_ZETA};
 use beamest::rig::{ModalPlant, Rig};
 use beamest::tuning::{AutoTune, LambdaSource, TuningConfig};
+use core::mem::MaybeUninit;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use panic_semihosting as _;
@@ -99,16 +101,18 @@ fn main() -> ! {
         update_every: 0,
         ..RobustConfig::default()
     };
-    let Ok(est) = Robust2::<f32>::new(&filter, &cfg) else {
-        fail("robust estimator settings")
-    };
-    let Some(est) = cortex_m::singleton!(: Robust2<f32> = est) else {
+    let Some(slot) =
+        cortex_m::singleton!(: MaybeUninit<Robust2Compact<f32>> = MaybeUninit::uninit())
+    else {
         fail("estimator slot")
     };
+    let Ok(est) = Robust2Compact::<f32>::new_in(slot, &filter, &cfg) else {
+        fail("robust estimator settings")
+    };
     hprintln!(
-        "robust_bench: Robust2<f32> {} B (record of {} s), pending update {} B; lambda = {} \
+        "robust_bench: Robust2Compact<f32> {} B (record of {} s), pending update {} B; lambda = {} \
          rad/s, U0 = {}, Y0 = {} from the tuning rule's window",
-        core::mem::size_of::<Robust2<f32>>(),
+        core::mem::size_of::<Robust2Compact<f32>>(),
         beamest::estimator::robust::DEFAULT_RECORD as f64 * TS_S,
         core::mem::size_of::<beamest::estimator::robust::Pending<f32, 4, 7, 28>>(),
         filter.lambda_rad_s as f32,
@@ -123,7 +127,7 @@ fn main() -> ! {
     let (mut applied, mut refused) = (0u32, 0u32);
     let mut lag_max = 0u32;
     let mut k = 0u32;
-    let mut step = |k: &mut u32, est: &mut Robust2<f32>| {
+    let mut step = |k: &mut u32, est: &mut Robust2Compact<f32>| {
         let s = second.tick();
         let (u, y) = (s.u as f32, s.y as f32);
         cycles::dither(*k);
@@ -211,7 +215,7 @@ fn main() -> ! {
 
 /// The estimator step, out of line (to find it in the disassembly).
 #[inline(never)]
-fn timed_step(est: &mut Robust2<f32>, u: f32, y: f32) {
+fn timed_step(est: &mut Robust2Compact<f32>, u: f32, y: f32) {
     est.step(u, y);
 }
 

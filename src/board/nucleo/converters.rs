@@ -8,7 +8,7 @@
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
 
-use crate::pipeline::{lost_configuration, AdcReading, StrainAdc};
+use crate::pipeline::{lost_configuration, AdcReading, FaultKind, StrainAdc};
 use ads131m02::Ads131m02;
 
 use super::drdy::Drdy;
@@ -113,5 +113,9 @@ impl<SPI: SpiDevice> StrainAdc for Adc<SPI> {
             self.needs_reinit |= lost_configuration(e);
         }
         reading
+    }
+
+    fn read_back(&mut self) -> Result<ads131m02::ReadBack, FaultKind> {
+        StrainAdc::read_back(&mut self.adc)
     }
 }

@@ -29,8 +29,8 @@
 //! result is bit-identical however it is chunked (tests below).
 
 use super::{
-    reflected_candidate, stable_candidate, Filters, InitialFit, OeLaw, OeModel, Pending, Phase,
-    RobustEstimator, UpdateError, REFINE_STEPS,
+    reflected_candidate, stable_candidate, BlockSums, Filters, InitialFit, OeLaw, OeModel, Pending,
+    Phase, RecordStore, RobustEstimator, UpdateError, REFINE_STEPS,
 };
 use crate::filter_bank::{OutputHold, OutputTiming};
 use crate::scalar::compensated::CompensatedArray;
@@ -94,6 +94,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize> UpdateSeed<T, D,
             adapted: self.adapted,
             oe,
             law,
+            block: BlockSums::EMPTY,
         })
     }
 }
@@ -115,8 +116,14 @@ impl<T, const D: usize, const NP: usize, const NS: usize> Pending<T, D, NP, NS> 
     }
 }
 
-impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
-    RobustEstimator<T, D, NP, NS, B>
+impl<
+        T: Real,
+        const D: usize,
+        const NP: usize,
+        const NS: usize,
+        const B: usize,
+        R: RecordStore<T>,
+    > RobustEstimator<T, D, NP, NS, B, R>
 {
     /// The start of a model update (a short copy, inside the lock): see
     /// [`UpdateSeed::start`].
@@ -163,8 +170,21 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     }
 
     fn work_left(&self, p: &Pending<T, D, NP, NS>) -> usize {
-        let fit = p.fit.as_ref().map_or(0, |f| p.target.saturating_sub(f.pos));
+        let fit = p
+            .fit
+            .as_ref()
+            .map_or(0, |f| Self::fit_end(p.target).saturating_sub(f.pos));
         fit + self.rec_len.saturating_sub(p.replayed) + p.refine_left as usize
+    }
+
+    /// The initial-state fit runs over the record up to here: the
+    /// preparation's record length, whole blocks of a [`Compact`]
+    /// record (what a later catch-up finds in the record is then what a
+    /// one-shot preparation found).
+    ///
+    /// [`Compact`]: super::Compact
+    fn fit_end(target: usize) -> usize {
+        target / R::BLOCK * R::BLOCK
     }
 
     /// Up to `max` units of `p`'s remaining work, in the order of the
@@ -173,12 +193,18 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     pub(super) fn replay_into(&self, p: &mut Pending<T, D, NP, NS>, max: usize) -> usize {
         let mut budget = max;
         if let Some(fit) = p.fit.as_mut() {
-            let (from, to) = (fit.pos, fit.pos.saturating_add(budget).min(p.target));
-            if let (Some(u), Some(y)) = (self.rec_u.get(from..to), self.rec_y.get(from..to)) {
-                fit.push(&p.oe, u, y);
+            let end = Self::fit_end(p.target);
+            let (from, to) = (fit.pos, fit.pos.saturating_add(budget).min(end));
+            match self.rec.samples() {
+                Some((u, y)) => {
+                    if let (Some(u), Some(y)) = (u.get(from..to), y.get(from..to)) {
+                        fit.push(&p.oe, u, y);
+                    }
+                }
+                None => fit.push_blocks(&p.oe, &self.rec, to),
             }
             budget -= to - from;
-            if fit.pos < p.target {
+            if fit.pos < end {
                 return self.work_left(p);
             }
             if let Some(x0) = fit.solve() {
@@ -211,7 +237,11 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
     fn replay_samples(&self, p: &mut Pending<T, D, NP, NS>, to: usize, max: usize) -> usize {
         let from = p.replayed;
         let to = from.saturating_add(max).min(to).max(from);
-        let (Some(u), Some(y)) = (self.rec_u.get(from..to), self.rec_y.get(from..to)) else {
+        let Some((u, y)) = self.rec.samples() else {
+            self.replay_blocks(p, to);
+            return to - from;
+        };
+        let (Some(u), Some(y)) = (u.get(from..to), y.get(from..to)) else {
             return 0;
         };
         for (&u, &y) in u.iter().zip(y) {
@@ -225,6 +255,96 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         }
         p.replayed = to;
         to - from
+    }
+
+    /// [`Self::replay_samples`] on a record of block means: the model runs
+    /// sample by sample on u; its ψ and ŷ at each reading (two samples
+    /// behind the input, as [`OeModel::push`] returns them) are summed per
+    /// block, and a block whose last sample is reached enters the law as
+    /// one update: the block's mean ψ against its mean y − ŷ, weighted by
+    /// its readings, the decay of all its samples.
+    fn replay_blocks(&self, p: &mut Pending<T, D, NP, NS>, to: usize) {
+        let m_len = R::BLOCK;
+        for n in p.replayed..to {
+            // With y = 0 pushed, ε = −ŷ exactly (y is compared by block).
+            let s = p.oe.push(self.rec.u(n), T::ZERO);
+            let Some(m) = n.checked_sub(2) else {
+                continue;
+            };
+            let b = &mut p.block;
+            if self.rec.valid(m) {
+                for (a, v) in b.psi.iter_mut().zip(s.psi.iter()) {
+                    *a += *v;
+                }
+                b.yhat -= s.eps;
+                b.count += 1;
+            }
+            b.span += 1;
+            if m % m_len == m_len - 1 {
+                let (mean, _) = self.rec.block(m / m_len);
+                let b = core::mem::replace(&mut p.block, BlockSums::EMPTY);
+                Self::block_update(&mut p.law, &b, mean);
+            }
+        }
+        p.replayed = to;
+    }
+
+    /// One law update from block sums `b` against the mean `y_mean` of the
+    /// same readings.
+    fn block_update(law: &mut OeLaw<T, NP, NS>, b: &BlockSums<T, NP>, y_mean: T) {
+        if b.count == 0 {
+            let _ = law.update_block(&[T::ZERO; NP], T::ZERO, 0, b.span);
+            return;
+        }
+        let c = T::from_usize(b.count as usize);
+        let psi = b.psi.map(|v| v / c);
+        let eps = y_mean - b.yhat / c;
+        // A failed step leaves θ̂ unchanged; the replay goes on.
+        if eps.is_finite() {
+            let _ = law.update_block(&psi, eps, b.count, b.span);
+        }
+    }
+
+    /// At a hand-over, the readings of a block the replay has begun but
+    /// not finished (its last sample not yet reached, or not yet two
+    /// samples behind): one update against their own mean, from the y
+    /// the record still keeps as it came ([`RecordStore::recent_y`]); the
+    /// running law then takes the samples after them one by one. Nothing
+    /// for a record of samples.
+    pub(super) fn flush_block(&self, p: &mut Pending<T, D, NP, NS>) {
+        if R::BLOCK == 1 {
+            return;
+        }
+        // The replay pushed y = 0: the model's last three measurements,
+        // which the running model compares with its next outputs, are the
+        // record's.
+        let n = p.replayed;
+        p.oe.set_measured(core::array::from_fn(|k| {
+            (n + k)
+                .checked_sub(3)
+                .and_then(|i| self.rec.recent_y(i))
+                .unwrap_or(T::ZERO)
+        }));
+        let b = core::mem::replace(&mut p.block, BlockSums::EMPTY);
+        if b.span == 0 {
+            return;
+        }
+        // The block's readings so far: the samples m = last − span + 1 …
+        // last, last = replayed − 3.
+        let last = p.replayed.saturating_sub(3);
+        let first = (last + 1).saturating_sub(b.span as usize);
+        let mut sum = T::ZERO;
+        for m in first..=last {
+            if self.rec.valid(m) {
+                sum += self.rec.recent_y(m).unwrap_or(T::ZERO);
+            }
+        }
+        let mean = if b.count > 0 {
+            sum / T::from_usize(b.count as usize)
+        } else {
+            T::ZERO
+        };
+        Self::block_update(&mut p.law, &b, mean);
     }
 
     /// Replay into `p` at most `max_samples` of the samples recorded since
@@ -264,7 +384,8 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
         }
         self.admit(p)?;
         self.replay_into(p, max_replay);
-        self.install(p.oe.clone(), p.law.clone());
+        self.flush_block(p);
+        self.install_model(p.oe.clone(), p.law.clone());
         Ok(())
     }
 }
@@ -272,7 +393,7 @@ impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize>
 #[cfg(test)]
 mod tests {
     use super::super::tests::{filter, Rig, Small};
-    use super::super::{InitialState, Phase, RobustConfig, UpdateError};
+    use super::super::{Compact, InitialState, Phase, RecordStore, RobustConfig, UpdateError};
     use super::APPLY_REPLAY_MAX;
     use crate::estimator::Estimator;
     use crate::scalar::Real;
@@ -283,12 +404,13 @@ mod tests {
     /// catch-up (`chunk` samples at a time, between samples) and
     /// `apply_bounded`. Returns both estimators' θ̂ after `n` samples and the
     /// count of updates installed.
-    fn both_ways<T: Real>(
+    fn both_ways<T: Real, R: RecordStore<T> + Clone + core::fmt::Debug>(
         n: usize,
         lag: usize,
         chunk: usize,
         initial_state: InitialState,
     ) -> ([T; 7], [T; 7], u32, u32) {
+        type Est<T, R> = super::super::RobustEstimator<T, 4, 7, 28, 3_000, R>;
         let cfg = RobustConfig {
             update_every: 0,
             initial_state,
@@ -310,11 +432,11 @@ mod tests {
         } else {
             1_000
         };
-        let mut a = Small::<T>::new(&f, &cfg).unwrap();
-        let mut b = Small::<T>::new(&f, &cfg).unwrap();
+        let mut a = Est::<T, R>::new(&f, &cfg).unwrap();
+        let mut b = Est::<T, R>::new(&f, &cfg).unwrap();
         let mut rig = Rig::new();
         let mut k = 0;
-        let mut step = |k: &mut usize, a: &mut Small<T>, b: &mut Small<T>| {
+        let mut step = |k: &mut usize, a: &mut Est<T, R>, b: &mut Est<T, R>| {
             let (u, y) = rig.sample();
             let (u, y) = (T::from_f64(u), T::from_f64(y));
             a.step(u, y);
@@ -361,16 +483,25 @@ mod tests {
         // steady state (the 0.3 s record fills at 3,000 samples).
         // The fit of the initial state runs in chunks too (Estimate).
         let cases = [(0, 64), (150, 7), (551, 64), (40, 1)];
+        type C<T> = Compact<T, 3_000, 300, 94>;
         for init in [InitialState::Auto, InitialState::Estimate] {
             for (lag, chunk) in cases {
-                let (a, b, ua, ub) = both_ways::<f64>(4_500, lag, chunk, init);
-                assert_eq!(a, b, "f64 lag {lag} chunk {chunk} {init:?}");
-                assert_eq!(ua, ub);
-                assert!(ua >= 1, "f64 lag {lag} {init:?}: no update installed");
-                let (a, b, ua, ub) = both_ways::<f32>(4_500, lag, chunk, init);
-                assert_eq!(a, b, "f32 lag {lag} chunk {chunk} {init:?}");
-                assert_eq!(ua, ub);
-                assert!(ua >= 1, "f32 lag {lag} {init:?}: no update installed");
+                for (a, b, ua, ub) in [
+                    both_ways::<f64, super::super::Samples<f64, 3_000>>(4_500, lag, chunk, init),
+                    both_ways::<f64, C<f64>>(4_500, lag, chunk, init),
+                ] {
+                    assert_eq!(a, b, "f64 lag {lag} chunk {chunk} {init:?}");
+                    assert_eq!(ua, ub);
+                    assert!(ua >= 1, "f64 lag {lag} {init:?}: no update installed");
+                }
+                for (a, b, ua, ub) in [
+                    both_ways::<f32, super::super::Samples<f32, 3_000>>(4_500, lag, chunk, init),
+                    both_ways::<f32, C<f32>>(4_500, lag, chunk, init),
+                ] {
+                    assert_eq!(a, b, "f32 lag {lag} chunk {chunk} {init:?}");
+                    assert_eq!(ua, ub);
+                    assert!(ua >= 1, "f32 lag {lag} {init:?}: no update installed");
+                }
             }
         }
     }

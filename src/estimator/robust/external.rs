@@ -2,7 +2,7 @@
 //! elsewhere (thread mode, in bounded chunks: [`crate::link::RobustUpdates`]),
 //! never inside the sample path's step.
 
-use super::RobustEstimator;
+use super::{RecordStore, RobustEstimator};
 use crate::estimator::{Estimator, Health, StepStatus};
 use crate::model::TransferFunction;
 use crate::scalar::Real;
@@ -32,8 +32,14 @@ impl<E> ExternalUpdates<E> {
     }
 }
 
-impl<T: Real, const D: usize, const NP: usize, const NS: usize, const B: usize> Estimator<T, NP>
-    for ExternalUpdates<&mut RobustEstimator<T, D, NP, NS, B>>
+impl<
+        T: Real,
+        const D: usize,
+        const NP: usize,
+        const NS: usize,
+        const B: usize,
+        R: RecordStore<T>,
+    > Estimator<T, NP> for ExternalUpdates<&mut RobustEstimator<T, D, NP, NS, B, R>>
 {
     #[inline]
     fn step(&mut self, u: T, y: T) -> StepStatus {

@@ -171,6 +171,51 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
     /// Accumulate one sample (ψ, ε); every K samples take the θ̂ step.
     #[inline]
     pub fn update(&mut self, psi: &[T; NP], eps: T) -> Result<(), LawError> {
+        self.decay();
+        let w = self.ts / self.scale;
+        self.accumulate(w, psi, eps);
+        self.e2 += w * eps * eps;
+        self.wsum += w;
+        if !self.step.due() {
+            return Ok(());
+        }
+        self.step()
+    }
+
+    /// Accumulate a block of `span` samples, `count` of them readings,
+    /// whose mean gradient is `psi` and mean residual `eps` (a record of
+    /// block means, see `record.rs`): the decay of `span` samples, weight
+    /// `count`·Ts, and θ̂ steps as if its samples came one by one (one
+    /// step when a multiple of K falls in the block). The residual
+    /// variance counts the block as `count` samples (the mean of `count`
+    /// residuals has 1/`count` of their variance).
+    pub fn update_block(
+        &mut self,
+        psi: &[T; NP],
+        eps: T,
+        count: u32,
+        span: u32,
+    ) -> Result<(), LawError> {
+        for _ in 0..span {
+            self.decay();
+        }
+        if count > 0 {
+            let c = T::from_usize(count as usize);
+            let w = c * self.ts / self.scale;
+            self.accumulate(w, psi, eps);
+            self.e2 += w * c * eps * eps;
+            self.wsum += w;
+        }
+        if !self.step.due_after(span) {
+            return Ok(());
+        }
+        self.step()
+    }
+
+    /// One sample of forgetting (lazy: the scale, halved with the sums
+    /// when it falls below ½).
+    #[inline(always)]
+    fn decay(&mut self) {
         self.scale *= self.decay;
         if self.scale < T::from_f64(0.5) {
             self.scale += self.scale;
@@ -181,7 +226,11 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
             self.wsum *= half;
             self.r0_weight *= half;
         }
-        let w = self.ts / self.scale;
+    }
+
+    /// P̃ += w·ψψᵀ, q̃ += w·ψ·ε.
+    #[inline(always)]
+    fn accumulate(&mut self, w: T, psi: &[T; NP], eps: T) {
         let mut idx = 0;
         for i in 0..NP {
             if T::COMPENSATED {
@@ -203,12 +252,6 @@ impl<T: Real, const NP: usize, const NS: usize> OeLaw<T, NP, NS> {
                 self.q.hi[i] += a * eps;
             }
         }
-        self.e2 += w * eps * eps;
-        self.wsum += w;
-        if !self.step.due() {
-            return Ok(());
-        }
-        self.step()
     }
 
     /// (R + K·TsΓ·P)Δ = −K·TsΓ·W with W = P(θ̂ − θ_m) − q, divided by g.

@@ -269,6 +269,12 @@ impl<T: Real, const D: usize, const NP: usize> OeModel<T, D, NP> {
         }
     }
 
+    /// The measured y_{n−2}, y_{n−1}, y_n (scaled) the next pushes compare
+    /// the model with (after a replay that pushed other values).
+    pub(crate) fn set_measured(&mut self, y: [T; 3]) {
+        self.y_delay = y;
+    }
+
     /// Push sample n (`u` held over [t_n, t_{n+1}), `y` sampled at t_n,
     /// both scaled); returns ψ and ε at t_{n−2}.
     #[inline]
@@ -457,6 +463,12 @@ pub(crate) struct InitialFit<T, const D: usize> {
     u_hist: [T; U_KEEP],
     /// Samples accumulated.
     pub pos: usize,
+    /// A record of block means ([`InitialFit::push_blocks`]): the response
+    /// from rest and the free responses summed over the readings of the
+    /// block in progress, and their count.
+    block_rest: T,
+    block_free: [T; D],
+    block_count: u32,
 }
 
 impl<T: Real, const D: usize> InitialFit<T, D> {
@@ -473,6 +485,9 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
             h: CompensatedArray::default(),
             u_hist: [T::ZERO; U_KEEP],
             pos: 0,
+            block_rest: T::ZERO,
+            block_free: [T::ZERO; D],
+            block_count: 0,
         }
     }
 
@@ -508,6 +523,63 @@ impl<T: Real, const D: usize> InitialFit<T, D> {
                 OeModel::<T, D, NP>::advance(&m.f, fk, &none);
             }
             self.pos += 1;
+        }
+    }
+
+    /// [`InitialFit::push`] on a record of block means, from the next
+    /// sample up to `to` (a block boundary where the fit ends): the
+    /// responses are summed over each block's readings and the block adds
+    /// count·f̄·f̄ᵀ and count·f̄·r̄ (r̄ = the block's mean y − the mean
+    /// response from rest) to the normal equations.
+    pub fn push_blocks<const NP: usize, R: super::RecordStore<T>>(
+        &mut self,
+        m: &OeModel<T, D, NP>,
+        rec: &R,
+        to: usize,
+    ) {
+        for n in self.pos..to {
+            if rec.valid(n) {
+                self.block_rest += m.output(&self.rest, &self.u_hist);
+                let none = [T::ZERO; U_KEEP];
+                for (s, f) in self.block_free.iter_mut().zip(self.free.iter()) {
+                    *s += m.output(f, &none);
+                }
+                self.block_count += 1;
+            }
+            OeModel::<T, D, NP>::shift_in(&mut self.u_hist, rec.u(n));
+            OeModel::<T, D, NP>::advance(&m.f, &mut self.rest, &self.u_hist);
+            let none = [T::ZERO; U_KEEP];
+            for fk in self.free.iter_mut() {
+                OeModel::<T, D, NP>::advance(&m.f, fk, &none);
+            }
+            self.pos = n + 1;
+            if (n + 1) % R::BLOCK == 0 {
+                let (mean, count) = rec.block(n / R::BLOCK);
+                if count > 0 && self.block_count == count {
+                    let c = T::from_usize(count as usize);
+                    let r = mean - self.block_rest / c;
+                    let fbar = self.block_free.map(|v| v / c);
+                    for a in 0..D {
+                        let fa = self.block_free[a];
+                        if T::COMPENSATED {
+                            let (p, e) = two_prod(fa, r);
+                            self.h.add_dw(a, p, e);
+                            for b in 0..D {
+                                let (p, e) = two_prod(fa, fbar[b]);
+                                self.g[a].add_dw(b, p, e);
+                            }
+                        } else {
+                            self.h.hi[a] += fa * r;
+                            for b in 0..D {
+                                self.g[a].hi[b] += fa * fbar[b];
+                            }
+                        }
+                    }
+                }
+                self.block_rest = T::ZERO;
+                self.block_free = [T::ZERO; D];
+                self.block_count = 0;
+            }
         }
     }
 

@@ -50,7 +50,7 @@ pub(crate) const START_TEST_NOISE_FLOOR: f64 = 1e-3;
 /// (NaN) are left out. `None` if fewer than [`START_TEST_SAMPLES`]
 /// samples, fewer than 2 per fitted coefficient valid among them, or a
 /// degenerate fit (the caller then assumes the beam was moving).
-pub(super) fn start_test<T: Real>(y: &[T], u: &[T], shift: usize) -> Option<T> {
+pub(super) fn start_test<T: Real>(y: &[T], u: impl Fn(usize) -> T, shift: usize) -> Option<T> {
     let y = y.get(..START_TEST_SAMPLES)?;
     let span = T::from_usize(START_TEST_SAMPLES - 1);
     let cubic = |n: usize| {
@@ -59,12 +59,7 @@ pub(super) fn start_test<T: Real>(y: &[T], u: &[T], shift: usize) -> Option<T> {
     };
     let tested = if shift == 0 { 2 } else { 1 };
     if shift == 2 {
-        let held = |n: usize| {
-            n.checked_sub(1)
-                .and_then(|k| u.get(k))
-                .copied()
-                .unwrap_or(T::ZERO)
-        };
+        let held = |n: usize| n.checked_sub(1).map_or(T::ZERO, &u);
         let basis = |n: usize| {
             let c = cubic(n);
             [c[0], c[1], c[2], c[3], held(n)]

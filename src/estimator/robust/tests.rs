@@ -9,6 +9,10 @@ use crate::rig::ModalPlant;
 /// A 0.3 s record keeps the tests quick.
 pub(super) type Small<T> = RobustEstimator<T, 4, 7, 28, 3_000>;
 
+/// The same record in the compact form: u in 16 bits, y in block means of
+/// 10 samples (94 = ⌈3,000/32⌉ mask words).
+pub(super) type SmallCompact<T> = RobustEstimator<T, 4, 7, 28, 3_000, Compact<T, 3_000, 300, 94>>;
+
 pub(super) fn filter() -> FilterConfig {
     FilterConfig {
         scales: SignalScales {
@@ -40,7 +44,7 @@ impl Rig {
     }
 
     /// Feed `est` for `seconds`; largest relative ω/ζ error.
-    pub(super) fn run<T: Real>(&mut self, est: &mut Small<T>, seconds: f64) -> f64 {
+    pub(super) fn run<T: Real>(&mut self, est: &mut impl Estimator<T, 7>, seconds: f64) -> f64 {
         for _ in 0..(seconds * 1e4) as usize {
             let u = self.sq.next_sample();
             est.step(T::from_f64(u), T::from_f64(self.plant.sample(u)));
@@ -308,13 +312,86 @@ fn rejected_readings_in_the_record_are_missing_not_substituted() {
     }
     y[3] = f64::NAN;
     y[17] = f64::NAN;
-    assert!(start_test(&y, &[0.0; START_TEST_SAMPLES], 0).unwrap() < 1.0);
+    assert!(start_test(&y, |_| 0.0, 0).unwrap() < 1.0);
     assert_eq!(
-        start_test(
-            &[f64::NAN; START_TEST_SAMPLES],
-            &[0.0; START_TEST_SAMPLES],
-            0
-        ),
+        start_test(&[f64::NAN; START_TEST_SAMPLES], |_| 0.0, 0),
         None
     );
+}
+
+#[test]
+fn compact_record_identifies_the_paper_plant_noise_free() {
+    let mut e64 = SmallCompact::<f64>::new(&filter(), &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    let err = rig.run(&mut e64, 2.3);
+    assert_eq!((e64.phase(), e64.updates() >= 1), (Phase::Steady, true));
+    let mut e32 = SmallCompact::<f32>::new(&filter(), &RobustConfig::default()).unwrap();
+    let err32 = Rig::new().run(&mut e32, 2.3);
+    println!("compact record, noise-free: f64 {err:.1e}, f32 {err32:.1e}");
+    assert!(err < 1e-9, "f64: {err}");
+    assert!(err32 < 1e-5, "f32: {err32}");
+}
+
+#[test]
+fn compact_record_keeps_u_on_its_grid_and_y_block_means() {
+    type C = Compact<f64, 40, 4, 2>;
+    const { assert!(C::CONSISTENT && <C as RecordStore<f64>>::BLOCK == 10) };
+    const { assert!(!Compact::<f64, 40, 3, 2>::CONSISTENT && !Compact::<f64, 40, 4, 1>::CONSISTENT) };
+    let mut r = C::empty();
+    r.restart(0.25);
+    for n in 0..25 {
+        let y = if n == 3 { f64::NAN } else { n as f64 };
+        assert_eq!(
+            r.store(n, 0.3 * n as f64, y),
+            0.25 * (1.2 * n as f64).round()
+        );
+    }
+    assert_eq!(r.u(7), 0.25 * 8.0);
+    assert!(!r.valid(3) && r.valid(4));
+    // Block 0 without sample 3: (0+1+2+4+…+9)/9.
+    assert_eq!(r.block(0), (42.0 / 9.0, 9));
+    assert_eq!(r.block(1), (14.5, 10));
+    assert_eq!((r.recent_y(12), r.recent_y(24)), (Some(12.0), Some(24.0)));
+    assert_eq!(r.first_y(5)[4], 4.0);
+    // Clipped to 16 bits.
+    assert_eq!(r.store(25, 1e9, 0.0), 0.25 * f64::from(i16::MAX));
+    // A record whose capacity is not the estimator's is refused.
+    assert_eq!(
+        RobustEstimator::<f64, 4, 7, 28, 3_000, Compact<f64, 2_000, 200, 63>>::new(
+            &filter(),
+            &RobustConfig::default()
+        )
+        .err(),
+        Some(ConfigError::Dimensions)
+    );
+}
+
+#[test]
+fn compact_record_with_rejected_readings_and_a_moving_start() {
+    let f = FilterConfig {
+        lambda_rad_s: 400.0,
+        ..filter()
+    };
+    let mut est = SmallCompact::<f64>::new(&f, &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    rig.run(&mut est, 0.05);
+    for _ in 0..5 {
+        let (u, _) = rig.sample();
+        assert_eq!(est.step(u, f64::NAN), StepStatus::Rejected);
+    }
+    let err = rig.run(&mut est, 2.3);
+    assert_eq!(est.phase(), Phase::Steady);
+    println!("compact, rejected readings: {err:.1e}");
+    assert!(err < 1e-8, "{err}");
+    // Started 1 s into the excitation: the initial state is fitted on the
+    // block means.
+    let mut est = SmallCompact::<f64>::new(&f, &RobustConfig::default()).unwrap();
+    let mut rig = Rig::new();
+    for _ in 0..10_000 {
+        rig.sample();
+    }
+    let err = rig.run(&mut est, 2.3);
+    assert_eq!(est.initial_state_significance().map(|(_, m)| m), Some(true));
+    println!("compact, moving start: {err:.1e}");
+    assert!(err < 1e-6, "{err}");
 }

@@ -29,15 +29,19 @@ struct MockPipeline {
     estimator: u32,
     counters: Counters,
     next: u64,
+    frozen: bool,
+    read_back: Result<ads131m02::ReadBack, crate::pipeline::FaultKind>,
 }
 
 impl Control<f32> for MockPipeline {
     type Estimator = u32;
     fn freeze(&mut self) {
         self.calls.push("freeze".into());
+        self.frozen = true;
     }
     fn resume(&mut self) {
         self.calls.push("resume".into());
+        self.frozen = false;
     }
     fn reset_estimator(&mut self) {
         self.calls.push("reset".into());
@@ -61,6 +65,23 @@ impl Control<f32> for MockPipeline {
     }
     fn next_sample_index(&self) -> u64 {
         self.next
+    }
+    fn set_line_removal(
+        &mut self,
+        lines: Option<crate::guard::lines::LineCanceller<f32, { crate::guard::lines::MAX_LINES }>>,
+        hold: u32,
+    ) {
+        self.calls.push(format!(
+            "lines {} hold {hold}",
+            lines.as_ref().map_or(0, |l| l.len())
+        ));
+    }
+    fn is_frozen(&self) -> bool {
+        self.frozen
+    }
+    fn adc_read_back(&mut self) -> Result<ads131m02::ReadBack, crate::pipeline::FaultKind> {
+        self.calls.push("read back".into());
+        self.read_back
     }
 }
 
@@ -122,6 +143,8 @@ fn device() -> MockDevice {
             estimator: 0,
             counters: Counters::default(),
             next: 1234,
+            frozen: false,
+            read_back: Err(crate::pipeline::FaultKind::Bus),
         },
         next_id: 0,
         built: Vec::new(),
@@ -155,6 +178,7 @@ fn link_with(settings: Settings) -> DeviceLink {
             limits: LIMITS,
             firmware: FIRMWARE_VERSION,
             rules: FlagRules::default(),
+            self_test: crate::bench::self_test_config(),
         },
         settings,
         &tuning(),
@@ -280,6 +304,11 @@ fn every_command_is_acknowledged_and_applied() {
         Command::Reset,
         Command::Freeze,
         Command::Resume,
+        Command::SetLineRemoval(beam_protocol::LineRemoval {
+            mains_hz: 50.0,
+            harmonics: 7,
+            time_constant_s: 0.2,
+        }),
         Command::RequestStatus,
     ] {
         bytes.extend(h.command(c));
@@ -288,7 +317,7 @@ fn every_command_is_acknowledged_and_applied() {
     let msgs = h.drain(&mut rx);
     assert_eq!(
         acks(&msgs),
-        (0..7).map(|i| (i, AckResult::Accepted)).collect::<Vec<_>>()
+        (0..8).map(|i| (i, AckResult::Accepted)).collect::<Vec<_>>()
     );
     assert_eq!(
         d.p.calls,
@@ -298,9 +327,12 @@ fn every_command_is_acknowledged_and_applied() {
             "raw 4",
             "reset",
             "freeze",
-            "resume"
+            "resume",
+            // Harmonics 1–7 of 50 Hz, all below 5 kHz; held 5τ = 1 s.
+            "lines 7 hold 10000"
         ]
     );
+    assert_eq!(l.line_removal().mains_hz, 50.0);
     assert_eq!(d.p.excitation.amplitude(), 0.2);
     assert_eq!(d.built.last().unwrap().0, est);
     assert_eq!(d.recycled, [0, 1]);
@@ -319,7 +351,7 @@ fn every_command_is_acknowledged_and_applied() {
     assert_eq!(s.estimator, est);
     assert_eq!(s.telemetry, rates);
     assert!(!s.adaptation_frozen);
-    assert_eq!(s.counters.commands_accepted, 7);
+    assert_eq!(s.counters.commands_accepted, 8);
     assert_eq!(s.firmware, FIRMWARE_VERSION);
     assert_eq!(s.modes, 2);
     assert_eq!(h.dec.counters().lost, 0);
@@ -341,6 +373,14 @@ fn a_rejected_command_changes_nothing() {
         ..PExcitation::default()
     };
     let cases = [
+        (
+            Command::SetLineRemoval(beam_protocol::LineRemoval {
+                mains_hz: 50.0,
+                harmonics: 0,
+                time_constant_s: 0.2,
+            }),
+            RejectReason::LineRemoval,
+        ),
         (Command::SetExcitation(outside), RejectReason::SafeWindow),
         (
             Command::SetExcitation(PExcitation {
@@ -407,7 +447,7 @@ fn a_rejected_command_changes_nothing() {
     assert_eq!(got, want);
     assert!(d.p.calls.is_empty(), "{:?}", d.p.calls);
     assert_eq!((l.settings, l.lambda_rad_s(), d.p.excitation), before);
-    assert_eq!(l.commands(), (0, 8));
+    assert_eq!(l.commands(), (0, 9));
     // The core refuses what validation let through: still nothing changes.
     d.refuse_build = Some(RejectReason::Gain);
     let c = Command::SetEstimator(EstimatorSettings {
@@ -845,3 +885,151 @@ fn firmware_version_is_the_crate_version() {
 }
 
 mod tune;
+
+/// The self-test through the link (PROTOCOL.md §9.7): refused before the
+/// estimator starts, then adaptation frozen, the ADC read back and the
+/// drive at zero in one lock; every command but RequestStatus refused
+/// (Busy) while it runs; the tone and the default excitation as its
+/// phases end; the excitation in force restored and adaptation resumed;
+/// the report sent, Status's state and the estimates' SELF_TEST bit.
+#[test]
+fn the_self_test_owns_the_drive_and_leaves_the_estimator_as_it_was() {
+    use crate::excitation::Excitation as Ex;
+    use crate::selftest::{SelfTestBlock, BLOCK_LEN, TOTAL_SAMPLES};
+    use beam_protocol::{SelfTestChecks, SelfTestState, StatusFlags, WaveformKind};
+    let mut q: Queue<u8, 4096> = Queue::new();
+    let (mut tx, mut rx) = q.split();
+    let (mut l, mut d, mut h) = (link(), device(), Host::new());
+    let w = [-2.0f32, 2.0];
+    l.receive(h.command(Command::SelfTest), &mut d, &mut tx);
+    assert_eq!(
+        acks(&h.drain(&mut rx)),
+        [(0, AckResult::Rejected(RejectReason::Busy))],
+        "no self-test command during the start-up window"
+    );
+    d.p.next = 0;
+    start(&mut l, &mut d);
+    d.p.calls.clear();
+    let square = |e: &Ex<f32>| e.kind();
+    assert_eq!(square(&d.p.excitation), WaveformKind::Square);
+    d.p.next = 10_000;
+    l.receive(h.command(Command::SelfTest), &mut d, &mut tx);
+    assert_eq!(acks(&h.drain(&mut rx)), [(1, AckResult::Accepted)]);
+    assert_eq!(d.p.calls, ["freeze", "read back"]);
+    assert_eq!(d.p.excitation.kind(), WaveformKind::Off);
+    assert!(l.self_test_running());
+    assert_eq!(l.self_test_state(), SelfTestState::Running);
+    let mut bytes = h.command(Command::Reset);
+    bytes.extend(h.command(Command::SelfTest));
+    bytes.extend(h.command(Command::RequestStatus));
+    l.receive(bytes, &mut d, &mut tx);
+    let msgs = h.drain(&mut rx);
+    assert_eq!(
+        acks(&msgs),
+        [
+            (2, AckResult::Rejected(RejectReason::Busy)),
+            (3, AckResult::Rejected(RejectReason::Busy)),
+            (4, AckResult::Accepted)
+        ]
+    );
+    assert_eq!(statuses(&msgs)[0].self_test, SelfTestState::Running);
+    // The tuning rule builds nothing while the test runs.
+    assert_eq!(l.poll(&mut d), Ok(None));
+
+    // The sample interrupt's blocks: a clean bench (the drive read back
+    // 2.15 samples late, as the bench's timing model says).
+    let mut kinds = Vec::new();
+    let mut report = None;
+    let mut index = 10_000u64;
+    while report.is_none() {
+        let mut b = SelfTestBlock {
+            first_index: index,
+            len: BLOCK_LEN as u8,
+            held_v: [0.0; BLOCK_LEN],
+            monitor_v: [0.0; BLOCK_LEN],
+            y: [0.0; BLOCK_LEN],
+            fresh: u32::MAX,
+            intervals: BLOCK_LEN as u32,
+            interval_ticks: BLOCK_LEN as u64 * 2_500,
+        };
+        for i in 0..BLOCK_LEN {
+            b.y[i] = 1e-3 * libm::sinf((index + i as u64) as f32 * 0.01);
+        }
+        index += BLOCK_LEN as u64;
+        d.p.next = index;
+        report = l.on_self_test_block(&b, &mut d, &mut tx);
+        if kinds.last() != Some(&d.p.excitation.kind()) {
+            kinds.push(d.p.excitation.kind());
+        }
+        assert!(index < 20_000 + TOTAL_SAMPLES);
+    }
+    assert_eq!(
+        kinds,
+        [
+            WaveformKind::Off,
+            WaveformKind::Multisine,
+            WaveformKind::Square
+        ]
+    );
+    assert_eq!(d.p.calls.last().map(String::as_str), Some("resume"));
+    assert!(!d.p.frozen);
+    assert!(!l.self_test_running());
+    let report = report.unwrap();
+    // The mock's read-back fails; these blocks carry no tone (held and
+    // monitor 0): nothing to fit.
+    assert_eq!(
+        report.failed,
+        SelfTestChecks::ADC_ID.with(SelfTestChecks::ADC_REGISTERS)
+    );
+    assert_eq!(report.not_measured, SelfTestChecks::LOOPBACK);
+    assert_eq!(
+        (report.first_sample, report.last_sample),
+        (10_000, index - 1)
+    );
+    let msgs = h.drain(&mut rx);
+    // (NaN, the values not measured, is not equal to itself: compare the
+    // encodings.)
+    let sent: Vec<_> = msgs
+        .iter()
+        .filter_map(|m| match m {
+            Message::SelfTestReport(r) => Some(format!("{r:?}")),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sent, [format!("{report:?}")]);
+    assert_eq!(
+        l.status(0, &Counters::default()).self_test,
+        SelfTestState::Done {
+            failed: report.failed,
+            not_measured: report.not_measured
+        }
+    );
+    // A record made during the test carries SELF_TEST, one after it not.
+    l.on_record(&record(15_099, Counters::default()), &w, &mut tx);
+    l.on_record(&record(index + 1_000, Counters::default()), &w, &mut tx);
+    let e = estimates(&h.drain(&mut rx));
+    assert_eq!(e.len(), 2);
+    assert!(e[0].flags.contains(StatusFlags::SELF_TEST));
+    assert!(!e[1].flags.contains(StatusFlags::SELF_TEST));
+    // Frozen by command before: still frozen after.
+    l.receive(h.command(Command::Freeze), &mut d, &mut tx);
+    l.receive(h.command(Command::SelfTest), &mut d, &mut tx);
+    d.p.calls.clear();
+    let b = SelfTestBlock {
+        first_index: index,
+        len: BLOCK_LEN as u8,
+        held_v: [0.0; BLOCK_LEN],
+        monitor_v: [0.0; BLOCK_LEN],
+        y: [0.0; BLOCK_LEN],
+        fresh: 0,
+        intervals: 0,
+        interval_ticks: 0,
+    };
+    assert!(l.on_self_test_block(&b, &mut d, &mut tx).is_none());
+    let aborted = l.abort_self_test(&mut d, &mut tx).unwrap();
+    assert!(aborted.failed.contains(SelfTestChecks::DRDY_RATE));
+    assert!(aborted
+        .not_measured
+        .contains(SelfTestChecks::LOOPBACK.with(SelfTestChecks::NOISE)));
+    assert!(d.p.frozen && !d.p.calls.contains(&"resume".to_string()));
+}

@@ -125,6 +125,12 @@ pub struct Ads131m02Model {
     stuck: bool,
     saturate: Option<Rail>,
     dropped_conversions: u32,
+    /// Conversions per [`Ads131m02Model::convert`] call: numerator,
+    /// denominator (≤ 1), and the phase accumulator.
+    data_rate: (u32, u32),
+    rate_phase: u32,
+    /// A register whose read-back has bits flipped: address, XOR mask.
+    register_fault: Option<(u8, u16)>,
     bus_errors: u32,
     stats: ModelStats,
 }
@@ -164,6 +170,9 @@ impl Ads131m02Model {
             stuck: false,
             saturate: None,
             dropped_conversions: 0,
+            data_rate: (1, 1),
+            rate_phase: 0,
+            register_fault: None,
             bus_errors: 0,
             stats: ModelStats::default(),
         };
@@ -217,6 +226,14 @@ impl Ads131m02Model {
         if self.dropped_conversions > 0 {
             self.dropped_conversions -= 1;
             return;
+        }
+        let (num, den) = self.data_rate;
+        if num < den {
+            self.rate_phase = self.rate_phase.saturating_add(num);
+            if self.rate_phase < den {
+                return;
+            }
+            self.rate_phase -= den;
         }
         let clock = self.reg(Register::Clock);
         let gains = Gain::from_bits(self.reg(Register::Gain)).pga;
@@ -339,6 +356,29 @@ impl Ads131m02Model {
         self.dropped_conversions = n;
     }
 
+    /// Fault: the converter runs at `numerator/denominator` of the rate it
+    /// is clocked for (a slow or wrong CLKIN, a wrong OSR): of every
+    /// `denominator` calls of [`Ads131m02Model::convert`] only `numerator`
+    /// convert, evenly spread; the others leave DRDY as it was. 0: no
+    /// conversions at all (DRDY missing); a ratio of 1 or more (or a zero
+    /// denominator): the normal rate.
+    pub(crate) fn set_data_rate(&mut self, numerator: u32, denominator: u32) {
+        self.data_rate = if denominator == 0 || numerator >= denominator {
+            (1, 1)
+        } else {
+            (numerator, denominator)
+        };
+        self.rate_phase = 0;
+    }
+
+    /// Fault: register `register` reads back with the bits of `xor`
+    /// flipped (a register that does not hold what was written, or a
+    /// corrupted read); writes and the conversions are unaffected. `None`:
+    /// off.
+    pub(crate) fn set_register_fault(&mut self, fault: Option<(Register, u16)>) {
+        self.register_fault = fault.map(|(r, x)| (r.addr(), x));
+    }
+
     /// Fault: the next `n` transactions fail with [`ModelBusError`] and
     /// have no effect.
     pub fn inject_bus_errors(&mut self, n: u32) {
@@ -371,12 +411,16 @@ impl Ads131m02Model {
     }
 
     fn read_addr(&self, addr: u8) -> u16 {
-        if addr == Register::Status.addr() {
+        let value = if addr == Register::Status.addr() {
             self.status().to_bits()
         } else if addr == Register::Id.addr() {
             self.id
         } else {
             self.regs.get(usize::from(addr)).copied().unwrap_or(0)
+        };
+        match self.register_fault {
+            Some((a, xor)) if a == addr => value ^ xor,
+            _ => value,
         }
     }
 
@@ -613,6 +657,33 @@ mod tests {
         m.convert();
         m.brown_out();
         assert_eq!(m.queued(), 0);
+    }
+
+    /// The self-test's faults: a slower data rate converts on `n` of every
+    /// `d` periods, evenly; 0 converts never; a register fault flips the
+    /// bits of its read-back only.
+    #[test]
+    fn data_rate_and_register_faults() {
+        let mut m = Ads131m02Model::new();
+        m.set_data_rate(19, 20);
+        for _ in 0..200 {
+            m.convert();
+        }
+        assert_eq!(m.stats.conversions, 190);
+        m.set_data_rate(0, 1);
+        for _ in 0..50 {
+            m.convert();
+        }
+        assert_eq!(m.stats.conversions, 190);
+        m.set_data_rate(5, 5);
+        m.convert();
+        assert_eq!(m.stats.conversions, 191);
+        let gain = m.register(Register::Gain);
+        m.set_register_fault(Some((Register::Gain, 0x0001)));
+        assert_eq!(m.register(Register::Gain), gain ^ 1);
+        assert_eq!(m.reg(Register::Gain), gain, "the register itself holds");
+        m.set_register_fault(None);
+        assert_eq!(m.register(Register::Gain), gain);
     }
 
     /// The driver, reset and configured with its defaults, on `model`.

@@ -370,6 +370,11 @@ impl Loop<'_> {
                             };
                             self.note(st, msg);
                         }
+                        Message::SelfTestReport(r) => {
+                            for line in text::self_test_lines(r) {
+                                self.note(st, line);
+                            }
+                        }
                         _ => {}
                     }
                 }
@@ -595,12 +600,13 @@ fn summary(st: &State, reason: &str, kept: &[String]) {
     );
     let _ = writeln!(
         err,
-        "link: {} (estimates {}, raw blocks {}, status {}, acks {})",
+        "link: {} (estimates {}, raw blocks {}, status {}, acks {}, self-test reports {})",
         text::counters_text(st.host.counters()),
         k.estimates,
         k.raw,
         k.status,
-        k.acks
+        k.acks,
+        k.self_tests
     );
     if st.host.partial_bytes() > 0 {
         let _ = writeln!(

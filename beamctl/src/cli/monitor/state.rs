@@ -37,6 +37,8 @@ pub struct KindCounts {
     pub status: u64,
     /// Acknowledgements.
     pub acks: u64,
+    /// Self-test reports.
+    pub self_tests: u64,
     /// Frames of a host → device kind (a loop-back, or a wrong wire).
     pub other: u64,
 }
@@ -124,6 +126,7 @@ impl State {
             }
             Message::Status(_) => self.kinds.status += 1,
             Message::Ack(_) => self.kinds.acks += 1,
+            Message::SelfTestReport(_) => self.kinds.self_tests += 1,
             Message::Command(_) => self.kinds.other += 1,
         }
     }

@@ -11,8 +11,9 @@
 //! lines instead (the first run only gives their phasors); `--lines off`
 //! runs once, untouched.
 
+use super::colour::Whitened;
 use super::{conditioned, execute, plan, summary_model, ReplayReport, Replayed, Source};
-use crate::cli::args::{LinesChoice, ReplayArgs};
+use crate::cli::args::{LinesChoice, PrewhitenChoice, ReplayArgs};
 use crate::error::CliError;
 use crate::judge::fit;
 use crate::judge::frf::PowerSpectrum;
@@ -88,7 +89,9 @@ pub(super) fn execute_with_lines(
         (LinesChoice::Off, None) => None,
         (LinesChoice::Auto, None) => None,
     };
-    if args.lines == LinesChoice::Off && args.mains.is_none() || !args.removing.is_empty() {
+    let lines_off = args.lines == LinesChoice::Off && args.mains.is_none();
+    let colour_off = args.prewhiten == PrewhitenChoice::Off;
+    if lines_off && colour_off || !args.removing.is_empty() || args.whitening.is_some() {
         return execute(args, plan_now, label, ts, log_every, source);
     }
     if let Some(bad) = named
@@ -109,29 +112,36 @@ pub(super) fn execute_with_lines(
     let (u, y, chunk, interrupt) = super::in_memory(source, label, &mut owned, &mut never)?;
     // The runs that look for lines need no CSV, plot, bound or logs.
     let reusable = args.csv.is_none() && args.plot.is_none() && !args.crlb && log_every.is_none();
-    let mut run_with = |removing: &[(LineSpec, RemovedLine)], last: bool| {
-        let mut a = args.clone();
-        a.removing = removing.to_vec();
-        let logs = if last { log_every } else { None };
-        if !last {
-            a.csv = None;
-            a.plot = None;
-            a.crlb = false;
-        }
-        let arrays = Source::Arrays {
-            u,
-            y,
-            chunk,
-            interrupt: &mut *interrupt,
+    let mut run_with =
+        |removing: &[(LineSpec, RemovedLine)], whitening: Option<Whitened>, last: bool| {
+            let mut a = args.clone();
+            a.removing = removing.to_vec();
+            if let Some((m, band)) = whitening {
+                a.whitening = Some(m);
+                if band.is_some() {
+                    a.est.band_hz = band;
+                }
+            }
+            let logs = if last { log_every } else { None };
+            if !last {
+                a.csv = None;
+                a.plot = None;
+                a.crlb = false;
+            }
+            let arrays = Source::Arrays {
+                u,
+                y,
+                chunk,
+                interrupt: &mut *interrupt,
+            };
+            execute(&a, &plan(&a)?, label, ts, logs, arrays)
         };
-        execute(&a, &plan(&a)?, label, ts, logs, arrays)
-    };
-    let mut run = run_with(&[], reusable)?;
+    let mut run = run_with(&[], None, reusable)?;
     let mut found: Vec<(LineSpec, RemovedLine)> = Vec::new();
     // A model may take a line for a lightly damped mode, and its residual
     // then shows only the others: detected lines are looked for again in
     // each cleaned run's residual, up to MAX_LINE_RUNS runs in all.
-    for pass in 1..MAX_LINE_RUNS {
+    for pass in (1..MAX_LINE_RUNS).filter(|_| !lines_off) {
         let look = if pass == 1 { named.as_deref() } else { None };
         let new = match run.reports.first() {
             Some(r) => found_lines(r, look, (u, y), ts, args)?,
@@ -150,15 +160,25 @@ pub(super) fn execute_with_lines(
         }
         found.extend(fresh);
         found.truncate(MAX_LINES);
-        run = run_with(&found, reusable)?;
+        run = run_with(&found, None, reusable)?;
         if named.is_some() || found.len() == MAX_LINES {
             break;
         }
     }
-    if reusable {
-        return Ok(run);
+    // Then the coloured-noise pass, on the record with the lines removed.
+    let specs: Vec<LineSpec> = found.iter().map(|f| f.0).collect();
+    let (run, whitening, prewhitening) = super::colour::pass(args, run, &specs, (u, y), ts, |w| {
+        run_with(&found, w, reusable)
+    })?;
+    let mut run = if reusable {
+        run
+    } else {
+        run_with(&found, whitening, true)?
+    };
+    for r in &mut run.reports {
+        r.prewhitening = prewhitening.clone();
     }
-    run_with(&found, true)
+    Ok(run)
 }
 
 /// The lines to remove after the first run's `report` (module docs): its
@@ -177,7 +197,7 @@ fn found_lines(
     let pairs = || u.iter().copied().zip(y.iter().copied());
     let range = crate::cli::event_flags::range(&args.guard)?;
     let record: Vec<(f64, f64)> = if report.level_correction {
-        conditioned(pairs(), ts, range, true, &[])?
+        conditioned(pairs(), ts, range, true, &[], None)?
     } else {
         pairs().collect()
     };

@@ -21,7 +21,9 @@ use crate::error::CliError;
 use crate::link::grammar::{command_text, CommandArgs};
 use crate::link::{text, transport, Connection, Endpoint, Host, Incoming, StreamEnd};
 use beam_protocol::budget::uart_bytes_per_s;
-use beam_protocol::{AckResult, Command, DecodeError, Frame, Message, RejectReason};
+use beam_protocol::{
+    AckResult, Command, DecodeError, Estimate, Frame, Message, RejectReason, StatusFlags,
+};
 use clap::{ArgGroup, Args};
 
 use std::io::Write;
@@ -111,22 +113,32 @@ pub fn local_refusal(reason: RejectReason, host: &Host) -> String {
 }
 
 /// A live session: the host state and the reader's channel.
-struct Session {
-    endpoint: Endpoint,
-    host: Host,
+pub(crate) struct Session {
+    pub(crate) endpoint: Endpoint,
+    pub(crate) host: Host,
     rx: Receiver<Incoming>,
     writer: Box<dyn Write + Send>,
     start: Instant,
+    /// The latest physically valid estimate received.
+    pub(crate) last_valid: Option<Estimate>,
+    /// Frames received after the one a wait returned, in order.
+    queued: std::collections::VecDeque<Frame>,
 }
 
 /// What the session waits for.
-enum Wanted {
+pub(crate) enum Wanted {
+    /// The Ack of this command number.
     Ack(u32),
+    /// A Status after this many.
     StatusAfter(u64),
+    /// A self-test report.
+    SelfTestReport,
+    /// A physically valid estimate.
+    ValidEstimate,
 }
 
 impl Session {
-    fn open(endpoint: &Endpoint) -> Result<Self, CliError> {
+    pub(crate) fn open(endpoint: &Endpoint) -> Result<Self, CliError> {
         let conn: Connection = transport::open(endpoint).map_err(CliError::failure)?;
         let (tx, rx) = mpsc::sync_channel(256);
         let (_reader, writer) = conn.start(tx);
@@ -137,10 +149,12 @@ impl Session {
             rx,
             writer,
             start: Instant::now(),
+            last_valid: None,
+            queued: std::collections::VecDeque::new(),
         })
     }
 
-    fn send(&mut self, command: Command) -> Result<u32, CliError> {
+    pub(crate) fn send(&mut self, command: Command) -> Result<u32, CliError> {
         let (seq, bytes) = self
             .host
             .command(command, Instant::now())
@@ -153,7 +167,17 @@ impl Session {
     }
 
     /// Read until `wanted` or `deadline`. Ok(None): the deadline passed.
-    fn wait(&mut self, wanted: Wanted, deadline: Instant) -> Result<Option<Frame>, CliError> {
+    pub(crate) fn wait(
+        &mut self,
+        wanted: Wanted,
+        deadline: Instant,
+    ) -> Result<Option<Frame>, CliError> {
+        // Frames that came with an earlier wanted one, not yet looked at.
+        while let Some(f) = self.queued.pop_front() {
+            if self.matches(&wanted, &f) {
+                return Ok(Some(f));
+            }
+        }
         loop {
             let now = Instant::now();
             let Some(left) = deadline.checked_duration_since(now) else {
@@ -179,26 +203,42 @@ impl Session {
                     return Err(CliError::failure(end.describe(&self.endpoint)));
                 }
             };
+            let mut found = None;
             for r in self.host.receive(&bytes, at) {
                 match r {
                     Err(e @ DecodeError::VersionMismatch { .. }) => {
                         return Err(CliError::failure(format!("{}: {e}", self.endpoint)))
                     }
                     Err(_) => {}
-                    Ok(f) => match (&wanted, &f.message) {
-                        (Wanted::Ack(seq), Message::Ack(a)) if a.command_seq == *seq => {
-                            self.host.answer(a);
-                            return Ok(Some(f));
+                    Ok(f) if found.is_some() => self.queued.push_back(f),
+                    Ok(f) => {
+                        if self.matches(&wanted, &f) {
+                            found = Some(f);
                         }
-                        (Wanted::StatusAfter(n), Message::Status(_))
-                            if self.host.statuses() > *n =>
-                        {
-                            return Ok(Some(f));
-                        }
-                        _ => {}
-                    },
+                    }
                 }
             }
+            if found.is_some() {
+                return Ok(found);
+            }
+        }
+    }
+
+    /// `f` is what `wanted` waits for (and the latest valid estimate is
+    /// kept on the way).
+    fn matches(&mut self, wanted: &Wanted, f: &Frame) -> bool {
+        match (wanted, &f.message) {
+            (wanted, Message::Estimate(e)) if e.flags.contains(StatusFlags::PHYSICALLY_VALID) => {
+                self.last_valid = Some(e.clone());
+                matches!(wanted, Wanted::ValidEstimate)
+            }
+            (Wanted::SelfTestReport, Message::SelfTestReport(_)) => true,
+            (Wanted::Ack(seq), Message::Ack(a)) if a.command_seq == *seq => {
+                self.host.answer(a);
+                true
+            }
+            (Wanted::StatusAfter(n), Message::Status(_)) => self.host.statuses() > *n,
+            _ => false,
         }
     }
 }
@@ -315,6 +355,8 @@ fn command_name(c: &CommandArgs) -> &'static str {
         CommandArgs::Freeze => "freeze",
         CommandArgs::Resume => "resume",
         CommandArgs::Status => "status",
+        CommandArgs::Lines(_) => "lines",
+        CommandArgs::Selftest => "selftest",
     }
 }
 
