@@ -152,7 +152,7 @@ pub fn judge_hum(
     };
     let n = r.u64("n") as usize;
     let mains = r.f64("mains_hz");
-    if n == 0 || !(mains > 0.0) {
+    if n == 0 || mains.is_nan() || mains <= 0.0 {
         return Err(format!(
             "the line remover is off at the end (n={n}, mains {mains} Hz)"
         ));
@@ -170,7 +170,8 @@ pub fn judge_hum(
         }
         injected[k] = true;
         let found = amp(k);
-        if !((found / a - 1.0).abs() <= tolerance) {
+        let off = (found / a - 1.0).abs();
+        if off.is_nan() || off > tolerance {
             return Err(format!(
                 "{f} Hz: the remover holds amplitude {found:.4e}, injected {a:.4e} (more than \
                  {:.0}% off)",
@@ -181,7 +182,7 @@ pub fn judge_hum(
     }
     for (k, _) in injected.iter().enumerate().skip(1).filter(|(_, i)| !**i) {
         let a = amp(k);
-        if !(a < empty_share * smallest) {
+        if a.is_nan() || a >= empty_share * smallest {
             return Err(format!(
                 "harmonic {k} ({} Hz) carries no hum but the remover holds {a:.4e} (≥ {:.0}% of \
                  {smallest:.4e})",

@@ -734,7 +734,7 @@ fn execute_auto(
             .filter(|_| {
                 std::thread::Builder::new()
                     .stack_size(crate::run::estimator::ROBUST_STACK_BYTES)
-                    .spawn_scoped(scope, &work)
+                    .spawn_scoped(scope, work)
                     .is_ok()
             })
             .count();
