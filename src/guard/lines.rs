@@ -221,7 +221,7 @@ impl<T: Real, const L: usize> LineCanceller<T, L> {
     /// The amplitude of each line in y as the canceller holds it now,
     /// |(a, b)| of its weights (the peak of the sinusoid it subtracts), in
     /// the order the lines were given: what it has found of each line.
-    pub fn y_amplitudes(&self) -> impl Iterator<Item = T> + '_ {
+    pub(crate) fn y_amplitudes(&self) -> impl Iterator<Item = T> + '_ {
         self.lines
             .iter()
             .take(self.len)

@@ -240,7 +240,7 @@ impl<T: Real> ModalPlant<T> {
     }
 
     /// What the sensor reads ([`ModalPlant::with_output`]).
-    pub fn output_kind(&self) -> OutputKind {
+    pub(crate) fn output_kind(&self) -> OutputKind {
         self.output
     }
 

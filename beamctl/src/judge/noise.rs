@@ -57,8 +57,8 @@ pub const INPUT_EXPLAINED_MAX: f64 = 100.0;
 /// Taps of the FIR of u in [`input_share`].
 pub const INPUT_LAGS: usize = 16;
 
-/// Levinson–Durbin on the autocorrelation `r` (r[0] > 0): the one-step
-/// prediction error variance of every order 0..r.len() (as r[0] is the
+/// Levinson–Durbin on the autocorrelation `r` (`r[0]` > 0): the one-step
+/// prediction error variance of every order `0..r.len()` (as `r[0]` is the
 /// order-0 one; same units), and the predictor a_1..a_p of the last
 /// order reached (x̂_k = Σ a_i x_{k−i}). The recursion stops at the first
 /// order whose reflection coefficient is not within (−1, 1) (numerical
