@@ -468,14 +468,28 @@ where
     assert!(fw.records >= 2000);
 }
 
+/// `f` on a thread with the stack `beamctl::run` needs (the runner keeps
+/// the robust estimator's host record on its frames on the way to the
+/// heap: `ROBUST_STACK_BYTES`, as `beamctl replay` gives its workers).
+fn with_runner_stack(f: impl FnOnce() + Send) {
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .stack_size(beamctl::run::estimator::ROBUST_STACK_BYTES)
+            .spawn_scoped(s, f)
+            .expect("a thread")
+            .join()
+            .expect("the run");
+    });
+}
+
 #[test]
 fn firmware_matches_beamctl_simulate_to_within_the_quantisation_effect_f64() {
-    matches_beamctl_simulate::<f64>(Precision::F64);
+    with_runner_stack(|| matches_beamctl_simulate::<f64>(Precision::F64));
 }
 
 #[test]
 fn firmware_matches_beamctl_simulate_to_within_the_quantisation_effect_f32() {
-    matches_beamctl_simulate::<f32>(Precision::F32);
+    with_runner_stack(|| matches_beamctl_simulate::<f32>(Precision::F32));
 }
 
 /// The converter timing matters and the compensation removes it: the

@@ -1,7 +1,9 @@
 //! Issue 9, loss of excitation: the drive stops for 60 s after
 //! convergence (u = 0 from 10 s to 70 s) on the paper's plant. With the
 //! supervisor at its defaults the 2-mode adaptive law (f64 and f32) sees
-//! the input gone, freezes adaptation (anti-windup) and resumes on its
+//! the input gone, learns from the beam's ring-down while it is informative
+//! (`FreeResponse`: the regressor's power within 20 dB of its level under
+//! the drive), then freezes adaptation (anti-windup) and resumes on its
 //! own: no NaN, H⁻¹ (R), P and Θ̂ bounded — frozen, in fact — estimates
 //! within 1% throughout and within 0.1% again ≤ 1 s after the drive
 //! returns. Settings truth-free (`host_tests::scenario_run`).
@@ -14,6 +16,8 @@ use host_tests::scenario_run::*;
 
 const OFF_FROM: f64 = 10.0;
 const OFF_TO: f64 = 70.0;
+/// The ring-down decays 20 dB in regressor power within this (s).
+const FREEZE_WITHIN_S: f64 = 5.0;
 
 /// Largest |entry| of a matrix.
 fn largest(m: &[[f64; 7]; 7]) -> f64 {
@@ -54,7 +58,32 @@ fn excitation_off<T: Real>(snr: Option<f64>) {
             .all(|(_, e)| e.iter().all(|v| v.is_finite())),
         "{ty}: NaN"
     );
-    // P, R bounded: nothing grows while the input is gone (frozen).
+    // The reason: the ring-down is learnt from (free response) from
+    // within 50 ms of the stop, then the input is gone (frozen) within
+    // FREEZE_WITHIN_S, and excited again within 10 ms of the return.
+    let reason_at = |t: f64| {
+        tr.t.iter()
+            .zip(&tr.sup)
+            .find(|(x, _)| **x >= t)
+            .and_then(|(_, s)| s.map(|s| s.reason))
+            .expect("supervised")
+    };
+    assert_eq!(reason_at(OFF_FROM + 0.05), ExcitationReason::FreeResponse);
+    let frozen_at = tr
+        .t
+        .iter()
+        .zip(&tr.sup)
+        .find(|(x, s)| **x > OFF_FROM && s.is_some_and(|s| s.reason == ExcitationReason::InputGone))
+        .map(|(x, _)| *x)
+        .expect("frozen while the drive is off");
+    assert!(
+        frozen_at - OFF_FROM <= FREEZE_WITHIN_S,
+        "{ty}: frozen {} s after the stop",
+        frozen_at - OFF_FROM
+    );
+    assert_eq!(reason_at(OFF_TO - 0.1), ExcitationReason::InputGone);
+    assert_eq!(reason_at(OFF_TO + 0.01), ExcitationReason::Excited);
+    // P, R bounded: nothing grows once frozen.
     let at = |t: f64| {
         snapshots
             .iter()
@@ -62,10 +91,10 @@ fn excitation_off<T: Real>(snr: Option<f64>) {
             .copied()
             .expect("snapshot")
     };
-    let (p0, h0) = (at(OFF_FROM + 0.1).1, at(OFF_FROM + 0.1).2);
+    let (p0, h0) = (at(frozen_at + 0.1).1, at(frozen_at + 0.1).2);
     for s in snapshots
         .iter()
-        .filter(|s| s.0 > OFF_FROM + 0.1 && s.0 < OFF_TO)
+        .filter(|s| s.0 > frozen_at + 0.1 && s.0 < OFF_TO)
     {
         assert!(s.1 <= p0 * (1.0 + 1e-9), "{ty}: P grows at {} s", s.0);
         assert!(s.2 <= h0 * (1.0 + 1e-9), "{ty}: R grows at {} s", s.0);
@@ -83,23 +112,13 @@ fn excitation_off<T: Real>(snr: Option<f64>) {
             .filter(|(t, _)| **t >= OFF_FROM && **t < OFF_TO)
             .map(|(_, e)| max_rel_error(e, &theta_before))
             .fold(0.0, f64::max);
-    let tol_off = if snr.is_some() { 1e-3 } else { 1e-5 };
+    // At 40 dB the ring-down it learns from moves the paper's law within
+    // its own noise bias (measured: 1.05e-2, against > 30% unsupervised).
+    let tol_off = if snr.is_some() { 2e-2 } else { 1e-5 };
     assert!(
         drift <= tol_off,
         "{ty}: the estimate moved by {drift:e} while off"
     );
-    // The reason: input gone within 50 ms of the stop, excited again
-    // within 10 ms of the return.
-    let reason_at = |t: f64| {
-        tr.t.iter()
-            .zip(&tr.sup)
-            .find(|(x, _)| **x >= t)
-            .and_then(|(_, s)| s.map(|s| s.reason))
-            .expect("supervised")
-    };
-    assert_eq!(reason_at(OFF_FROM + 0.05), ExcitationReason::InputGone);
-    assert_eq!(reason_at(OFF_TO - 0.1), ExcitationReason::InputGone);
-    assert_eq!(reason_at(OFF_TO + 0.01), ExcitationReason::Excited);
     if snr.is_none() {
         // Within 1% throughout, within 0.1% ≤ 1 s after the return.
         let off = tr.max_err(OFF_FROM, OFF_TO);
@@ -122,9 +141,9 @@ fn sixty_seconds_without_excitation_f32() {
 }
 
 /// At 40 dB the published law without supervision fits the noise while
-/// the drive is off (its estimate moves by > 30%); supervised, it keeps
-/// its estimate (the law's own 5% noise bias at 40 dB is another matter:
-/// the robust estimator's).
+/// the drive is off (its estimate moves by > 30%); supervised, it learns
+/// from the ring-down only and moves by about 1% (within the law's own 5%
+/// noise bias at 40 dB, which is another matter: the robust estimator's).
 #[test]
 fn without_supervision_noise_winds_the_estimate_up() {
     excitation_off::<f64>(Some(40.0));

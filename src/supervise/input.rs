@@ -152,12 +152,21 @@ impl<T: Real> InformationMonitor<T> {
     }
 
     /// Take the regressor's power |φ|² of a sample; `input_present`: the
-    /// reference follows it. Returns whether the data is informative.
+    /// reference follows it. Returns whether the data is informative (once
+    /// not informative without the input, not again until the input is
+    /// back).
     #[inline]
     pub fn push(&mut self, power: T, input_present: bool) -> bool {
         self.level += self.alpha_short * (power - self.level);
         if input_present {
             self.reference += self.alpha_ref * (self.level - self.reference);
+        }
+        // Without the input a decay once judged spent stays so until the
+        // input returns: two modes beating make the short window's power
+        // swing across the threshold, and the law would adapt in bursts on
+        // the decay's tail.
+        if !input_present && !self.informative {
+            return false;
         }
         let ratio = if self.informative {
             self.gone_ratio

@@ -16,7 +16,9 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EstimatorChoice {
     /// `replay`: the model chosen from the data
-    /// ([`crate::judge::select`]); `simulate`: the adaptive law.
+    /// ([`crate::judge::select`]); `simulate`: the robust estimator with
+    /// measurement noise, else the adaptive law
+    /// ([`crate::cli::simulate::plan::resolve_auto`]).
     Auto,
     /// One estimator.
     One(EstimatorKind),
@@ -43,7 +45,8 @@ impl ValueEnum for EstimatorChoice {
             Self::Auto => Some(PossibleValue::new("auto").help(
                 "replay: run the candidate models (robust, adaptive and feedthrough laws; 1–3 \
                  modes; level correction off and on) and keep the one the data supports best \
-                 (docs/REPLAY.md, \"Model selection\"); simulate: the adaptive law",
+                 (docs/REPLAY.md, \"Model selection\"); simulate: the robust estimator with \
+                 --snr-db/--noise-sd, else the adaptive law",
             )),
             Self::One(k) => k.to_possible_value(),
             Self::All => Some(

@@ -495,6 +495,6 @@ mod tests {
         s.sort();
         s.dedup();
         assert_eq!(s.len(), c.len());
-        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 34);
+        assert_eq!(c.len(), 7 + 3 * MAX_MODES + 1 + MAX_THETA + 35);
     }
 }

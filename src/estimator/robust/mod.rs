@@ -1012,7 +1012,7 @@ pub type CompactRecord<T> =
     Compact<T, DEFAULT_RECORD, { DEFAULT_RECORD / COMPACT_BLOCK }, { DEFAULT_RECORD.div_ceil(32) }>;
 
 /// The two-mode robust estimator with the compact record: the firmware's
-/// (the QEMU image in `f32`: 53,584 B).
+/// (the QEMU image in `f32`: 53,744 B).
 pub type Robust2Compact<T> = RobustEstimator<T, 4, 7, 28, DEFAULT_RECORD, CompactRecord<T>>;
 
 #[cfg(test)]
