@@ -33,8 +33,11 @@ def score(repo):
 
 
 def test_the_corpus_is_there(repo):
-    # Every record named below, and each with its reference.
-    names = records(repo)
+    # Every committed (lab) record named below, and each with its
+    # reference. The real records (real_*) are present only where their
+    # conversion scripts have been run; the verdict test below takes them
+    # then.
+    names = [n for n in records(repo) if n.startswith("lab_")]
     assert len(names) == 23, names
     assert set(RIGHT_WITH_NO_FLAGS) | set(KNOWN_GAPS) <= set(names)
     # Every record with a scored reference is right with no flags.

@@ -9,7 +9,7 @@
 //! the replaced one's slot becomes the spare. The robust estimator
 //! (`EstimatorKind::Robust`, [`Robust2Compact`]`<f32>`: its 2 s start-up
 //! record in the compact form, 53,744 B) has one slot and a head workspace
-//! (2,680 B): while the slot is free a new robust estimator is built into
+//! (2,848 B): while the slot is free a new robust estimator is built into
 //! it in thread mode and swapped in like the adaptive law; while it runs,
 //! a new one (another `SetEstimator` Robust, the tuning rule's
 //! re-centring) is built into the head workspace in thread mode and
