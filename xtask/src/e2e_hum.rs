@@ -2,8 +2,9 @@
 //! image adds mains hum to the ADC model's bridge input (`hum=1` on its
 //! command line: `beamest::bench::HUM`, 50 Hz at 3% and 150 Hz at 1% of
 //! y's RMS, the bench beam's second mode at 39 Hz); the
-//! host on UART0 (as `--e2e`) selects the line remover over the link at
-//! once, and the run is judged:
+//! host on UART0 (as `--e2e`) selects the line remover over the link as
+//! soon as the boot self-test has reported (it refuses commands as Busy
+//! while it runs), and the run is judged:
 //!
 //! 1. the link: a `SetLineRemoval` with no harmonic is refused
 //!    (`LineRemoval`), `SetLineRemoval { mains 50 Hz, 7 harmonics, τ
@@ -58,6 +59,9 @@ struct Host {
     sent: bool,
     /// Whether the remover is selected (else only the refused command).
     remover: bool,
+    /// Whether the remover's command went (after the boot self-test, which
+    /// refuses commands as Busy while it runs).
+    remover_sent: bool,
     acks: Vec<(u32, AckResult)>,
     failures: Vec<String>,
 }
@@ -81,15 +85,19 @@ impl LinkHost for Host {
                 harmonics: 0,
                 ..REMOVER
             };
+            // Refused by its own check, which comes before Busy.
             self.send(link, Command::SetLineRemoval(bad))?;
-            if self.remover {
-                self.send(link, Command::SetLineRemoval(REMOVER))?;
-            }
         }
         let frames: Vec<Frame> = self.dec.feed(bytes).flatten().collect();
         for f in frames {
-            if let Message::Ack(a) = f.message {
-                self.acks.push((a.command_seq, a.result));
+            match f.message {
+                Message::Ack(a) => self.acks.push((a.command_seq, a.result)),
+                // The boot self-test has ended: the device takes commands.
+                Message::SelfTestReport(_) if self.remover && !self.remover_sent => {
+                    self.remover_sent = true;
+                    self.send(link, Command::SetLineRemoval(REMOVER))?;
+                }
+                _ => {}
             }
         }
         Ok(())
@@ -108,6 +116,7 @@ pub fn run(elf: &Path, timeout: Duration, remover: bool) -> Result<(), String> {
         seq: 0,
         sent: false,
         remover,
+        remover_sent: false,
         acks: Vec::new(),
         failures: Vec::new(),
     };

@@ -200,8 +200,9 @@ fn out_of_range(rng: &mut Rng) -> Command {
             lambda_rad_s: Some(rng.f32(31_416.0, 1e6)),
             ..est
         }),
+        // The QEMU image has the adaptive law and the robust estimator.
         10 => Command::SetEstimator(EstimatorSettings {
-            kind: EstimatorKind::Robust,
+            kind: EstimatorKind::Gradient,
             ..est
         }),
         11 => Command::SetTelemetry(TelemetryRates {

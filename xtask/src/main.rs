@@ -217,7 +217,7 @@ usage: cargo xtask <command>
   qemu --hum [--no-remover] [--timeout S]
                            8 simulated s with mains hum (50 Hz 3%, 150 Hz 1%) added to
                            the ADC model's input; the host selects the line remover
-                           (SetLineRemoval 50 Hz, 7 harmonics) over the link at once;
+                           (SetLineRemoval 50 Hz, 7 harmonics) over the link once the boot self-test has reported;
                            checks the lines found (the remover's weights), the estimate
                            within 1e-3 and the default run's checks. --no-remover: the
                            same run without selecting it, a measurement (the estimate's
