@@ -8,7 +8,7 @@
 //! exponentials take ~10⁵ instructions), swapped in inside the lock, and
 //! the replaced one's slot becomes the spare. The robust estimator
 //! (`EstimatorKind::Robust`, [`Robust2Compact`]`<f32>`: its 2 s start-up
-//! record in the compact form, 53,744 B) has one slot and a head workspace
+//! record in the compact form, 53,720 B) has one slot and a head workspace
 //! (2,848 B): while the slot is free a new robust estimator is built into
 //! it in thread mode and swapped in like the adaptive law; while it runs,
 //! a new one (another `SetEstimator` Robust, the tuning rule's
