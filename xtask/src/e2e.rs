@@ -637,24 +637,9 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     };
     println!("\ne2e: UART0 as decoded by the host: {}", capture.summary());
     check(&mut host, &capture);
-    if let Err(failures) = crate::rig_report::judge(&log) {
-        for f in failures {
-            host.fail(format!("the run (firmware's measurements): {f}"));
-        }
-    }
-    if !status.success() {
-        host.fail(format!("the firmware failed ({status})"));
-    }
+    crate::emulator::judge_firmware(&mut host, &log, status);
     println!("e2e: {QEMU} exited with {status} after {wall:.2} s wall time");
-    if host.failures.is_empty() {
-        println!("e2e: PASS");
-        Ok(())
-    } else {
-        Err(format!(
-            "end-to-end test failed:\n  {}",
-            host.failures.join("\n  ")
-        ))
-    }
+    crate::emulator::verdict("e2e", "end-to-end test", &host.failures)
 }
 
 /// The checks after the run (module doc).

@@ -144,23 +144,8 @@ pub fn run(elf: &Path, timeout: Duration, remover: bool) -> Result<(), String> {
         Ok(found) => pass(found),
         Err(f) => host.fail(f),
     }
-    if let Err(failures) = crate::rig_report::judge(&log) {
-        for f in failures {
-            host.fail(format!("the run (firmware's measurements): {f}"));
-        }
-    }
-    if !status.success() {
-        host.fail(format!("the firmware failed ({status})"));
-    }
-    if host.failures.is_empty() {
-        println!("hum: PASS");
-        Ok(())
-    } else {
-        Err(format!(
-            "line remover test failed:\n  {}",
-            host.failures.join("\n  ")
-        ))
-    }
+    crate::emulator::judge_firmware(&mut host, &log, status);
+    crate::emulator::verdict("hum", "line remover test", &host.failures)
 }
 
 /// `--hum --no-remover`: the run printed as the default one is

@@ -233,23 +233,8 @@ pub fn run(elf: &Path, timeout: Duration) -> Result<(), String> {
     };
     let (status, _wall, log) = session(elf, Some(SECONDS), timeout, &mut host)?;
     check(&mut host);
-    if let Err(failures) = crate::rig_report::judge(&log) {
-        for f in failures {
-            host.fail(format!("the run (firmware's measurements): {f}"));
-        }
-    }
-    if !status.success() {
-        host.fail(format!("the firmware failed ({status})"));
-    }
-    if host.failures.is_empty() {
-        println!("robust: PASS");
-        Ok(())
-    } else {
-        Err(format!(
-            "robust estimator test failed:\n  {}",
-            host.failures.join("\n  ")
-        ))
-    }
+    crate::emulator::judge_firmware(&mut host, &log, status);
+    crate::emulator::verdict("robust", "robust estimator test", &host.failures)
 }
 
 fn check(h: &mut Host) {

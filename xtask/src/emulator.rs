@@ -8,7 +8,7 @@
 use std::io::{self, Read};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
@@ -88,6 +88,31 @@ pub(crate) trait LinkHost {
     fn receive(&mut self, bytes: &[u8], link: &mut TcpStream) -> io::Result<()>;
     /// Record a failed check.
     fn fail(&mut self, msg: String);
+}
+
+/// The checks every link run ends with: the firmware's own measurements
+/// ([`crate::rig_report::judge`] of its `rig:` lines) and its exit status,
+/// each failure recorded through `host`.
+pub(crate) fn judge_firmware(host: &mut impl LinkHost, log: &str, status: ExitStatus) {
+    if let Err(failures) = crate::rig_report::judge(log) {
+        for f in failures {
+            host.fail(format!("the run (firmware's measurements): {f}"));
+        }
+    }
+    if !status.success() {
+        host.fail(format!("the firmware failed ({status})"));
+    }
+}
+
+/// A link run's verdict from the failures its host recorded: `tag: PASS`
+/// printed, or an error naming `test` with every failure.
+pub(crate) fn verdict(tag: &str, test: &str, failures: &[String]) -> Result<(), String> {
+    if failures.is_empty() {
+        println!("{tag}: PASS");
+        Ok(())
+    } else {
+        Err(format!("{test} failed:\n  {}", failures.join("\n  ")))
+    }
 }
 
 /// Boot the firmware in QEMU with UART0 connected to a loopback socket,
